@@ -1,0 +1,58 @@
+# Reproducible research compendium for optimal control.
+#   make reproduce   set up, execute every notebook headless, regenerate figures/ data/derived/ and the HTML report
+#   make test        set up, run the unit tests and nbval over the notebooks
+#   make lab         JupyterLab on the same environment
+#   make bench       timing benchmarks (tables in build/bench/)
+#   make store       re-execute the notebooks in place (refresh the outputs nbval compares against)
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+KERNEL := ocpkit
+STAMP  := $(VENV)/.installed
+NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
+
+# One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core.
+export OPENBLAS_NUM_THREADS := 1
+export OMP_NUM_THREADS := 1
+export MPLBACKEND := Agg
+
+.PHONY: setup reproduce notebooks report test unit nbval lab bench store clean
+
+setup: $(STAMP)
+
+$(STAMP): environment.txt pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --disable-pip-version-check -q -r environment.txt
+	$(PY) -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e .
+	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (ocpkit)"
+	touch $@
+
+reproduce: notebooks report
+
+notebooks: setup
+	$(PY) -m ocpkit.notebooks run $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
+
+report: notebooks
+	$(PY) -m ocpkit.notebooks report build/notebooks --output build/report
+
+test: unit nbval
+
+unit: setup
+	$(PY) -m pytest tests/
+
+# nbval writes figures and tables under build/test-output, never over the tracked ones
+nbval: setup
+	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) -p no:cacheprovider $(NOTEBOOKS)
+
+lab: setup
+	$(VENV)/bin/jupyter lab notebooks/
+
+bench: setup
+	$(PY) benchmarks/bench_hlgl.py
+
+store: setup
+	$(PY) -m ocpkit.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
+
+clean:
+	rm -rf build

@@ -1,0 +1,21 @@
+"""ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
+
+from .errors import SolverError
+from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
+from .solution import Reintegration, Solution
+from .transcription import HLGL, Transcription
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Control",
+    "FreeFinalTime",
+    "Guess",
+    "HLGL",
+    "OptimalControlProblem",
+    "Reintegration",
+    "Solution",
+    "SolverError",
+    "State",
+    "Transcription",
+]

@@ -1,0 +1,103 @@
+"""Collocation nodes, quadrature weights, interpolation and differentiation.
+
+All segment-local quantities use the normalised time ``s = (t - t_i) / h`` in
+[0, 1], where ``h = t_{i+2} - t_i`` is the segment length (Desai & Conway's
+indexing: a segment runs from node ``i`` through the centre ``i+1`` to
+``i+2``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SQRT21 = np.sqrt(21.0)
+
+# -- Fifth-degree Gauss-Lobatto (Herman & Conway 1996; Desai & Conway Eqs. 6-7) ------
+
+HLGL_STATE_NODES = np.array([0.0, 0.5, 1.0])
+"""Normalised times of the three state nodes of a segment: t_i, t_c, t_{i+2}."""
+
+HLGL_COLLOCATION = np.array([0.5 - 0.5 * np.sqrt(3.0 / 7.0), 0.5 + 0.5 * np.sqrt(3.0 / 7.0)])
+"""Normalised collocation points s_a, s_b = 1/2 -/+ sqrt(3/7)/2 (interior Lobatto points)."""
+
+HLGL_CONTROL_NODES = np.array([0.0, HLGL_COLLOCATION[0], 0.5, HLGL_COLLOCATION[1], 1.0])
+"""Normalised times of the five control parameters of a segment: t_i, t_a, t_c, t_b, t_{i+2}."""
+
+HLGL_QUADRATURE = np.array([1 / 20, 49 / 180, 16 / 45, 49 / 180, 1 / 20])
+"""Five-point Gauss-Lobatto weights on [0, 1] at :data:`HLGL_CONTROL_NODES` (exact to degree 7)."""
+
+# Interpolated states at the collocation points (the quintic Hermite polynomial
+# through x and h*f at the three nodes):  x_a = A_x . (x_i, x_c, x_e) + h A_f . (f_i, f_c, f_e)
+HLGL_XA_X = np.array([231 + 39 * SQRT21, 224.0, 231 - 39 * SQRT21]) / 686
+HLGL_XA_F = np.array([21 + 3 * SQRT21, -16 * SQRT21, 3 * SQRT21 - 21]) / 686
+HLGL_XB_X = np.array([231 - 39 * SQRT21, 224.0, 231 + 39 * SQRT21]) / 686
+HLGL_XB_F = np.array([21 - 3 * SQRT21, 16 * SQRT21, -(21 + 3 * SQRT21)]) / 686
+
+# Defects (Eqs. 6-7):  C1 = D_x . (x_i, x_c, x_e) + h D_f . (f_i, f_a, f_c, f_e)
+HLGL_C1_X = np.array([180 + 32 * SQRT21, -64 * SQRT21, 32 * SQRT21 - 180]) / 360
+HLGL_C1_F = np.array([9 + SQRT21, 98.0, 64.0, 9 - SQRT21]) / 360  # (f_i, f_a, f_c, f_e)
+HLGL_C2_X = np.array([180 - 32 * SQRT21, 64 * SQRT21, -(180 + 32 * SQRT21)]) / 360
+HLGL_C2_F = np.array([9 - SQRT21, 98.0, 64.0, 9 + SQRT21]) / 360  # (f_i, f_b, f_c, f_e)
+
+
+def hermite_quintic_matrix() -> np.ndarray:
+    """Map ``(x_i, x_i', x_c, x_c', x_e, x_e')`` (derivatives w.r.t. s) to monomial coefficients.
+
+    Returns the 6x6 matrix ``M`` such that ``p(s) = sum_k (M @ data)[k] s^k`` is the
+    quintic Hermite interpolant through values and slopes at s = 0, 1/2, 1.
+    """
+    rows = []
+    for s in HLGL_STATE_NODES:
+        rows.append([s**k for k in range(6)])
+        rows.append([k * s ** (k - 1) if k else 0.0 for k in range(6)])
+    return np.linalg.inv(np.array(rows))
+
+
+def monomial_matrix(nodes: np.ndarray) -> np.ndarray:
+    """Map values at ``nodes`` (in [0, 1]) to the monomial coefficients of their interpolant."""
+    nodes = np.asarray(nodes, dtype=float)
+    return np.linalg.inv(np.vander(nodes, increasing=True))
+
+
+# -- Barycentric Lagrange interpolation ---------------------------------------------
+
+
+def barycentric_weights(nodes: np.ndarray) -> np.ndarray:
+    """Barycentric weights ``w_j = 1 / prod_{k != j} (x_j - x_k)`` (Berrut & Trefethen 2004)."""
+    x = np.asarray(nodes, dtype=float)
+    diff = x[:, None] - x[None, :]
+    np.fill_diagonal(diff, 1.0)
+    # Scale to avoid overflow for many nodes; the interpolant is invariant to it.
+    w = 1.0 / np.prod(diff * (4.0 / (x.max() - x.min() if x.size > 1 else 1.0)), axis=1)
+    return w / np.abs(w).max()
+
+
+def lagrange_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Matrix ``P`` with ``P[i, j] = l_j(points[i])``, the Lagrange basis of ``nodes``.
+
+    Evaluated in barycentric form, exact (to rounding) where a point coincides
+    with a node.
+    """
+    x = np.asarray(nodes, dtype=float)
+    p = np.atleast_1d(np.asarray(points, dtype=float))
+    w = barycentric_weights(x)
+    diff = p[:, None] - x[None, :]
+    exact = diff == 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = w[None, :] / diff
+        P = terms / terms.sum(axis=1, keepdims=True)
+    rows = exact.any(axis=1)
+    P[rows] = exact[rows].astype(float)
+    return P
+
+
+def differentiation_matrix(nodes: np.ndarray) -> np.ndarray:
+    """Square matrix ``D`` with ``(D v)_i = p'(nodes_i)`` for the interpolant ``p`` of ``v``."""
+    x = np.asarray(nodes, dtype=float)
+    w = barycentric_weights(x)
+    diff = x[:, None] - x[None, :]
+    np.fill_diagonal(diff, 1.0)
+    D = (w[None, :] / w[:, None]) / diff
+    np.fill_diagonal(D, 0.0)
+    np.fill_diagonal(D, -D.sum(axis=1))
+    return D

@@ -1,0 +1,71 @@
+"""One house style for every figure, and deterministic PNG/PDF output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib as mpl
+import matplotlib.pyplot as plt
+
+from .paths import figures_dir
+
+STYLE = {
+    "figure.figsize": (6.4, 4.0),
+    "figure.dpi": 110,
+    "savefig.dpi": 150,
+    "savefig.bbox": "tight",
+    "font.size": 10,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "legend.frameon": False,
+    "lines.linewidth": 1.6,
+    "axes.prop_cycle": mpl.cycler(
+        color=["#1f5fa8", "#d1495b", "#2a9d8f", "#e9a23b", "#6d597a", "#3d405b"]
+    ),
+    "pdf.fonttype": 42,
+    "svg.hashsalt": "ocpkit",
+}
+
+# Metadata that would otherwise carry versions or timestamps into the files
+_PNG_METADATA = {"Software": None}
+_PDF_METADATA = {"Creator": None, "Producer": None, "CreationDate": None, "ModDate": None}
+
+
+def use_style() -> None:
+    """Apply the compendium's matplotlib style."""
+    mpl.rcParams.update(STYLE)
+
+
+def save_figure(fig: plt.Figure, name: str, formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
+    """Write ``figures/<name>.<fmt>`` with metadata that does not change between runs."""
+    if not name or "/" in name or "\\" in name:
+        raise ValueError(f"figure name must be a plain file stem, got {name!r}")
+    out = []
+    for fmt in formats:
+        path = figures_dir() / f"{name}.{fmt}"
+        if fmt == "png":
+            meta = _PNG_METADATA
+        elif fmt == "pdf":
+            meta = _PDF_METADATA
+        else:
+            raise ValueError(f"unsupported figure format {fmt!r}")
+        fig.savefig(path, format=fmt, metadata=meta)
+        out.append(path)
+    return out
+
+
+def plot_histories(ax, df, columns: Sequence[str], labels: Sequence[str] | None = None, *, x: str = "t", **kw):
+    """Plot ``df[columns]`` against ``df[x]`` on ``ax`` with a legend."""
+    labels = list(columns) if labels is None else list(labels)
+    if len(labels) != len(columns):
+        raise ValueError("one label per column")
+    for col, lab in zip(columns, labels):
+        ax.plot(df[x], df[col], label=lab, **kw)
+    if len(columns) > 1:
+        ax.legend()
+    return ax

@@ -1,0 +1,173 @@
+"""Flat-moon minimum-time ascent and its exact linear-tangent solution.
+
+Dynamics (Bryson & Ho Sec. 2.7): dx/dt = vx, dy/dt = vy, dvx/dt = a cos(theta),
+dvy/dt = a sin(theta) - g. With x(tf) free, the costates of x and y are
+constant, those of vx and vy linear in time, and the optimal control obeys the
+linear-tangent law ``tan(theta(t)) = tan(theta_0) - c t``. Writing
+``tau = tan(theta)`` the states integrate in closed form:
+
+    vx(t) = (a/c) [asinh(tau_0) - asinh(tau)]
+    vy(t) = (a/c) [sqrt(1 + tau_0^2) - sqrt(1 + tau^2)] - g t
+    x(t)  = (a/c) asinh(tau_0) t + (a/c^2) [K(tau) - K(tau_0)],  K(s) = s asinh(s) - sqrt(1 + s^2)
+    y(t)  = (a/c) sqrt(1 + tau_0^2) t + (a/c^2) [G(tau) - G(tau_0)] - g t^2 / 2,
+            G(s) = (s sqrt(1 + s^2) + asinh(s)) / 2
+
+and the three terminal conditions on y, vx, vy fix (tau_0, c, tf).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import root
+
+from ..problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ._data import load_problem_data
+
+
+def flat_moon_constants() -> dict:
+    d = load_problem_data("flat_moon")
+    g = d["constants"]["g_m_s2"]
+    return {
+        "g": g,
+        "a": d["constants"]["thrust_to_weight"] * g,
+        "y_f": d["target"]["altitude_m"],
+        "vx_f": d["target"]["vx_m_s"],
+        "vy_f": d["target"]["vy_m_s"],
+        "scaling": dict(d["scaling"]),
+        "theta_bounds": tuple(d["bounds"]["theta_rad"]),
+        "tf_bounds": tuple(d["bounds"]["tf_s"]),
+        "guess": dict(d["guess"]),
+    }
+
+
+def flat_moon_ascent() -> OptimalControlProblem:
+    """The flat-moon ascent in SI units (scaled internally)."""
+    import casadi as ca
+
+    c = flat_moon_constants()
+    a, g = c["a"], c["g"]
+    sc, gs = c["scaling"], c["guess"]
+    L, V, T = sc["position_m"], sc["velocity_m_s"], sc["time_s"]
+
+    def dynamics(x, u, t):
+        return ca.vertcat(x[2], x[3], a * ca.cos(u[0]), a * ca.sin(u[0]) - g)
+
+    states = [
+        State("x", initial=0.0, scale=L, unit="m", guess=tuple(gs["x_m"])),
+        State("y", initial=0.0, final=c["y_f"], scale=L, unit="m"),
+        State("vx", initial=0.0, final=c["vx_f"], scale=V, unit="m/s"),
+        State("vy", initial=0.0, final=c["vy_f"], scale=V, unit="m/s"),
+    ]
+    lo, hi = c["theta_bounds"]
+    controls = [Control("theta", lower=lo, upper=hi, guess=gs["theta_rad"], unit="rad")]
+    tlo, thi = c["tf_bounds"]
+    return OptimalControlProblem(
+        "flat_moon_ascent",
+        states,
+        controls,
+        dynamics,
+        tf=FreeFinalTime(tlo, thi, gs["tf_s"], scale=T),
+        mayer=lambda x0, xf, t0, tf: tf,
+        objective_scale=T,
+        description="Flat-moon minimum-time ascent (Bryson & Ho 2.7)",
+    )
+
+
+def _K(s):
+    return s * np.arcsinh(s) - np.sqrt(1 + s * s)
+
+
+def _G(s):
+    return 0.5 * (s * np.sqrt(1 + s * s) + np.arcsinh(s))
+
+
+@dataclass(frozen=True)
+class LinearTangentSolution:
+    """Exact solution of the flat-moon ascent: ``tan(theta) = tan_theta0 - c t`` on [0, tf]."""
+
+    a: float
+    g: float
+    tan_theta0: float
+    c: float
+    tf: float
+
+    def theta(self, t) -> np.ndarray:
+        return np.arctan(self.tan_theta0 - self.c * np.asarray(t, dtype=float))
+
+    def state(self, t) -> np.ndarray:
+        """States (x, y, vx, vy) at times ``t``; shape ``t.shape + (4,)``."""
+        t = np.asarray(t, dtype=float)
+        a, g, c, s0 = self.a, self.g, self.c, self.tan_theta0
+        s = s0 - c * t
+        vx = a / c * (np.arcsinh(s0) - np.arcsinh(s))
+        vy = a / c * (np.sqrt(1 + s0**2) - np.sqrt(1 + s * s)) - g * t
+        x = a / c * np.arcsinh(s0) * t + a / c**2 * (_K(s) - _K(s0))
+        y = a / c * np.sqrt(1 + s0**2) * t + a / c**2 * (_G(s) - _G(s0)) - 0.5 * g * t * t
+        return np.stack([x, y, vx, vy], axis=-1)
+
+
+def linear_tangent_solution(tol: float = 1e-14) -> LinearTangentSolution:
+    """Solve the three terminal conditions for (tan theta_0, c, tf) with scipy's MINPACK hybrid method."""
+    k = flat_moon_constants()
+    a, g = k["a"], k["g"]
+    target = np.array([k["y_f"], k["vx_f"], k["vy_f"]])
+    scale = np.array([k["scaling"]["position_m"], k["scaling"]["velocity_m_s"], k["scaling"]["velocity_m_s"]])
+
+    def residual(z):
+        s0, c, tf = z[0], z[1] / 100.0, z[2] * 100.0
+        sol = LinearTangentSolution(a, g, s0, c, tf)
+        return (sol.state(tf)[1:] - target) / scale
+
+    z0 = np.array([1.0, 0.5, k["guess"]["tf_s"] / 100.0])
+    res = root(residual, z0, method="hybr", tol=tol)
+    if not res.success or np.max(np.abs(res.fun)) > 1e-10:
+        raise RuntimeError(f"linear-tangent boundary-value problem did not converge: {res.message}")
+    return LinearTangentSolution(a, g, float(res.x[0]), float(res.x[1]) / 100.0, float(res.x[2]) * 100.0)
+
+
+def compare_with_exact(solution, exact: LinearTangentSolution, n: int = 4001) -> dict:
+    """Errors of a transcribed solution against the exact one, on a common normalised time grid.
+
+    Both trajectories are sampled at ``s = t / tf`` in [0, 1] (each with its own
+    tf), so that a final-time error does not masquerade as a state error.
+    """
+    s = np.linspace(0.0, 1.0, n)
+    th = solution.control(s * solution.tf)[:, 0]
+    x = solution.state(s * solution.tf)
+    xe = exact.state(s * exact.tf)
+    err = np.abs(x - xe).max(axis=0)
+    return {
+        "tf_s": solution.tf,
+        "tf_error_s": solution.tf - exact.tf,
+        "max_theta_error_deg": float(np.degrees(np.abs(th - exact.theta(s * exact.tf)).max())),
+        "max_position_error_m": float(err[:2].max()),
+        "max_velocity_error_m_s": float(err[2:].max()),
+    }
+
+
+def convergence_study(segments, ipopt_options: dict | None = None):
+    """HLGL on the flat-moon ascent for each number of segments, against the exact solution.
+
+    Returns a DataFrame with one row per mesh: sizes, IPOPT iterations, errors
+    in tf, theta and the states, and the re-integration error (m).
+    """
+    import pandas as pd
+
+    from ..transcription import HLGL
+
+    exact = linear_tangent_solution()
+    problem = flat_moon_ascent()
+    rows = []
+    for n in segments:
+        tr = HLGL(problem, int(n))
+        sol = tr.solve(ipopt_options=ipopt_options)
+        row = {"segments": int(n), "nlp_parameters": sol.nlp_parameters, "iterations": sol.iterations}
+        row.update(compare_with_exact(sol, exact))
+        rei = sol.reintegrate()
+        row["max_reintegration_error_m"] = max(rei.max_error_by_state["x"], rei.max_error_by_state["y"])
+        row["build_s"], row["solve_s"] = sol.build_s, sol.solve_s
+        rows.append(row)
+    return pd.DataFrame(rows)

@@ -1,0 +1,110 @@
+"""Desai & Conway's lunar ascent (seed 000, Eqs. 8-11); constants from ``data/problems/lunar_ascent.toml``."""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+from ..problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ._data import load_problem_data
+
+
+def lunar_ascent_constants() -> dict:
+    """Non-dimensional constants, initial state and target derived from the data file."""
+    d = load_problem_data("lunar_ascent")
+    R = d["units"]["length_m"]
+    g_moon = d["units"]["g_moon_m_s2"]
+    v_unit = math.sqrt(g_moon * R)
+    return {
+        "g": d["constants"]["g"],
+        "a": d["constants"]["a"],
+        "speed_smoothing": d["constants"]["speed_smoothing"],
+        "length_unit_m": R,
+        "time_unit_s": math.sqrt(R / g_moon),
+        "velocity_unit_m_s": v_unit,
+        "initial": dict(d["initial"]),
+        "final": {
+            "Y": 1.0 + d["target"]["altitude_m"] / R,
+            "U": d["target"]["U_m_s"] / v_unit,
+            "V": d["target"]["V_m_s"] / v_unit,
+        },
+        "theta_bounds": tuple(d["bounds"]["theta"]),
+        "tf_bounds": tuple(d["bounds"]["tf"]),
+        "guess": dict(d["guess"]),
+    }
+
+
+def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
+    """Minimum-time lunar ascent, Eqs. (8)-(11) of Desai & Conway.
+
+    ``sqrt(U^2 + V^2)`` is replaced by ``sqrt(U^2 + V^2 + eps^2)``, eps =
+    ``speed_smoothing`` (default from the data file), so the dynamics are
+    twice differentiable at the initial rest state.
+    """
+    c = lunar_ascent_constants()
+    eps = c["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing)
+    if not (eps > 0 and math.isfinite(eps)):
+        raise ValueError(f"speed_smoothing must be positive and finite, got {speed_smoothing!r}")
+    g, a = c["g"], c["a"]
+
+    def dynamics(x, u, t):
+        X, Y, U, V = ca.vertsplit(x)
+        theta = u[0]
+        speed = ca.sqrt(U**2 + V**2 + eps**2)
+        radius = ca.sqrt(X**2 + Y**2)
+        return ca.vertcat(
+            U,
+            V,
+            a * ca.cos(theta) - 0.5 * g * speed / radius,
+            a * ca.sin(theta) - g * speed / radius,
+        )
+
+    ini, fin, guess = c["initial"], c["final"], c["guess"]
+
+    def end_guess(name):
+        return guess.get(name, (ini[name], fin.get(name, ini[name])))
+
+    states = [
+        State("X", initial=ini["X"], guess=end_guess("X"), description="horizontal position / R"),
+        State("Y", initial=ini["Y"], final=fin["Y"], guess=end_guess("Y"), description="vertical position / R"),
+        State("U", initial=ini["U"], final=fin["U"], guess=end_guess("U"), description="horizontal velocity / sqrt(g R)"),
+        State("V", initial=ini["V"], final=fin["V"], guess=end_guess("V"), description="vertical velocity / sqrt(g R)"),
+    ]
+    lo, hi = c["theta_bounds"]
+    controls = [Control("theta", lower=lo, upper=hi, guess=guess["theta"], unit="rad", description="thrust angle")]
+    tlo, thi = c["tf_bounds"]
+    return OptimalControlProblem(
+        "lunar_ascent",
+        states,
+        controls,
+        dynamics,
+        tf=FreeFinalTime(tlo, thi, guess["tf"]),
+        mayer=lambda x0, xf, t0, tf: tf,
+        description="Desai & Conway lunar ascent, minimum time (Eqs. 8-11)",
+    )
+
+
+def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None):
+    """Minimum time of the lunar ascent for each speed smoothing eps (HLGL, fixed mesh).
+
+    Returns a DataFrame with eps, tf, the change of tf from the smallest eps,
+    IPOPT iterations and the re-integration error.
+    """
+    import pandas as pd
+
+    from ..transcription import HLGL
+
+    rows = []
+    for eps in smoothings:
+        sol = HLGL(lunar_ascent(float(eps)), segments).solve(ipopt_options=ipopt_options)
+        rows.append({
+            "speed_smoothing": float(eps),
+            "tf": sol.tf,
+            "iterations": sol.iterations,
+            "max_reintegration_error": sol.reintegrate().max_error,
+        })
+    df = pd.DataFrame(rows)
+    ref = df.loc[df["speed_smoothing"].idxmin(), "tf"]
+    df.insert(2, "tf_minus_smallest_eps", df["tf"] - ref)
+    return df

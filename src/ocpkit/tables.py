@@ -1,0 +1,38 @@
+"""Plain-text renderings of result tables (Markdown), without extra dependencies."""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import pandas as pd
+
+
+def _cell(value, fmt: str | None) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    if fmt is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format(value, fmt)
+    return str(value)
+
+
+def markdown_table(df: pd.DataFrame, formats: Mapping[str, str] | None = None) -> str:
+    """A GitHub-flavoured Markdown table of ``df``; ``formats`` maps columns to format specs.
+
+    Numbers are right-aligned, everything else left-aligned; NaN renders empty.
+    """
+    formats = dict(formats or {})
+    unknown = sorted(set(formats) - set(df.columns))
+    if unknown:
+        raise KeyError(f"formats for unknown columns {unknown}")
+    cols = [str(c) for c in df.columns]
+    rows = [[_cell(v, formats.get(c)) for c, v in zip(df.columns, rec)] for rec in df.itertuples(index=False)]
+    numeric = [pd.api.types.is_numeric_dtype(df[c]) for c in df.columns]
+    widths = [max([len(h)] + [len(r[j]) for r in rows]) for j, h in enumerate(cols)]
+
+    def line(cells):
+        out = [c.rjust(w) if num else c.ljust(w) for c, w, num in zip(cells, widths, numeric)]
+        return "| " + " | ".join(out) + " |"
+
+    rule = "|" + "|".join(("-" * (w + 1) + ":") if num else ("-" * (w + 2)) for w, num in zip(widths, numeric)) + "|"
+    return "\n".join([line(cols), rule] + [line(r) for r in rows])

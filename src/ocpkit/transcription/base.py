@@ -1,0 +1,163 @@
+"""What every direct transcription shares: build once, solve, package the solution."""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..nlp import NLPResult, SeparableNLP, solve_nlp
+from ..problem import Guess, OptimalControlProblem
+from ..solution import Solution
+
+
+def mesh_fractions(segments: int | None, mesh) -> np.ndarray:
+    """Segment lengths as fractions of [t0, tf] from a count or explicit fractions."""
+    if mesh is not None:
+        frac = np.asarray(mesh, dtype=float).ravel()
+        if frac.size < 1 or np.any(~np.isfinite(frac)) or np.any(frac <= 0):
+            raise ValueError("mesh fractions must be positive and finite")
+        if segments is not None and segments != frac.size:
+            raise ValueError(f"segments={segments} disagrees with a mesh of {frac.size} fractions")
+        return frac / frac.sum()
+    if segments is None:
+        raise ValueError("give the number of segments or the mesh fractions")
+    if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)):
+        raise TypeError(f"segments must be an integer, got {segments!r}")
+    if segments < 1:
+        raise ValueError(f"segments must be at least 1, got {segments}")
+    return np.full(int(segments), 1.0 / segments)
+
+
+class Transcription(ABC):
+    """A direct transcription of an :class:`~ocpkit.problem.OptimalControlProblem` into an NLP.
+
+    Subclasses define the variable layout, the blocks and the interpolants;
+    this class times the build, runs IPOPT and returns a :class:`~ocpkit.Solution`.
+    """
+
+    def __init__(self, problem: OptimalControlProblem):
+        if not isinstance(problem, OptimalControlProblem):
+            raise TypeError(f"expected an OptimalControlProblem, got {type(problem).__name__}")
+        self.problem = problem
+        self._nlp: SeparableNLP | None = None
+        self._solver = None
+        self._solver_options = None
+        self._nlp_build_s = 0.0
+        self._solver_build_s = 0.0
+
+    # -- to be provided by each scheme ------------------------------------------------
+    @property
+    @abstractmethod
+    def label(self) -> str:
+        """Short description, e.g. ``HLGL(segments=20)``."""
+
+    @property
+    @abstractmethod
+    def n_variables(self) -> int: ...
+
+    @property
+    @abstractmethod
+    def n_defects(self) -> int: ...
+
+    @abstractmethod
+    def _blocks(self) -> list: ...
+
+    @abstractmethod
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled lower and upper bounds of the NLP variables."""
+
+    @abstractmethod
+    def _initial_point(self, tf: float, states, controls) -> np.ndarray:
+        """Scaled NLP vector sampled from guess functions of time."""
+
+    @abstractmethod
+    def _package(self, result: NLPResult) -> dict:
+        """Solution fields (times, values, interpolants, breakpoints) from the NLP result."""
+
+    def _constraint_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        z = np.zeros(self.n_defects)
+        return z, z.copy()
+
+    @property
+    def n_constraints(self) -> int:
+        return self.n_defects
+
+    # -- shared machinery ---------------------------------------------------------------
+    def build(self) -> "Transcription":
+        """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
+        if self._nlp is None:
+            t = time.perf_counter()
+            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks())
+            self._nlp_build_s = time.perf_counter() - t
+        return self
+
+    @property
+    def build_s(self) -> float:
+        """Wall time to build the NLP and create the IPOPT solver, in seconds."""
+        return self._nlp_build_s + self._solver_build_s
+
+    @property
+    def nlp(self) -> SeparableNLP:
+        return self.build()._nlp
+
+    def solver(self, ipopt_options: dict | None = None):
+        key = tuple(sorted((ipopt_options or {}).items()))
+        if self._solver is None or key != self._solver_options:
+            self.build()
+            t = time.perf_counter()
+            self._solver = self.nlp.solver(ipopt_options)
+            self._solver_build_s = time.perf_counter() - t
+            self._solver_options = key
+        return self._solver
+
+    def initial_point(self, guess=None) -> np.ndarray:
+        """Scaled NLP start vector from a :class:`~ocpkit.Guess`, a :class:`~ocpkit.Solution` or the defaults."""
+        if guess is None:
+            guess = Guess()
+        if isinstance(guess, Solution):
+            if guess.problem.state_names != self.problem.state_names or guess.problem.control_names != self.problem.control_names:
+                raise ValueError("a Solution used as guess must have the same states and controls")
+            tf, xs, us = guess.tf, guess.state, guess.control
+        elif isinstance(guess, Guess):
+            tf, xs, us = guess.functions(self.problem)
+        else:
+            raise TypeError(f"guess must be a Guess or a Solution, got {type(guess).__name__}")
+        w0 = np.asarray(self._initial_point(tf, xs, us), dtype=float)
+        if w0.shape != (self.n_variables,):
+            raise ValueError(f"initial point has shape {w0.shape}, expected ({self.n_variables},)")
+        lb, ub = self._bounds()
+        return np.clip(w0, lb, ub)
+
+    def solve(self, guess=None, *, ipopt_options: dict | None = None, allow_acceptable: bool = False) -> Solution:
+        """Solve with IPOPT from ``guess``; raise :class:`~ocpkit.SolverError` on failure.
+
+        Parameters
+        ----------
+        guess : Guess, Solution or None
+        ipopt_options : dict
+            Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
+        allow_acceptable : bool
+            Accept IPOPT's ``Solved_To_Acceptable_Level`` as success.
+        """
+        solver = self.solver(ipopt_options)
+        lbw, ubw = self._bounds()
+        lbg, ubg = self._constraint_bounds()
+        w0 = self.initial_point(guess)
+        result = solve_nlp(solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
+        fields = self._package(result)
+        return Solution(
+            problem=self.problem,
+            transcription=self.label,
+            status=result.status,
+            iterations=result.iterations,
+            objective=result.objective * self.problem.objective_scale,
+            nlp_parameters=self.n_variables,
+            defect_equations=self.n_defects,
+            constraints=self.n_constraints,
+            build_s=self.build_s,
+            solve_s=result.solve_s,
+            raw={"w": result.w, "lam_g": result.lam_g, "lam_w": result.lam_w, "stats": result.stats},
+            **fields,
+        )

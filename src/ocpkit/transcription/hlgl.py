@@ -1,0 +1,302 @@
+"""Fifth-degree Gauss-Lobatto collocation (Herman & Conway 1996; Desai & Conway Eqs. 6-7).
+
+On each segment ``[t_i, t_{i+2}]`` of length ``h`` the states are NLP parameters
+at ``t_i``, the centre ``t_c`` and ``t_{i+2}``; each state is the quintic Hermite
+polynomial through those values and the slopes ``f`` there. The controls are
+NLP parameters at ``t_i, t_a, t_c, t_b, t_{i+2}`` with
+``t_a, t_b = t_c -/+ (h/2) sqrt(3/7)``. With ``s = sqrt(21)``:
+
+    x_a = [(231+39s) x_i + 224 x_c + (231-39s) x_e + h((21+3s) f_i - 16s f_c + (3s-21) f_e)] / 686
+    x_b = [(231-39s) x_i + 224 x_c + (231+39s) x_e + h((21-3s) f_i + 16s f_c - (21+3s) f_e)] / 686
+    C1  = [(180+32s) x_i - 64s x_c + (32s-180) x_e + h((9+s) f_i + 98 f_a + 64 f_c + (9-s) f_e)] / 360
+    C2  = [(180-32s) x_i + 64s x_c - (180+32s) x_e + h((9-s) f_i + 98 f_b + 64 f_c + (9+s) f_e)] / 360
+
+and ``C1 = C2 = 0`` are the defect equations (``x_e = x_{i+2}``). A Lagrange
+cost uses the five-point Lobatto rule ``h [L_i/20 + 49 L_a/180 + 16 L_c/45 + 49 L_b/180 + L_e/20]``.
+
+NLP size for ``nx`` states, ``nu`` controls and ``n`` segments:
+``nx (2n+1) + nu (4n+1) (+1 for a free tf)`` parameters and ``2 nx n`` defects.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .. import nodes
+from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
+from ..nlp import Block, NLPResult
+from ..problem import OptimalControlProblem
+from .base import Transcription, mesh_fractions
+
+
+def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
+    """HLGL defects of one segment (Eqs. 6-7) and the states at the collocation points.
+
+    ``f(x, u, t)`` is the dynamics; ``u`` is a list of the five controls at
+    ``t_i, t_a, t_c, t_b, t_e`` and ``t`` the list of those five times.
+    Returns ``(C1, C2, x_a, x_b, (f_i, f_a, f_c, f_b, f_e))``. Works on CasADi
+    symbols and on numbers.
+    """
+    f_i, f_c, f_e = f(x_i, u[0], t[0]), f(x_c, u[2], t[2]), f(x_e, u[4], t[4])
+    A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
+    x_a = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
+    A, B = nodes.HLGL_XB_X, nodes.HLGL_XB_F
+    x_b = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
+    f_a, f_b = f(x_a, u[1], t[1]), f(x_b, u[3], t[3])
+    D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
+    c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
+    D, E = nodes.HLGL_C2_X, nodes.HLGL_C2_F
+    c2 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_b + E[2] * f_c + E[3] * f_e)
+    return c1, c2, x_a, x_b, (f_i, f_a, f_c, f_b, f_e)
+
+
+def hermite_coefficients(x_nodes: np.ndarray, f_nodes: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Monomial coefficients (6, n, nx) of the quintic Hermite interpolant on each segment.
+
+    ``x_nodes`` and ``f_nodes`` have shape (2n+1, nx): values and slopes at the
+    state nodes; ``h`` (n,) are the segment lengths.
+    """
+    n = h.size
+    xs = [x_nodes[0:2 * n:2], x_nodes[1:2 * n:2], x_nodes[2::2]]
+    fs = [f_nodes[0:2 * n:2], f_nodes[1:2 * n:2], f_nodes[2::2]]
+    data = np.stack([xs[0], h[:, None] * fs[0], xs[1], h[:, None] * fs[1], xs[2], h[:, None] * fs[2]])
+    return np.einsum("kl,lnd->knd", nodes.hermite_quintic_matrix(), data)
+
+
+class HLGL(Transcription):
+    """Herman-Conway fifth-degree Gauss-Lobatto collocation.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    segments : int
+        Number of equal segments (or give ``mesh``).
+    mesh : array of positive fractions, optional
+        Segment lengths as fractions of ``tf - t0`` (normalised to sum to one).
+
+    NLP variable layout: states node by node (``nx`` per node, ``2n+1`` nodes),
+    then controls point by point (``nu`` per point, ``4n+1`` points), then ``tf``
+    if it is free. Everything is scaled by the problem's scales.
+    """
+
+    def __init__(self, problem: OptimalControlProblem, segments: int | None = None, *, mesh=None):
+        super().__init__(problem)
+        self.fractions = mesh_fractions(segments, mesh)
+        self.segments = self.fractions.size
+        self.starts = np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+
+    # -- sizes and layout --------------------------------------------------------------
+    @property
+    def label(self) -> str:
+        return f"HLGL(segments={self.segments})"
+
+    @property
+    def n_state_nodes(self) -> int:
+        return 2 * self.segments + 1
+
+    @property
+    def n_control_points(self) -> int:
+        return 4 * self.segments + 1
+
+    @property
+    def _nX(self) -> int:
+        return self.problem.nx * self.n_state_nodes
+
+    @property
+    def _nU(self) -> int:
+        return self.problem.nu * self.n_control_points
+
+    @property
+    def n_variables(self) -> int:
+        return self._nX + self._nU + int(self.problem.free_final_time)
+
+    @property
+    def n_defects(self) -> int:
+        return 2 * self.problem.nx * self.segments
+
+    def state_node_fractions(self) -> np.ndarray:
+        """Normalised times (0..1) of the 2n+1 state nodes."""
+        s = np.empty(self.n_state_nodes)
+        s[0:-1:2] = self.starts
+        s[1::2] = self.starts + 0.5 * self.fractions
+        s[-1] = 1.0
+        return s
+
+    def control_point_fractions(self) -> np.ndarray:
+        """Normalised times (0..1) of the 4n+1 control points."""
+        s = np.empty(self.n_control_points)
+        for j in range(4):
+            s[j:-1:4] = self.starts + nodes.HLGL_CONTROL_NODES[j] * self.fractions
+        s[-1] = 1.0
+        return s
+
+    def _state_index(self) -> np.ndarray:
+        nx = self.problem.nx
+        return np.arange(self._nX).reshape(self.n_state_nodes, nx).T  # (nx, nodes)
+
+    def _control_index(self) -> np.ndarray:
+        nu = self.problem.nu
+        return self._nX + np.arange(self._nU).reshape(self.n_control_points, nu).T  # (nu, points)
+
+    def _tf_index(self) -> int | None:
+        return self.n_variables - 1 if self.problem.free_final_time else None
+
+    # -- NLP blocks ----------------------------------------------------------------------
+    def _segment_symbols(self):
+        """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, (tf)] scaled; p = [start, frac, (tf)]."""
+        pr = self.problem
+        nx, nu = pr.nx, pr.nu
+        free = pr.free_final_time
+        z = ca.SX.sym("z", 3 * nx + 5 * nu + int(free))
+        p = ca.SX.sym("p", 2 + int(not free))
+        sx, su = pr.state_scale, pr.control_scale
+        x = [z[j * nx:(j + 1) * nx] * sx for j in range(3)]
+        u = [z[3 * nx + j * nu:3 * nx + (j + 1) * nu] * su for j in range(5)]
+        tf = z[-1] * pr.tf.scale if free else p[2]
+        T = tf - pr.t0
+        h = T * p[1]
+        t = [pr.t0 + T * p[0] + h * s for s in nodes.HLGL_CONTROL_NODES]
+        return z, p, x, u, t, h
+
+    def _segment_tables(self):
+        pr = self.problem
+        n = self.segments
+        k = np.arange(n)
+        Xi, Ui = self._state_index(), self._control_index()
+        rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
+        rows += [Ui[:, 4 * k + j] for j in range(5)]
+        if pr.free_final_time:
+            rows.append(np.full((1, n), self._tf_index()))
+        variables = np.vstack(rows)
+        params = [self.starts, self.fractions]
+        if not pr.free_final_time:
+            params.append(np.full(n, pr.tf))
+        return variables, np.vstack(params)
+
+    def _blocks(self) -> list[Block]:
+        pr = self.problem
+        nx = pr.nx
+        n = self.segments
+        variables, params = self._segment_tables()
+        z, p, x, u, t, h = self._segment_symbols()
+        f = pr.dynamics
+        c1, c2, x_a, x_b, _ = hlgl_segment(f, x[0], x[1], x[2], u, t, h)
+        sx = pr.state_scale
+        defects = ca.Function("hlgl_defects", [z, p], [ca.vertcat(c1 / sx, c2 / sx)])
+        rows = np.arange(2 * nx * n).reshape(n, 2 * nx).T
+        blocks = [Block("defects", defects, variables, params, rows)]
+
+        if pr.lagrange is not None:
+            xs = [x[0], x_a, x[1], x_b, x[2]]
+            quad = h * sum(w * pr.lagrange(xj, uj, tj) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
+            blocks.append(Block("lagrange", ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale]), variables, params))
+
+        if pr.mayer is not None:
+            blocks.append(self._mayer_block())
+        return blocks
+
+    def _mayer_block(self) -> Block:
+        pr = self.problem
+        nx = pr.nx
+        free = pr.free_final_time
+        Xi = self._state_index()
+        z = ca.SX.sym("z", 2 * nx + int(free))
+        p = ca.SX.sym("p", int(not free))
+        tf = z[-1] * pr.tf.scale if free else p[0]
+        phi = pr.mayer(z[:nx] * pr.state_scale, z[nx:2 * nx] * pr.state_scale, pr.t0, tf)
+        var = np.concatenate([Xi[:, 0], Xi[:, -1]] + ([[self._tf_index()]] if free else []))
+        par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
+        fun = ca.Function("mayer", [z, p], [phi / pr.objective_scale])
+        return Block("mayer", fun, var[:, None], par)
+
+    # -- bounds and guess -------------------------------------------------------------
+    def _bounds(self):
+        pr = self.problem
+        lb = np.empty(self.n_variables)
+        ub = np.empty(self.n_variables)
+        sx = pr.state_scale
+        xl = np.array([s.lower for s in pr.states]) / sx
+        xu = np.array([s.upper for s in pr.states]) / sx
+        XL = np.repeat(xl[:, None], self.n_state_nodes, axis=1)
+        XU = np.repeat(xu[:, None], self.n_state_nodes, axis=1)
+        for j, s in enumerate(pr.states):
+            XL[j, 0], XU[j, 0] = np.array(s.boundary_interval("initial")) / s.scale
+            XL[j, -1], XU[j, -1] = np.array(s.boundary_interval("final")) / s.scale
+        lb[:self._nX], ub[:self._nX] = XL.T.ravel(), XU.T.ravel()
+        su = pr.control_scale
+        ul = np.array([c.lower for c in pr.controls]) / su if pr.nu else np.zeros(0)
+        uu = np.array([c.upper for c in pr.controls]) / su if pr.nu else np.zeros(0)
+        lb[self._nX:self._nX + self._nU] = np.tile(ul, self.n_control_points)
+        ub[self._nX:self._nX + self._nU] = np.tile(uu, self.n_control_points)
+        if pr.free_final_time:
+            lb[-1], ub[-1] = pr.tf.lower / pr.tf.scale, pr.tf.upper / pr.tf.scale
+        return lb, ub
+
+    def _times(self, tf: float, fractions: np.ndarray) -> np.ndarray:
+        return self.problem.t0 + (tf - self.problem.t0) * fractions
+
+    def _initial_point(self, tf, states, controls):
+        pr = self.problem
+        X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)
+        U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
+        if X.shape != (self.n_state_nodes, pr.nx):
+            raise ValueError(f"state guess has shape {X.shape}, expected ({self.n_state_nodes}, {pr.nx})")
+        if U.shape != (self.n_control_points, pr.nu):
+            raise ValueError(f"control guess has shape {U.shape}, expected ({self.n_control_points}, {pr.nu})")
+        return self.pack(X, U, tf)
+
+    def pack(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
+        """Scaled NLP vector from physical node values X (2n+1, nx), U (4n+1, nu) and tf."""
+        pr = self.problem
+        X = np.asarray(X, dtype=float)
+        U = np.asarray(U, dtype=float).reshape(self.n_control_points, pr.nu)
+        if X.shape != (self.n_state_nodes, pr.nx):
+            raise ValueError(f"X has shape {X.shape}, expected ({self.n_state_nodes}, {pr.nx})")
+        parts = [(X / pr.state_scale).ravel(), (U / pr.control_scale).ravel() if pr.nu else np.zeros(0)]
+        if pr.free_final_time:
+            if tf is None:
+                raise ValueError("this problem has a free final time: give tf")
+            parts.append([tf / pr.tf.scale])
+        return np.concatenate(parts)
+
+    def unpack(self, w: np.ndarray):
+        """Physical (X, U, tf) from a scaled NLP vector."""
+        pr = self.problem
+        w = np.asarray(w, dtype=float).ravel()
+        if w.size != self.n_variables:
+            raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
+        X = w[:self._nX].reshape(self.n_state_nodes, pr.nx) * pr.state_scale
+        U = w[self._nX:self._nX + self._nU].reshape(self.n_control_points, pr.nu) * pr.control_scale
+        tf = w[-1] * pr.tf.scale if pr.free_final_time else pr.tf
+        return X, U, float(tf)
+
+    def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
+        """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""
+        w = self.pack(X, U, tf)
+        g = np.asarray(self.nlp.constraint_function(w)).ravel()
+        n, nx = self.segments, self.problem.nx
+        return (g.reshape(n, 2, nx) * self.problem.state_scale).transpose(1, 2, 0)
+
+    # -- solution ------------------------------------------------------------------------
+    def _package(self, result: NLPResult) -> dict:
+        pr = self.problem
+        X, U, tf = self.unpack(result.w)
+        t_x = self._times(tf, self.state_node_fractions())
+        t_u = self._times(tf, self.control_point_fractions())
+        U_nodes = U[0::2] if pr.nu else np.zeros((self.n_state_nodes, 0))
+        F = np.asarray(pr.dynamics.map(self.n_state_nodes)(X.T, U_nodes.T, t_x[None, :])).T
+        breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
+        h = np.diff(breaks)
+        states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
+        n = self.segments
+        Useg = np.stack([U[j:4 * n:4] if j < 4 else U[4::4] for j in range(5)])  # (5, n, nu)
+        coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
+        controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
+        return dict(
+            t0=pr.t0, tf=tf,
+            state_times=t_x, state_values=X,
+            control_times=t_u, control_values=U,
+            breakpoints=breaks,
+            state_interpolant=states, control_interpolant=controls,
+        )

@@ -1,0 +1,58 @@
+"""The assembled Jacobian and Hessian equal CasADi's own derivatives (ocpkit.nlp)."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from ocpkit import HLGL, OptimalControlProblem
+from ocpkit.nlp import Block, SeparableNLP
+from ocpkit.problems import flat_moon_ascent, lunar_ascent
+
+
+def reference_derivatives(nlp, w, lam_f, lam_g):
+    J = ca.Function("J", [nlp.w], [ca.jacobian(nlp.g, nlp.w)])(w).full()
+    H = ca.Function("H", [nlp.w], [ca.hessian(lam_f * nlp.f + ca.dot(ca.DM(lam_g), nlp.g), nlp.w)[0]])(w).full()
+    return J, H
+
+
+def with_lagrange(pr):
+    return OptimalControlProblem(
+        "with_lagrange", pr.states, pr.controls, lambda x, u, t: pr.dynamics(x, u, t), tf=pr.tf,
+        mayer=lambda x0, xf, t0, tf: tf**2 + xf[0] * x0[1],
+        lagrange=lambda x, u, t: x[2] ** 2 * u[0] ** 2 + ca.sin(x[0] * t),
+    )
+
+
+@pytest.mark.parametrize("make", [lunar_ascent, flat_moon_ascent, lambda: with_lagrange(lunar_ascent())])
+def test_assembled_derivatives_match_casadi(make):
+    tr = HLGL(make(), 4)
+    nlp = tr.nlp
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=tr.n_variables)
+    lam_f, lam_g = 0.7, rng.normal(size=tr.n_constraints)
+    J_ref, H_ref = reference_derivatives(nlp, w, lam_f, lam_g)
+    _, J = nlp.jac_g(w, [])
+    H = nlp.hess_lag(w, [], lam_f, lam_g).full()
+    assert np.allclose(np.tril(H, -1), 0), "IPOPT expects the upper triangle only"
+    assert np.abs(J.full() - J_ref).max() < 1e-12
+    assert np.abs(np.triu(H) + np.triu(H, 1).T - H_ref).max() < 1e-12
+
+
+def test_duplicate_variables_in_one_block_are_summed_correctly():
+    """A block whose two local variables are the same NLP variable: d2(z0*z1)/dw2 = 2."""
+    z, p = ca.SX.sym("z", 2), ca.SX.sym("p", 0)
+    fun = ca.Function("prod", [z, p], [z[0] * z[1]])
+    nlp = SeparableNLP(1, 1, [Block("b", fun, np.array([[0], [0]]), np.zeros((0, 1)), np.array([[0]]))])
+    H = nlp.hess_lag([1.5], [], 0.0, [1.0]).full()
+    assert H[0, 0] == pytest.approx(2.0)
+    _, J = nlp.jac_g([1.5], [])
+    assert J.full()[0, 0] == pytest.approx(3.0)
+
+
+def test_block_shape_errors_are_clear():
+    z, p = ca.SX.sym("z", 2), ca.SX.sym("p", 1)
+    fun = ca.Function("f", [z, p], [z[0] + p])
+    with pytest.raises(ValueError, match="parameters have shape"):
+        Block("b", fun, np.zeros((2, 3), int), np.zeros((2, 3)), np.zeros((1, 3), int))
+    with pytest.raises(ValueError, match="outside"):
+        SeparableNLP(1, 1, [Block("b", fun, np.array([[0], [5]]), np.zeros((1, 1)), np.array([[0]]))])

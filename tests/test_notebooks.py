@@ -1,0 +1,75 @@
+"""Notebook structure, parameter handling and folder independence (ocpkit.notebooks)."""
+
+import json
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from ocpkit import paths
+from ocpkit.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters
+
+NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
+
+
+def test_there_are_notebooks():
+    assert [p.name for p in NOTEBOOKS][:2] == ["00_validation.ipynb", "01_lunar_ascent.ipynb"]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_notebook_structure(path):
+    nb = nbformat.read(str(path), as_version=4)
+    assert nb.metadata["kernelspec"]["name"] == KERNEL_NAME
+    assert notebook_parameters(path), "one parseable parameters cell"
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert any("# NBVAL_CHECK_OUTPUT" in c.source for c in code), "key numbers are checked by nbval"
+    # stored with the outputs of a complete run (the nbval reference), with no errors
+    assert all(c.execution_count is not None for c in code), "store the executed notebook (make store)"
+    outputs = [o for c in code for o in c.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    text = json.dumps([o for o in outputs if o.output_type != "display_data"])
+    assert str(paths.repo_root()) not in text, "outputs must not record machine-specific paths"
+
+
+def test_unknown_parameter_is_an_error():
+    with pytest.raises(ValueError, match=r"unknown parameter\(s\) \['segmnts'\].*segments"):
+        check_parameters(paths.notebooks_dir() / "01_lunar_ascent.ipynb", {"segmnts": 10})
+
+
+def test_unparseable_parameter_line_is_an_error(tmp_path):
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": KERNEL_NAME, "display_name": "Python (ocpkit)", "language": "python"}
+    cell = nbformat.v4.new_code_cell("a = 1  # fine\nb = 2  # a comment with = breaks papermill")
+    cell.metadata["tags"] = ["parameters"]
+    nb.cells.append(cell)
+    path = tmp_path / "bad.ipynb"
+    nbformat.write(nb, str(path))
+    with pytest.raises(ValueError, match=r"cannot parse the parameter line\(s\) of \['b'\]"):
+        notebook_parameters(path)
+
+
+def _kernel_available():
+    from jupyter_client.kernelspec import KernelSpecManager
+
+    return KERNEL_NAME in KernelSpecManager().find_kernel_specs()
+
+
+@pytest.mark.skipif(not _kernel_available(), reason="the 'ocpkit' kernel is registered by `make setup`")
+def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypatch):
+    """papermill in a foreign working directory, outputs redirected: the notebook finds data/ itself."""
+    out_root = tmp_path / "outputs"
+    monkeypatch.setenv("OCPKIT_OUTPUT_DIR", str(out_root))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    out = execute(
+        paths.notebooks_dir() / "01_lunar_ascent.ipynb",
+        tmp_path / "run.ipynb",
+        {"segments": 6, "smoothing_study": [1e-8], "plot_points": 11},
+        cwd=elsewhere,
+    )
+    summary = json.loads((out_root / "data" / "derived" / "lunar_ascent_summary.json").read_text())
+    assert summary["segments"] == 6 and summary["nlp_parameters"] == 4 * 13 + 25 + 1
+    assert summary["status"] == "Solve_Succeeded"
+    assert (out_root / "figures" / "figure6_theta.pdf").is_file()
+    assert Path(out).is_file()
