@@ -50,6 +50,7 @@ lab: setup
 
 bench: setup
 	$(PY) benchmarks/bench_hlgl.py
+	$(PY) benchmarks/bench_multirate.py
 
 store: setup
 	$(PY) -m ocpkit.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)

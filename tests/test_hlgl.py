@@ -3,6 +3,7 @@
 import casadi as ca
 import numpy as np
 import pytest
+from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, Control, FreeFinalTime, Guess, OptimalControlProblem, SolverError, State
 from ocpkit.paper import paper_table
@@ -36,14 +37,7 @@ def test_defects_vanish_exactly_up_to_degree_five(degree):
 
 def test_lagrange_quadrature_and_fixed_final_time_minimum_energy():
     """min int u^2 dt, x1' = x2, x2' = u, (0,0) -> (1,0) in tf = 1: u = 6 - 12 t, J = 12."""
-    pr = OptimalControlProblem(
-        "min_energy",
-        [State("x1", initial=0.0, final=1.0), State("x2", initial=0.0, final=0.0)],
-        [Control("u")],
-        lambda x, u, t: ca.vertcat(x[1], u[0]),
-        tf=1.0,
-        lagrange=lambda x, u, t: u[0] ** 2,
-    )
+    pr = min_energy_double_integrator()
     sol = HLGL(pr, 5).solve()
     t = np.linspace(0, 1, 101)
     assert sol.objective == pytest.approx(12.0, abs=1e-9)
@@ -101,7 +95,8 @@ def test_solution_interpolants_pass_through_the_nlp_parameters():
     assert np.allclose(sol.control(sol.control_times), sol.control_values, atol=1e-12)
     # the Hermite interpolant's slope at the nodes is the dynamics there
     slope = sol.state_interpolant.derivative()(sol.state_times)
-    f = np.array([sol.problem.rhs(t, x, u) for t, x, u in zip(sol.state_times, sol.state_values, sol.control(sol.state_times))])
+    u_nodes = sol.control(sol.state_times)
+    f = np.array([sol.problem.rhs(t, x, u) for t, x, u in zip(sol.state_times, sol.state_values, u_nodes)])
     assert np.allclose(slope, f, atol=1e-12)
     df = sol.to_dataframe(n=11)
     assert list(df.columns) == ["t", "X", "Y", "U", "V", "theta"] and len(df) == 11
@@ -141,7 +136,8 @@ def test_wrong_shapes_get_clear_errors():
     with pytest.raises(KeyError, match="unknown states"):
         tr.solve(Guess(states={"Z": (0, 1)}))
     with pytest.raises(ValueError, match=r"dynamics returned shape \(3, 1\)"):
-        OptimalControlProblem("p", [State("a"), State("b")], [], lambda x, u, t: ca.vertcat(1, 2, 3), tf=1.0, lagrange=lambda x, u, t: 1)
+        OptimalControlProblem("p", [State("a"), State("b")], [], lambda x, u, t: ca.vertcat(1, 2, 3),
+                              tf=1.0, lagrange=lambda x, u, t: 1)
 
 
 def test_impossible_bounds_get_clear_errors():

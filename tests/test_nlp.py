@@ -4,7 +4,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit import HLGL, OptimalControlProblem
+from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
 from ocpkit.nlp import Block, SeparableNLP
 from ocpkit.problems import flat_moon_ascent, lunar_ascent
 
@@ -23,9 +23,18 @@ def with_lagrange(pr):
     )
 
 
-@pytest.mark.parametrize("make", [lunar_ascent, flat_moon_ascent, lambda: with_lagrange(lunar_ascent())])
-def test_assembled_derivatives_match_casadi(make):
-    tr = HLGL(make(), 4)
+TRANSCRIPTIONS = {
+    "hlgl-lunar": lambda: HLGL(lunar_ascent(), 4),
+    "hlgl-flat-moon": lambda: HLGL(flat_moon_ascent(), 4),
+    "hlgl-lagrange": lambda: HLGL(with_lagrange(lunar_ascent()), 4),
+    "multirate-coarse": lambda: MultiRateHLGL(with_lagrange(lunar_ascent()), 3, ratio=2, fast=["U", "V"]),
+    "multirate-fine": lambda: MultiRateHLGL(flat_moon_ascent(), 3, ratio=3, fast=["vy"], fast_interpolation="fine"),
+}
+
+
+@pytest.mark.parametrize("name", TRANSCRIPTIONS)
+def test_assembled_derivatives_match_casadi(name):
+    tr = TRANSCRIPTIONS[name]()
     nlp = tr.nlp
     rng = np.random.default_rng(3)
     w = rng.normal(size=tr.n_variables)

@@ -3,7 +3,7 @@
 from .errors import SolverError
 from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
-from .transcription import HLGL, Transcription
+from .transcription import HLGL, MultiRateHLGL, Transcription
 
 __version__ = "0.1.0"
 
@@ -12,6 +12,7 @@ __all__ = [
     "FreeFinalTime",
     "Guess",
     "HLGL",
+    "MultiRateHLGL",
     "OptimalControlProblem",
     "Reintegration",
     "Solution",

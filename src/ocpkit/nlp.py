@@ -81,7 +81,9 @@ class Block:
                 f"expected ({npar}, {count})"
             )
         if self.function.size1_in(0) != nz:
-            raise ValueError(f"block {self.name!r}: function takes {self.function.size1_in(0)} variables, index table has {nz}")
+            raise ValueError(
+                f"block {self.name!r}: function takes {self.function.size1_in(0)} variables, index table has {nz}"
+            )
         nout = self.function.size1_out(0)
         if self.rows is None:
             if nout != 1:

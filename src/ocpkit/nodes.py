@@ -53,6 +53,25 @@ def hermite_quintic_matrix() -> np.ndarray:
     return np.linalg.inv(np.array(rows))
 
 
+def hermite_quintic_basis(s) -> np.ndarray:
+    """Weights ``b(s)`` (shape ``s.shape + (6,)``) with ``p(s) = b(s) . (x_i, x_i', x_c, x_c', x_e, x_e')``.
+
+    ``p`` is the quintic Hermite interpolant of :func:`hermite_quintic_matrix`;
+    at the nodes themselves the weights are exactly 0 and 1.
+    """
+    s = np.asarray(s, dtype=float)
+    b = np.stack([s**k for k in range(6)], axis=-1) @ hermite_quintic_matrix()
+    for j, node in enumerate(HLGL_STATE_NODES):
+        at = s == node
+        b[at] = 0.0
+        b[at, 2 * j] = 1.0
+    return b
+
+
+EQUISPACED_CONTROL_NODES = np.linspace(0.0, 1.0, 5)
+"""Normalised times of the five control parameters per coarse segment of the two-timescale scheme."""
+
+
 def monomial_matrix(nodes: np.ndarray) -> np.ndarray:
     """Map values at ``nodes`` (in [0, 1]) to the monomial coefficients of their interpolant."""
     nodes = np.asarray(nodes, dtype=float)

@@ -17,7 +17,6 @@ and the three terminal conditions on y, vx, vy fix (tau_0, c, tf).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np

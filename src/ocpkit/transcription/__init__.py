@@ -2,5 +2,6 @@
 
 from .base import Transcription, mesh_fractions
 from .hlgl import HLGL
+from .multirate import MultiRateHLGL, state_partition
 
-__all__ = ["Transcription", "HLGL", "mesh_fractions"]
+__all__ = ["HLGL", "MultiRateHLGL", "Transcription", "mesh_fractions", "state_partition"]

@@ -5,9 +5,10 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 
+import casadi as ca
 import numpy as np
 
-from ..nlp import NLPResult, SeparableNLP, solve_nlp
+from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
 from ..problem import Guess, OptimalControlProblem
 from ..solution import Solution
 
@@ -28,6 +29,26 @@ def mesh_fractions(segments: int | None, mesh) -> np.ndarray:
     if segments < 1:
         raise ValueError(f"segments must be at least 1, got {segments}")
     return np.full(int(segments), 1.0 / segments)
+
+
+def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled bounds (n_nodes, len(states)) of states on a node set, with the boundary conditions at both ends."""
+    lb = np.empty((n_nodes, len(states)))
+    ub = np.empty((n_nodes, len(states)))
+    for j, s in enumerate(states):
+        lb[:, j], ub[:, j] = s.lower / s.scale, s.upper / s.scale
+        lo, hi = s.boundary_interval("initial")
+        lb[0, j], ub[0, j] = lo / s.scale, hi / s.scale
+        lo, hi = s.boundary_interval("final")
+        lb[-1, j], ub[-1, j] = max(lb[-1, j], lo / s.scale), min(ub[-1, j], hi / s.scale)
+    return lb, ub
+
+
+def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled bounds (n_points, len(controls)) of controls at their parameter points."""
+    lb = np.tile([c.lower / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    ub = np.tile([c.upper / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    return lb, ub
 
 
 class Transcription(ABC):
@@ -76,6 +97,34 @@ class Transcription(ABC):
     def _package(self, result: NLPResult) -> dict:
         """Solution fields (times, values, interpolants, breakpoints) from the NLP result."""
 
+    # -- helpers for subclasses ------------------------------------------------------------
+    def _times(self, tf: float, fractions: np.ndarray) -> np.ndarray:
+        """Physical times of normalised times ``fractions`` in [0, 1]."""
+        return self.problem.t0 + (tf - self.problem.t0) * np.asarray(fractions)
+
+    def _stack_bounds(self, parts) -> tuple[np.ndarray, np.ndarray]:
+        """Concatenate ``(lower, upper)`` arrays in layout order and append the final-time bounds."""
+        pr = self.problem
+        lb = [np.ravel(lo) for lo, _ in parts]
+        ub = [np.ravel(hi) for _, hi in parts]
+        if pr.free_final_time:
+            lb.append([pr.tf.lower / pr.tf.scale])
+            ub.append([pr.tf.upper / pr.tf.scale])
+        return np.concatenate(lb), np.concatenate(ub)
+
+    def _mayer_block(self, first: np.ndarray, last: np.ndarray, tf_index: int | None) -> Block:
+        """The Mayer term phi(x(t0), x(tf), t0, tf) on the NLP variables ``first`` and ``last`` (problem order)."""
+        pr = self.problem
+        nx = pr.nx
+        free = pr.free_final_time
+        z = ca.SX.sym("z", 2 * nx + int(free))
+        p = ca.SX.sym("p", int(not free))
+        tf = z[-1] * pr.tf.scale if free else p[0]
+        phi = pr.mayer(z[:nx] * pr.state_scale, z[nx:2 * nx] * pr.state_scale, pr.t0, tf)
+        var = np.concatenate([first, last] + ([[tf_index]] if free else []))
+        par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
+        return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
+
     def _constraint_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         z = np.zeros(self.n_defects)
         return z, z.copy()
@@ -117,7 +166,9 @@ class Transcription(ABC):
         if guess is None:
             guess = Guess()
         if isinstance(guess, Solution):
-            if guess.problem.state_names != self.problem.state_names or guess.problem.control_names != self.problem.control_names:
+            same = (guess.problem.state_names, guess.problem.control_names) == (
+                self.problem.state_names, self.problem.control_names)
+            if not same:
                 raise ValueError("a Solution used as guess must have the same states and controls")
             tf, xs, us = guess.tf, guess.state, guess.control
         elif isinstance(guess, Guess):

@@ -27,7 +27,7 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, mesh_fractions
+from .base import Transcription, mesh_fractions, node_bounds, point_bounds
 
 
 def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
@@ -190,51 +190,21 @@ class HLGL(Transcription):
         if pr.lagrange is not None:
             xs = [x[0], x_a, x[1], x_b, x[2]]
             quad = h * sum(w * pr.lagrange(xj, uj, tj) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
-            blocks.append(Block("lagrange", ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale]), variables, params))
+            fun = ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale])
+            blocks.append(Block("lagrange", fun, variables, params))
 
         if pr.mayer is not None:
-            blocks.append(self._mayer_block())
+            Xi = self._state_index()
+            blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], self._tf_index()))
         return blocks
-
-    def _mayer_block(self) -> Block:
-        pr = self.problem
-        nx = pr.nx
-        free = pr.free_final_time
-        Xi = self._state_index()
-        z = ca.SX.sym("z", 2 * nx + int(free))
-        p = ca.SX.sym("p", int(not free))
-        tf = z[-1] * pr.tf.scale if free else p[0]
-        phi = pr.mayer(z[:nx] * pr.state_scale, z[nx:2 * nx] * pr.state_scale, pr.t0, tf)
-        var = np.concatenate([Xi[:, 0], Xi[:, -1]] + ([[self._tf_index()]] if free else []))
-        par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
-        fun = ca.Function("mayer", [z, p], [phi / pr.objective_scale])
-        return Block("mayer", fun, var[:, None], par)
 
     # -- bounds and guess -------------------------------------------------------------
     def _bounds(self):
         pr = self.problem
-        lb = np.empty(self.n_variables)
-        ub = np.empty(self.n_variables)
-        sx = pr.state_scale
-        xl = np.array([s.lower for s in pr.states]) / sx
-        xu = np.array([s.upper for s in pr.states]) / sx
-        XL = np.repeat(xl[:, None], self.n_state_nodes, axis=1)
-        XU = np.repeat(xu[:, None], self.n_state_nodes, axis=1)
-        for j, s in enumerate(pr.states):
-            XL[j, 0], XU[j, 0] = np.array(s.boundary_interval("initial")) / s.scale
-            XL[j, -1], XU[j, -1] = np.array(s.boundary_interval("final")) / s.scale
-        lb[:self._nX], ub[:self._nX] = XL.T.ravel(), XU.T.ravel()
-        su = pr.control_scale
-        ul = np.array([c.lower for c in pr.controls]) / su if pr.nu else np.zeros(0)
-        uu = np.array([c.upper for c in pr.controls]) / su if pr.nu else np.zeros(0)
-        lb[self._nX:self._nX + self._nU] = np.tile(ul, self.n_control_points)
-        ub[self._nX:self._nX + self._nU] = np.tile(uu, self.n_control_points)
-        if pr.free_final_time:
-            lb[-1], ub[-1] = pr.tf.lower / pr.tf.scale, pr.tf.upper / pr.tf.scale
-        return lb, ub
-
-    def _times(self, tf: float, fractions: np.ndarray) -> np.ndarray:
-        return self.problem.t0 + (tf - self.problem.t0) * fractions
+        return self._stack_bounds([
+            node_bounds(pr.states, self.n_state_nodes),
+            point_bounds(pr.controls, self.n_control_points),
+        ])
 
     def _initial_point(self, tf, states, controls):
         pr = self.problem

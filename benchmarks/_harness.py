@@ -1,0 +1,74 @@
+"""Shared timing harness for the benchmark scripts: best-of-k runs, CSV and Markdown output."""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import os
+import platform
+import time
+
+import casadi
+import pandas as pd
+
+from ocpkit.tables import markdown_table
+
+
+def ipopt_overrides(pairs: list[str]) -> dict:
+    """``["tol=1e-12", "max_iter=50"]`` -> ``{"tol": 1e-12, "max_iter": 50}``."""
+    out = {}
+    for kv in pairs:
+        key, sep, value = kv.partition("=")
+        if not sep:
+            raise SystemExit(f"--ipopt expects KEY=VALUE, got {kv!r}")
+        try:
+            out[key] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            out[key] = value
+    return out
+
+
+def parser(description: str, default_output: str) -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--repeat", type=int, default=3, help="runs per row; the fastest is kept")
+    ap.add_argument("--ipopt", nargs="*", default=[], metavar="KEY=VALUE", help="IPOPT option overrides")
+    ap.add_argument("--output", default=default_output)
+    return ap
+
+
+def timed_solve(make_transcription, ipopt_options: dict) -> dict:
+    """Build (NLP and solver) and solve from the default guess; wall times in seconds."""
+    t0 = time.perf_counter()
+    tr = make_transcription()
+    tr.solver(ipopt_options)
+    sol = tr.solve(ipopt_options=ipopt_options)
+    total = time.perf_counter() - t0
+    return {
+        "nlp_parameters": sol.nlp_parameters,
+        "defect_equations": sol.defect_equations,
+        "build_s": tr.build_s,
+        "solve_s": sol.solve_s,
+        "end_to_end_s": total,
+        "iterations": sol.iterations,
+        "tf": sol.tf,
+    }
+
+
+def best_of(make_transcription, ipopt_options: dict, repeat: int) -> dict:
+    if repeat < 1:
+        raise SystemExit("--repeat must be at least 1")
+    runs = [timed_solve(make_transcription, ipopt_options) for _ in range(repeat)]
+    return min(runs, key=lambda r: r["end_to_end_s"])
+
+
+def report(rows: list[dict], columns: list[str], output: str, title: str) -> pd.DataFrame:
+    df = pd.DataFrame(rows)
+    os.makedirs(os.path.dirname(output) or ".", exist_ok=True)
+    df.to_csv(output, index=False)
+    print()
+    print(f"{title}; casadi {casadi.__version__}, {platform.machine()}, {os.cpu_count()} cores")
+    print()
+    fmt = {c: ".3f" for c in columns if c.endswith("_s")}
+    print(markdown_table(df[columns], fmt))
+    print(f"\nwritten {output}")
+    return df

@@ -1,0 +1,453 @@
+"""Two-timescale (multi-rate) fifth-degree Gauss-Lobatto collocation (Desai & Conway).
+
+The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
+
+* Each coarse segment ``[t_i, t_{i+2}]`` (length ``h``) carries the usual HLGL
+  nodes for ``x``: ``t_i``, the centre and ``t_{i+2}``.
+* It is divided into ``M`` fine segments of length ``h/M``; ``z`` has HLGL nodes
+  on every fine segment (``2M + 1`` per coarse segment, ends shared).
+* The controls are five NLP parameters per coarse segment at ``s = 0, 1/4, 1/2,
+  3/4, 1`` (ends shared) defining a quartic; every other control value the
+  defects need is that quartic evaluated there ("two-to-one" and "four-to-one"
+  architectures: for M = 2 the five points are the fine nodes, for M = 4 every
+  other fine node).
+* Coarse defects (Eqs. 6-7 for ``x``) use ``x``, ``z`` and ``u`` at the coarse
+  nodes (all NLP parameters) and the quartic for ``u_a, u_b``. The full state at
+  the coarse collocation points comes from the coarse quintic Hermite
+  interpolant of ``(x, z)``; with ``fast_interpolation="fine"`` the fast part is
+  taken from the fine Hermite interpolant of ``z`` instead (an option beyond the
+  paper, same NLP size).
+* Fine defects (Eqs. 6-7 for ``z`` on each fine segment) need ``x`` at the fine
+  centres and fine collocation points: the coarse quintic Hermite polynomial of
+  ``x`` (values and slopes at the three coarse nodes), as the paper does.
+
+NLP size: ``nx (2N+1) + nz (2MN+1) + nu (4N+1) (+1 for a free tf)`` parameters
+and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import casadi as ca
+import numpy as np
+
+from .. import nodes
+from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
+from ..nlp import Block, NLPResult
+from ..problem import OptimalControlProblem
+from .base import Transcription, mesh_fractions, node_bounds, point_bounds
+from .hlgl import hermite_coefficients
+
+FAST_INTERPOLATIONS = ("coarse", "fine")
+
+
+def state_partition(problem: OptimalControlProblem, slow=None, fast=None) -> tuple[list[int], list[int]]:
+    """Indices of the slow and fast states from names; either group may be left to be the complement."""
+    names = problem.state_names
+    groups = {}
+    for label, group in (("slow", slow), ("fast", fast)):
+        if group is None:
+            continue
+        if isinstance(group, str):
+            raise TypeError(f"{label} states must be a sequence of names, got the string {group!r}")
+        group = list(group)
+        unknown = [g for g in group if g not in names]
+        if unknown:
+            raise ValueError(f"{label} states {unknown} are not states of {problem.name!r}; states are {names}")
+        dup = sorted({g for g in group if group.count(g) > 1})
+        if dup:
+            raise ValueError(f"{label} states list {dup} more than once")
+        groups[label] = group
+    if not groups:
+        raise ValueError("name the slow states, the fast states, or both")
+    if "slow" in groups and "fast" in groups:
+        both = sorted(set(groups["slow"]) & set(groups["fast"]))
+        if both:
+            raise ValueError(f"states {both} are in both the slow and the fast group")
+        missing = [n for n in names if n not in groups["slow"] and n not in groups["fast"]]
+        if missing:
+            raise ValueError(f"states {missing} are in neither the slow nor the fast group")
+    elif "slow" in groups:
+        groups["fast"] = [n for n in names if n not in groups["slow"]]
+    else:
+        groups["slow"] = [n for n in names if n not in groups["fast"]]
+    return [names.index(n) for n in groups["slow"]], [names.index(n) for n in groups["fast"]]
+
+
+def _hermite(b, x_i, d_i, x_c, d_c, x_e, d_e):
+    """Quintic Hermite value from basis weights ``b`` (6,) and node values/slopes (slopes times h)."""
+    return b[0] * x_i + b[1] * d_i + b[2] * x_c + b[3] * d_c + b[4] * x_e + b[5] * d_e
+
+
+def _hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h):
+    """Eqs. (6)-(7) for one segment, from states at the nodes and slopes at all five points."""
+    D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
+    c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
+    D, E = nodes.HLGL_C2_X, nodes.HLGL_C2_F
+    c2 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_b + E[2] * f_c + E[3] * f_e)
+    return c1, c2
+
+
+class MultiRateHLGL(Transcription):
+    """Two-timescale HLGL collocation: slow states on a coarse mesh, fast states ``ratio`` times finer.
+
+    Parameters
+    ----------
+    problem : OptimalControlProblem
+    segments : int
+        Number of coarse segments (or give ``mesh``).
+    ratio : int
+        Fine segments per coarse segment, ``M >= 1``.
+    slow, fast : sequences of state names
+        The partition; give either (the other is its complement) or both.
+    fast_interpolation : ``"coarse"`` (default, the paper's reading) or ``"fine"``
+        How the fast states are evaluated at the coarse collocation points.
+    mesh : positive fractions of the coarse segments, optional.
+
+    NLP variable layout: slow states node by node on the coarse nodes, fast
+    states node by node on the fine nodes, controls at their points, then tf.
+    """
+
+    def __init__(
+        self,
+        problem: OptimalControlProblem,
+        segments: int | None = None,
+        *,
+        ratio: int,
+        slow: Sequence[str] | None = None,
+        fast: Sequence[str] | None = None,
+        fast_interpolation: str = "coarse",
+        mesh=None,
+    ):
+        super().__init__(problem)
+        if isinstance(ratio, bool) or not isinstance(ratio, (int, np.integer)):
+            raise TypeError(f"ratio must be an integer, got {ratio!r}")
+        if ratio < 1:
+            raise ValueError(f"ratio must be at least 1, got {ratio}")
+        if fast_interpolation not in FAST_INTERPOLATIONS:
+            raise ValueError(f"fast_interpolation must be one of {FAST_INTERPOLATIONS}, got {fast_interpolation!r}")
+        self.ratio = int(ratio)
+        self.fast_interpolation = fast_interpolation
+        self.slow, self.fast = state_partition(problem, slow, fast)
+        self.fractions = mesh_fractions(segments, mesh)
+        self.segments = self.fractions.size
+        self.starts = np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+
+    # -- sizes and layout -------------------------------------------------------------
+    @property
+    def label(self) -> str:
+        names = self.problem.state_names
+        fast = ",".join(names[i] for i in self.fast)
+        return f"MultiRateHLGL(segments={self.segments}, ratio={self.ratio}, fast=[{fast}])"
+
+    @property
+    def n_coarse_nodes(self) -> int:
+        return 2 * self.segments + 1
+
+    @property
+    def n_fine_nodes(self) -> int:
+        return 2 * self.ratio * self.segments + 1
+
+    @property
+    def n_control_points(self) -> int:
+        return 4 * self.segments + 1
+
+    @property
+    def _sizes(self) -> tuple[int, int, int]:
+        pr = self.problem
+        return (len(self.slow) * self.n_coarse_nodes, len(self.fast) * self.n_fine_nodes, pr.nu * self.n_control_points)
+
+    @property
+    def n_variables(self) -> int:
+        return sum(self._sizes) + int(self.problem.free_final_time)
+
+    @property
+    def n_defects(self) -> int:
+        return 2 * self.segments * (len(self.slow) + self.ratio * len(self.fast))
+
+    def coarse_node_fractions(self) -> np.ndarray:
+        s = np.empty(self.n_coarse_nodes)
+        s[0:-1:2] = self.starts
+        s[1::2] = self.starts + 0.5 * self.fractions
+        s[-1] = 1.0
+        return s
+
+    def fine_node_fractions(self) -> np.ndarray:
+        M = self.ratio
+        k = np.arange(2 * M)
+        s = (self.starts[:, None] + self.fractions[:, None] * k[None, :] / (2 * M)).ravel()
+        return np.concatenate([s, [1.0]])
+
+    def control_point_fractions(self) -> np.ndarray:
+        k = np.arange(4)
+        s = (self.starts[:, None] + self.fractions[:, None] * nodes.EQUISPACED_CONTROL_NODES[k][None, :]).ravel()
+        return np.concatenate([s, [1.0]])
+
+    def _indices(self):
+        """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
+        nxs, nzf, nu = len(self.slow), len(self.fast), self.problem.nu
+        a, b, c = self._sizes
+        X = np.arange(a).reshape(self.n_coarse_nodes, nxs).T
+        Z = a + np.arange(b).reshape(self.n_fine_nodes, nzf).T
+        U = a + b + np.arange(c).reshape(self.n_control_points, nu).T
+        tf = a + b + c if self.problem.free_final_time else None
+        return X, Z, U, tf
+
+    # -- NLP blocks -------------------------------------------------------------------
+    def _full_state(self, x, z):
+        """Assemble the full state vector (problem order) from slow and fast parts."""
+        parts = [None] * self.problem.nx
+        for j, i in enumerate(self.slow):
+            parts[i] = x[j]
+        for j, i in enumerate(self.fast):
+            parts[i] = z[j]
+        return ca.vertcat(*parts)
+
+    def _segment_expressions(self):
+        """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
+        pr = self.problem
+        M = self.ratio
+        nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
+        free = pr.free_final_time
+        nloc = 3 * nxs + (2 * M + 1) * nzf + 5 * nu + int(free)
+        w = ca.SX.sym("w", nloc)
+        p = ca.SX.sym("p", 2 + int(not free))
+        sx = pr.state_scale[self.slow]
+        sz = pr.state_scale[self.fast]
+        su = pr.control_scale
+        off = 0
+        X = [w[off + k * nxs: off + (k + 1) * nxs] * sx for k in range(3)]
+        off += 3 * nxs
+        Z = [w[off + k * nzf: off + (k + 1) * nzf] * sz for k in range(2 * M + 1)]
+        off += (2 * M + 1) * nzf
+        U = [w[off + k * nu: off + (k + 1) * nu] * su for k in range(5)]
+        tf = w[-1] * pr.tf.scale if free else p[2]
+        T = tf - pr.t0
+        h = T * p[1]
+        t_start = pr.t0 + T * p[0]
+
+        def u_at(s):
+            L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s]))[0]
+            if nu == 0:
+                return ca.SX(0, 1)
+            return sum(float(L[j]) * U[j] for j in range(5) if L[j] != 0.0)
+
+        def f(x, z, s):
+            return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s)
+
+        def split(fv):
+            return fv[self.slow], fv[self.fast]
+
+        # coarse nodes: x params, z at fine nodes 0, M, 2M
+        zc = [Z[0], Z[M], Z[2 * M]]
+        Fc = [f(X[k], zc[k], s) for k, s in enumerate(nodes.HLGL_STATE_NODES)]
+        fx_c = [split(F)[0] for F in Fc]
+        fz_c = [split(F)[1] for F in Fc]
+
+        def x_at(s):
+            b = nodes.hermite_quintic_basis(np.array([s]))[0]
+            return _hermite(b, X[0], h * fx_c[0], X[1], h * fx_c[1], X[2], h * fx_c[2])
+
+        # fine nodes: x from the coarse Hermite where it is not a parameter
+        hf = h / M
+        fine_s = np.arange(2 * M + 1) / (2 * M)
+        fz_nodes = []
+        for k, s in enumerate(fine_s):
+            if k % M == 0:
+                fz_nodes.append(fz_c[k // M])
+            else:
+                fz_nodes.append(split(f(x_at(s), Z[k], s))[1])
+
+        def z_fine_at(s):
+            j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
+            b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
+            i = 2 * j
+            return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
+
+        def z_coarse_at(s):
+            b = nodes.hermite_quintic_basis(np.array([s]))[0]
+            return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
+
+        z_at_coarse_colloc = z_coarse_at if self.fast_interpolation == "coarse" else z_fine_at
+
+        # coarse defects for x
+        sa, sb = nodes.HLGL_COLLOCATION
+        xa, xb = x_at(sa), x_at(sb)
+        za, zb = z_at_coarse_colloc(sa), z_at_coarse_colloc(sb)
+        Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
+        defects = []
+        if nxs:
+            c1, c2 = _hlgl_defects(X[0], X[1], X[2], fx_c[0], split(Fa)[0], fx_c[1], split(Fb)[0], fx_c[2], h)
+            defects += [c1 / sx, c2 / sx]
+        # fine defects for z
+        if nzf:
+            for j in range(M):
+                i = 2 * j
+                s0 = j / M
+                zi, zm, ze = Z[i], Z[i + 1], Z[i + 2]
+                fi, fm, fe = fz_nodes[i], fz_nodes[i + 1], fz_nodes[i + 2]
+                A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
+                za_f = A[0] * zi + A[1] * zm + A[2] * ze + hf * (B[0] * fi + B[1] * fm + B[2] * fe)
+                A, B = nodes.HLGL_XB_X, nodes.HLGL_XB_F
+                zb_f = A[0] * zi + A[1] * zm + A[2] * ze + hf * (B[0] * fi + B[1] * fm + B[2] * fe)
+                s_a, s_b = s0 + sa / M, s0 + sb / M
+                fa = split(f(x_at(s_a), za_f, s_a))[1]
+                fb = split(f(x_at(s_b), zb_f, s_b))[1]
+                c1, c2 = _hlgl_defects(zi, zm, ze, fi, fa, fm, fb, fe, hf)
+                defects += [c1 / sz, c2 / sz]
+
+        quad = None
+        if pr.lagrange is not None:
+            pts = [(0.0, X[0], zc[0]), (sa, xa, za), (0.5, X[1], zc[1]), (sb, xb, zb), (1.0, X[2], zc[2])]
+            quad = h * sum(
+                wq * pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s)
+                for wq, (s, x, z) in zip(nodes.HLGL_QUADRATURE, pts)
+            )
+        return w, p, ca.vertcat(*defects), quad
+
+    def _segment_tables(self):
+        pr = self.problem
+        N, M = self.segments, self.ratio
+        k = np.arange(N)
+        X, Z, U, tfi = self._indices()
+        rows = [X[:, 2 * k + j] for j in range(3)]
+        rows += [Z[:, 2 * M * k + j] for j in range(2 * M + 1)]
+        rows += [U[:, 4 * k + j] for j in range(5)]
+        if pr.free_final_time:
+            rows.append(np.full((1, N), tfi))
+        params = [self.starts, self.fractions] + ([] if pr.free_final_time else [np.full(N, pr.tf)])
+        return np.vstack(rows), np.vstack(params)
+
+    def _blocks(self) -> list[Block]:
+        pr = self.problem
+        w, p, defects, quad = self._segment_expressions()
+        variables, params = self._segment_tables()
+        per = defects.shape[0]
+        rows = np.arange(per * self.segments).reshape(self.segments, per).T
+        blocks = [Block("multirate_defects", ca.Function("mr_defects", [w, p], [defects]), variables, params, rows)]
+        if quad is not None:
+            fun = ca.Function("mr_lagrange", [w, p], [quad / pr.objective_scale])
+            blocks.append(Block("lagrange", fun, variables, params))
+        if pr.mayer is not None:
+            X, Z, _, tfi = self._indices()
+            first = np.empty(pr.nx, dtype=np.int64)
+            last = np.empty(pr.nx, dtype=np.int64)
+            first[self.slow], last[self.slow] = X[:, 0], X[:, -1]
+            first[self.fast], last[self.fast] = Z[:, 0], Z[:, -1]
+            blocks.append(self._mayer_block(first, last, tfi))
+        return blocks
+
+    # -- bounds, guess, packing -----------------------------------------------------------
+    def _bounds(self):
+        pr = self.problem
+        return self._stack_bounds([
+            node_bounds([pr.states[i] for i in self.slow], self.n_coarse_nodes),
+            node_bounds([pr.states[i] for i in self.fast], self.n_fine_nodes),
+            point_bounds(pr.controls, self.n_control_points),
+        ])
+
+    def _initial_point(self, tf, states, controls):
+        Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions())), dtype=float)
+        Xf = np.asarray(states(self._times(tf, self.fine_node_fractions())), dtype=float)
+        U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
+        return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf)
+
+    def pack(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
+        """Scaled NLP vector from slow states (coarse nodes, nxs), fast states (fine nodes, nzf), controls and tf."""
+        pr = self.problem
+        shapes = {
+            "slow states": (np.asarray(X_slow, float), (self.n_coarse_nodes, len(self.slow))),
+            "fast states": (np.asarray(Z_fast, float), (self.n_fine_nodes, len(self.fast))),
+            "controls": (np.asarray(U, float), (self.n_control_points, pr.nu)),
+        }
+        for name, (arr, shape) in shapes.items():
+            if arr.shape != shape:
+                raise ValueError(f"{name} have shape {arr.shape}, expected {shape}")
+        parts = [
+            (shapes["slow states"][0] / pr.state_scale[self.slow]).ravel(),
+            (shapes["fast states"][0] / pr.state_scale[self.fast]).ravel(),
+            (shapes["controls"][0] / pr.control_scale).ravel() if pr.nu else np.zeros(0),
+        ]
+        if pr.free_final_time:
+            if tf is None:
+                raise ValueError("this problem has a free final time: give tf")
+            parts.append([tf / pr.tf.scale])
+        return np.concatenate(parts)
+
+    def unpack(self, w):
+        pr = self.problem
+        w = np.asarray(w, dtype=float).ravel()
+        if w.size != self.n_variables:
+            raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
+        a, b, c = self._sizes
+        Xs = w[:a].reshape(self.n_coarse_nodes, len(self.slow)) * pr.state_scale[self.slow]
+        Zf = w[a:a + b].reshape(self.n_fine_nodes, len(self.fast)) * pr.state_scale[self.fast]
+        U = w[a + b:a + b + c].reshape(self.n_control_points, pr.nu) * pr.control_scale
+        tf = w[-1] * pr.tf.scale if pr.free_final_time else pr.tf
+        return Xs, Zf, U, float(tf)
+
+    def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
+        """All defects (physical units), in NLP row order, at given parameter values."""
+        g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()
+        per = g.size // self.segments
+        scale = np.concatenate(
+            [self.problem.state_scale[self.slow]] * (2 if self.slow else 0)
+            + [self.problem.state_scale[self.fast]] * (2 * self.ratio if self.fast else 0)
+        )
+        return (g.reshape(self.segments, per) * scale).T
+
+    # -- solution ---------------------------------------------------------------------
+    def _package(self, result: NLPResult) -> dict:
+        pr = self.problem
+        Xs, Zf, U, tf = self.unpack(result.w)
+        N, M = self.segments, self.ratio
+        t_c = self._times(tf, self.coarse_node_fractions())
+        t_f = self._times(tf, self.fine_node_fractions())
+        t_u = self._times(tf, self.control_point_fractions())
+        breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
+        h = np.diff(breaks)
+
+        useg = np.stack([U[j:4 * N:4] if j < 4 else U[4::4] for j in range(5)])  # (5, N, nu)
+        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), useg)
+        controls = PiecewiseEvaluator(piecewise_polynomial(breaks, ucoef))
+
+        f_map = pr.dynamics.map
+
+        def rhs(times, full):
+            return np.asarray(f_map(times.size)(full.T, controls(times).T, times[None, :])).T
+
+        # slow states: coarse Hermite with slopes from the full state at the coarse nodes
+        full_c = np.empty((t_c.size, pr.nx))
+        full_c[:, self.slow] = Xs
+        full_c[:, self.fast] = Zf[::M]
+        Fc = rhs(t_c, full_c)
+        slow_pp = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(Xs, Fc[:, self.slow], h)))
+        # fast states: fine Hermite with slopes from the slow interpolant at the fine nodes
+        full_f = np.empty((t_f.size, pr.nx))
+        full_f[:, self.slow] = slow_pp(t_f) if self.slow else np.zeros((t_f.size, 0))
+        full_f[:, self.fast] = Zf
+        fine_breaks = t_f[::2]
+        Ff = rhs(t_f, full_f)
+        fast_pp = PiecewiseEvaluator(
+            piecewise_polynomial(fine_breaks, hermite_coefficients(Zf, Ff[:, self.fast], np.diff(fine_breaks)))
+        )
+
+        slow_idx, fast_idx = list(self.slow), list(self.fast)
+
+        def states(t):
+            t = np.asarray(t, dtype=float)
+            out = np.empty(t.shape + (pr.nx,))
+            if slow_idx:
+                out[..., slow_idx] = slow_pp(t)
+            if fast_idx:
+                out[..., fast_idx] = fast_pp(t)
+            return out
+
+        return dict(
+            t0=pr.t0, tf=tf,
+            state_times=t_f, state_values=states(t_f),
+            control_times=t_u, control_values=U,
+            breakpoints=breaks,
+            state_interpolant=states, control_interpolant=controls,
+        )

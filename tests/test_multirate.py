@@ -1,0 +1,136 @@
+"""Two-timescale (multi-rate) HLGL collocation (ocpkit.transcription.multirate)."""
+
+import casadi as ca
+import numpy as np
+import pytest
+from _problems import min_energy_double_integrator
+
+from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, State
+from ocpkit.analysis import max_difference_pct
+from ocpkit.multirate_study import compare_case
+from ocpkit.paper import paper_table
+from ocpkit.problems import lunar_ascent
+
+CASES = {  # paper table -> (scheme row, fast states, ratio)
+    "table1": ("two_to_one", ["U", "V"], 2),
+    "table2": ("four_to_one", ["V"], 4),
+}
+
+
+@pytest.mark.parametrize("table", CASES)
+def test_sizes_of_all_four_rows(table):
+    paper = paper_table(table).set_index("scheme")
+    scheme, fast, ratio = CASES[table]
+    coarse, fine = (int(v) for v in paper.loc[scheme, "segments"].split("/"))
+    assert fine == coarse * ratio
+    mr = MultiRateHLGL(lunar_ascent(), coarse, ratio=ratio, fast=fast)
+    assert mr.n_variables == paper.loc[scheme, "nlp_parameters"]
+    assert mr.n_defects == paper.loc[scheme, "defect_equations"]
+    std = HLGL(lunar_ascent(), fine)
+    assert std.n_variables == paper.loc["standard", "nlp_parameters"]
+    assert std.n_defects == paper.loc["standard", "defect_equations"]
+
+
+@pytest.mark.parametrize("table", CASES)
+def test_max_difference_at_or_below_the_papers(table):
+    paper = paper_table(table).set_index("scheme")
+    scheme, fast, ratio = CASES[table]
+    coarse = int(paper.loc[scheme, "segments"].split("/")[0])
+    rows, _, _ = compare_case(lunar_ascent(), coarse, ratio, fast, scheme)
+    ours = rows.set_index("scheme").loc[scheme]
+    assert ours["max_state_diff_pct"] <= paper.loc[scheme, "max_state_diff_pct"]
+    assert ours["max_control_diff_pct"] <= paper.loc[scheme, "max_control_diff_pct"]
+
+
+def test_ratio_one_agrees_with_standard_to_discretisation_accuracy():
+    pr = lunar_ascent()
+    std = HLGL(pr, 20).solve()
+    one = MultiRateHLGL(pr, 20, ratio=1, fast=["U", "V"]).solve()
+    assert one.nlp_parameters == std.nlp_parameters
+    assert one.tf == pytest.approx(std.tf, abs=1e-9)
+    d = max_difference_pct(one, std)
+    assert d["states"] < 1e-6 and d["controls"] < 1e-4
+
+
+def test_fine_fast_interpolation_is_more_accurate_at_the_same_size():
+    pr = lunar_ascent()
+    ref = HLGL(pr, 160).solve()
+    paper = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"]).solve()
+    fine = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"], fast_interpolation="fine").solve()
+    assert fine.nlp_parameters == paper.nlp_parameters
+    assert max_difference_pct(fine, ref)["controls"] < 0.1 * max_difference_pct(paper, ref)["controls"]
+
+
+def coupled_polynomial_problem(deg_x):
+    """x' = p'(t) (slow, degree deg_x), z' = x (fast, degree deg_x + 1)."""
+    rng = np.random.default_rng(deg_x)
+    c = rng.normal(size=deg_x + 1)
+    dc = np.polyder(c)
+
+    def dyn(x, u, t):
+        return ca.vertcat(sum(a * t**k for k, a in enumerate(dc[::-1])) if dc.size else 0, x[0])
+
+    pr = OptimalControlProblem("coupled", [State("x"), State("z")], [], dyn, t0=0.2, tf=1.5,
+                               mayer=lambda a, b, s, t: b[1])
+    zc = np.polyint(c)
+    return pr, c, zc
+
+
+@pytest.mark.parametrize("ratio", [1, 2, 3, 4])
+@pytest.mark.parametrize("deg_x", [2, 4, 5])
+def test_defects_vanish_for_representable_polynomials(ratio, deg_x):
+    """Slow x of degree <= 5 and fast z = integral of x of degree <= 5 satisfy every defect exactly."""
+    pr, c, zc = coupled_polynomial_problem(deg_x)
+    mr = MultiRateHLGL(pr, mesh=[0.3, 0.7], ratio=ratio, fast=["z"])
+    tc = 0.2 + 1.3 * mr.coarse_node_fractions()
+    tf_ = 0.2 + 1.3 * mr.fine_node_fractions()
+    d = np.abs(mr.defects(np.polyval(c, tc)[:, None], np.polyval(zc, tf_)[:, None], np.zeros((mr.n_control_points, 0))))
+    if deg_x + 1 <= 5:
+        assert d.max() < 1e-12
+    else:
+        assert d[:2].max() < 1e-12, "the slow defects are exact for a quintic x"
+        assert d[2:].max() > 1e-8, "a sixth-degree fast state cannot be collocated exactly"
+
+
+def test_lagrange_cost_with_split_states():
+    """min int u^2, x1' = x2 (slow), x2' = u (fast): u = 6 - 12 t, J = 12, represented exactly."""
+    pr = min_energy_double_integrator()
+    sol = MultiRateHLGL(pr, 3, ratio=2, fast=["x2"]).solve()
+    t = np.linspace(0, 1, 51)
+    assert sol.objective == pytest.approx(12.0, abs=1e-9)
+    assert np.abs(sol.control(t)[:, 0] - (6 - 12 * t)).max() < 1e-8
+    assert np.abs(sol.state(t)[:, 1] - (6 * t - 6 * t**2)).max() < 1e-9
+
+
+def test_all_slow_and_all_fast_partitions_solve():
+    pr = lunar_ascent()
+    all_slow = MultiRateHLGL(pr, 10, ratio=2, slow=pr.state_names).solve()
+    all_fast = MultiRateHLGL(pr, 10, ratio=2, fast=pr.state_names).solve()
+    assert all_slow.tf == pytest.approx(all_fast.tf, abs=1e-6)
+
+
+def test_partition_errors_are_clear():
+    pr = lunar_ascent()
+    with pytest.raises(ValueError, match=r"\['W'\] are not states"):
+        MultiRateHLGL(pr, 10, ratio=2, fast=["W"])
+    with pytest.raises(ValueError, match=r"\['U'\] are in both"):
+        MultiRateHLGL(pr, 10, ratio=2, slow=["X", "Y", "U"], fast=["U", "V"])
+    with pytest.raises(ValueError, match=r"\['Y'\] are in neither"):
+        MultiRateHLGL(pr, 10, ratio=2, slow=["X"], fast=["U", "V"])
+    with pytest.raises(ValueError, match="more than once"):
+        MultiRateHLGL(pr, 10, ratio=2, fast=["V", "V"])
+    with pytest.raises(TypeError, match="sequence of names"):
+        MultiRateHLGL(pr, 10, ratio=2, fast="V")
+    with pytest.raises(ValueError, match="name the slow states"):
+        MultiRateHLGL(pr, 10, ratio=2)
+
+
+@pytest.mark.parametrize("ratio, exc", [(0, ValueError), (-2, ValueError), (1.5, TypeError)])
+def test_bad_ratio(ratio, exc):
+    with pytest.raises(exc, match="ratio"):
+        MultiRateHLGL(lunar_ascent(), 10, ratio=ratio, fast=["V"])
+
+
+def test_unknown_fast_interpolation():
+    with pytest.raises(ValueError, match="fast_interpolation"):
+        MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation="cubic")
