@@ -51,6 +51,7 @@ lab: setup
 bench: setup
 	$(PY) benchmarks/bench_hlgl.py
 	$(PY) benchmarks/bench_multirate.py
+	$(PY) benchmarks/bench_radau.py
 
 store: setup
 	$(PY) -m ocpkit.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)

@@ -129,7 +129,7 @@ def test_bad_mesh_rejected():
 
 def test_wrong_shapes_get_clear_errors():
     tr = HLGL(lunar_ascent(), 4)
-    with pytest.raises(ValueError, match=r"X has shape"):
+    with pytest.raises(ValueError, match=r"states have shape"):
         tr.pack(np.zeros((3, 4)), np.zeros((17, 1)), 0.5)
     with pytest.raises(ValueError, match="returned shape"):
         tr.solve(Guess(states={"X": lambda t: np.zeros(3)}))

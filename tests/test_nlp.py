@@ -4,9 +4,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
+from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, Radau
 from ocpkit.nlp import Block, SeparableNLP
-from ocpkit.problems import flat_moon_ascent, lunar_ascent
+from ocpkit.problems import entry_landing, flat_moon_ascent, lunar_ascent
 
 
 def reference_derivatives(nlp, w, lam_f, lam_g):
@@ -29,6 +29,9 @@ TRANSCRIPTIONS = {
     "hlgl-lagrange": lambda: HLGL(with_lagrange(lunar_ascent()), 4),
     "multirate-coarse": lambda: MultiRateHLGL(with_lagrange(lunar_ascent()), 3, ratio=2, fast=["U", "V"]),
     "multirate-fine": lambda: MultiRateHLGL(flat_moon_ascent(), 3, ratio=3, fast=["vy"], fast_interpolation="fine"),
+    "radau-global": lambda: Radau(with_lagrange(lunar_ascent()), 6),
+    "radau-intervals": lambda: Radau(flat_moon_ascent(), [3, 4, 3], 3),
+    "radau-entry-rate": lambda: Radau(entry_landing(thrust_angle_rate_deg_s=5.0), 4, 2),
 }
 
 

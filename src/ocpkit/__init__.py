@@ -3,7 +3,7 @@
 from .errors import SolverError
 from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
-from .transcription import HLGL, MultiRateHLGL, Transcription
+from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
 
 __version__ = "0.1.0"
 
@@ -14,6 +14,7 @@ __all__ = [
     "HLGL",
     "MultiRateHLGL",
     "OptimalControlProblem",
+    "Radau",
     "Reintegration",
     "Solution",
     "SolverError",

@@ -62,6 +62,11 @@ class Block:
     rows : int array (nout, count) or None
         Constraint rows that receive each output (summed where shared); ``None``
         makes the block an objective term (``nout == 1``, summed into ``f``).
+    linear : float array (nout, nz) or None
+        For a block that is the linear map ``out = linear @ z`` (the same for every
+        instance): its Jacobian is this constant and its Hessian zero, so neither is
+        differentiated symbolically (a dense map of a few hundred variables would
+        take seconds).
     """
 
     name: str
@@ -69,6 +74,7 @@ class Block:
     variables: np.ndarray
     parameters: np.ndarray
     rows: np.ndarray | None = None
+    linear: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.variables = np.asarray(self.variables, dtype=np.int64)
@@ -92,6 +98,10 @@ class Block:
             self.rows = np.asarray(self.rows, dtype=np.int64)
             if self.rows.shape != (nout, count):
                 raise ValueError(f"block {self.name!r}: rows have shape {self.rows.shape}, expected ({nout}, {count})")
+        if self.linear is not None:
+            self.linear = np.asarray(self.linear, dtype=float)
+            if self.rows is None or self.linear.shape != (nout, nz):
+                raise ValueError(f"block {self.name!r}: a linear map must be a ({nout}, {nz}) constraint block")
 
     @property
     def count(self) -> int:
@@ -156,20 +166,29 @@ class SeparableNLP:
             P = ca.DM(b.parameters)
             vals = _map(b.function, count)(Z, P)
 
-            # Lagrangian Hessian, upper triangle of the local block
-            H = ca.triu(ca.hessian(ca.dot(lam, out), z)[0])
-            hr, hc = (np.asarray(v, dtype=np.int64) for v in H.sparsity().get_triplet())
+            # Lagrangian Hessian, upper triangle of the local block (zero for a linear map)
+            if b.linear is None:
+                H = ca.triu(ca.hessian(ca.dot(lam, out), z)[0])
+                hr, hc = (np.asarray(v, dtype=np.int64) for v in H.sparsity().get_triplet())
+            else:
+                hr = hc = np.zeros(0, np.int64)
             if b.rows is None:
                 f_terms.append(ca.sum2(vals))
                 lam_in = ca.repmat(lam_f, 1, count)
             else:
                 g_vals.append(ca.vec(vals))
                 g_rows.append(b.rows.ravel(order="F"))
-                J = ca.jacobian(out, z)
-                jr, jc = (np.asarray(v, dtype=np.int64) for v in J.sparsity().get_triplet())
+                if b.linear is None:
+                    J = ca.jacobian(out, z)
+                    jr, jc = (np.asarray(v, dtype=np.int64) for v in J.sparsity().get_triplet())
+                else:
+                    jc, jr = (a.astype(np.int64) for a in np.nonzero(b.linear.T))  # column-major order
                 if jr.size:
-                    jfun = ca.Function(f"{b.name}_jac", [z, q], [_nonzeros(J)])
-                    j_vals.append(ca.vec(_map(jfun, count)(Z, P)))
+                    if b.linear is not None:
+                        j_vals.append(ca.DM(np.tile(b.linear[jr, jc], count)))
+                    else:
+                        jfun = ca.Function(f"{b.name}_jac", [z, q], [_nonzeros(J)])
+                        j_vals.append(ca.vec(_map(jfun, count)(Z, P)))
                     j_rows.append(b.rows[jr, :].ravel(order="F"))
                     j_cols.append(b.variables[jc, :].ravel(order="F"))
                 lam_in = ca.reshape(lam_g[b.rows.ravel(order="F").tolist()], nout, count)

@@ -120,3 +120,69 @@ def differentiation_matrix(nodes: np.ndarray) -> np.ndarray:
     np.fill_diagonal(D, 0.0)
     np.fill_diagonal(D, -D.sum(axis=1))
     return D
+
+
+# -- Legendre-Gauss-Radau (LGR) ----------------------------------------------------------
+
+
+def _legendre(n: int, x: np.ndarray) -> np.ndarray:
+    """P_n(x) by the three-term recurrence."""
+    x = np.asarray(x, dtype=float)
+    p0, p1 = np.ones_like(x), x.copy()
+    if n == 0:
+        return p0
+    for k in range(1, n):
+        p0, p1 = p1, ((2 * k + 1) * x * p1 - k * p0) / (k + 1)
+    return p1
+
+
+def lgr_nodes(n: int) -> np.ndarray:
+    """The ``n`` LGR collocation points on [-1, 1): -1 and the roots of P_{n-1} + P_n, ascending.
+
+    Roots from the Legendre companion matrix, polished by Newton's method on
+    ``P_{n-1} + P_n``.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise TypeError(f"the number of LGR nodes must be an integer, got {n!r}")
+    if n < 2:
+        raise ValueError(f"LGR collocation needs at least 2 nodes per interval, got {n}")
+    c = np.zeros(n + 1)
+    c[n - 1] = c[n] = 1.0
+    r = np.sort(np.polynomial.legendre.legroots(c).real)
+    r[0] = -1.0
+    dc = np.polynomial.legendre.legder(c)
+    for _ in range(3):
+        step = np.polynomial.legendre.legval(r[1:], c) / np.polynomial.legendre.legval(r[1:], dc)
+        r[1:] -= step
+    return r
+
+
+def lgr_weights(tau: np.ndarray) -> np.ndarray:
+    """LGR quadrature weights ``w_k = (1 - tau_k) / (N^2 P_{N-1}(tau_k)^2)`` (so ``w_1 = 2 / N^2``)."""
+    n = tau.size
+    return (1 - tau) / (n**2 * _legendre(n - 1, tau) ** 2)
+
+
+def lgr_differentiation_matrix(tau: np.ndarray) -> np.ndarray:
+    """The N x (N+1) LGR differentiation matrix, closed form (Garg et al. 2010).
+
+    Support points are the collocation points ``tau_1..tau_N`` and the
+    non-collocated end ``tau_{N+1} = +1``; ``D[k, j] = L_j'(tau_k)``:
+
+        D_11 = -(N^2 + 1) / 4
+        D_kk = -1 / (2 (1 - tau_k))                                 k >= 2
+        D_kj = P_{N-1}(tau_k) / (P_{N-1}(tau_j) (tau_k - tau_j))     j <= N, j != k
+        D_k,N+1 = N (P_N(tau_k) - P_{N-1}(tau_k)) / (2 (tau_k - 1))
+    """
+    tau = np.asarray(tau, dtype=float)
+    n = tau.size
+    pn1 = _legendre(n - 1, tau)
+    pn = _legendre(n, tau)
+    diff = tau[:, None] - tau[None, :]
+    np.fill_diagonal(diff, 1.0)
+    D = np.empty((n, n + 1))
+    D[:, :n] = pn1[:, None] / (pn1[None, :] * diff)
+    D[np.arange(1, n), np.arange(1, n)] = -1.0 / (2.0 * (1.0 - tau[1:]))
+    D[0, 0] = -(n**2 + 1) / 4.0
+    D[:, n] = n * (pn - pn1) / (2.0 * (tau - 1.0))
+    return D

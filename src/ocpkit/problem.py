@@ -45,17 +45,43 @@ def _as_interval(spec: Bound, what: str) -> tuple[float, float]:
 
 
 @dataclass(frozen=True)
-class Variable:
-    """A named scalar variable with box bounds and a scale.
+class AffineScaling:
+    """NLP variables ``(value - shift) / scale``, component by component."""
 
-    The NLP works with ``value / scale``; choose the scale near the variable's
-    typical magnitude.
+    shift: np.ndarray
+    scale: np.ndarray
+
+    def subset(self, index) -> "AffineScaling":
+        return AffineScaling(self.shift[index], self.scale[index])
+
+    def to_nlp(self, values):
+        """Physical values (last axis = components) to NLP values."""
+        return (np.asarray(values, dtype=float) - self.shift) / self.scale
+
+    def from_nlp(self, z):
+        """NLP values to physical values; ``z`` may be a numpy array or a CasADi column."""
+        if isinstance(z, (ca.SX, ca.MX)):
+            if z.numel() == 0:
+                return type(z)(0, 1)
+            return z * ca.DM(self.scale) + ca.DM(self.shift)
+        return np.asarray(z, dtype=float) * self.scale + self.shift
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A named scalar variable with box bounds and an affine scaling.
+
+    The NLP works with ``(value - shift) / scale``; choose them so the NLP
+    variable is of order one over the range the variable actually spans (for
+    a radius that stays within 3 km of the planet's, shift by the radius and
+    scale by the 3 km).
     """
 
     name: str
     lower: float = -math.inf
     upper: float = math.inf
     scale: float = 1.0
+    shift: float = 0.0
     guess: GuessSpec = None
     unit: str = ""
     description: str = ""
@@ -66,6 +92,8 @@ class Variable:
         _as_interval((self.lower, self.upper), f"bounds of {self.name!r}")
         if not (self.scale > 0 and math.isfinite(self.scale)):
             raise ValueError(f"scale of {self.name!r} must be positive and finite, got {self.scale}")
+        if not math.isfinite(self.shift):
+            raise ValueError(f"shift of {self.name!r} must be finite, got {self.shift}")
 
     def guess_at(self, s: np.ndarray) -> np.ndarray:
         """The guess at normalised times ``s`` in [0, 1]."""
@@ -267,6 +295,14 @@ class OptimalControlProblem:
     @property
     def control_scale(self) -> np.ndarray:
         return np.array([c.scale for c in self.controls])
+
+    @property
+    def state_scaling(self) -> AffineScaling:
+        return AffineScaling(np.array([s.shift for s in self.states]), self.state_scale)
+
+    @property
+    def control_scaling(self) -> AffineScaling:
+        return AffineScaling(np.array([c.shift for c in self.controls]), self.control_scale)
 
     def state_index(self, name: str) -> int:
         try:

@@ -72,6 +72,8 @@ class Solution:
     state_interpolant: Callable[[np.ndarray], np.ndarray] = field(repr=False)
     control_interpolant: Callable[[np.ndarray], np.ndarray] = field(repr=False)
     raw: dict = field(default_factory=dict, repr=False)
+    costate_times: np.ndarray | None = field(default=None, repr=False)
+    costate_values: np.ndarray | None = field(default=None, repr=False)
 
     # -- time histories -------------------------------------------------------------
     def state(self, t) -> np.ndarray:
@@ -79,8 +81,17 @@ class Solution:
         return self.state_interpolant(self._check_times(t))
 
     def control(self, t) -> np.ndarray:
-        """Controls at times ``t`` (shape ``t.shape + (nu,)``)."""
-        return self.control_interpolant(self._check_times(t))
+        """Controls at times ``t`` (shape ``t.shape + (nu,)``): the transcription's interpolant, within the bounds.
+
+        Between its parameters a polynomial control can overshoot a bound it
+        touches (and an LGR control, extrapolated past the last collocation
+        point, can leave it); the values are projected onto the control bounds,
+        the only values the dynamics admit.
+        """
+        u = self.control_interpolant(self._check_times(t))
+        lo = np.array([c.lower for c in self.problem.controls])
+        hi = np.array([c.upper for c in self.problem.controls])
+        return np.clip(u, lo, hi)
 
     def _check_times(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
@@ -102,6 +113,14 @@ class Solution:
         data.update(dict(zip(self.problem.control_names, self.control(t).T)))
         return pd.DataFrame(data)
 
+    def costates_dataframe(self) -> pd.DataFrame:
+        """Costate estimates at their points (transcriptions that provide them, e.g. Radau)."""
+        if self.costate_values is None:
+            raise ValueError(f"{self.transcription} provides no costate estimates")
+        df = pd.DataFrame(self.costate_values, columns=[f"lambda_{n}" for n in self.problem.state_names])
+        df.insert(0, "t", self.costate_times)
+        return df
+
     def nodes_dataframe(self) -> pd.DataFrame:
         """NLP state parameters at their nodes."""
         df = pd.DataFrame(self.state_values, columns=self.problem.state_names)
@@ -109,15 +128,23 @@ class Solution:
         return df
 
     # -- verification ---------------------------------------------------------------
-    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001) -> Reintegration:
+    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001,
+                    controls: str = "bounded") -> Reintegration:
         """Integrate dx/dt = f(x, u*(t), t) from x*(t0) with DOP853 and compare.
 
-        ``u*`` is the transcription's control interpolant. Integration restarts at
-        every breakpoint (segment boundary) so that no step straddles a kink of
-        the piecewise-polynomial control. ``atol`` is scaled by each state's scale.
+        ``controls="bounded"`` (default) integrates the admissible control
+        :meth:`control` (the interpolant projected onto the bounds): how far the
+        flown trajectory lands from the transcribed one. ``"interpolant"`` uses the
+        raw polynomial, overshoots included: how consistent the discretisation is.
+        Integration restarts at every breakpoint (segment boundary) so that no step
+        straddles a kink of the piecewise-polynomial control. ``atol`` is scaled by
+        each state's scale.
         """
         if rtol <= 0 or atol <= 0:
             raise ValueError("tolerances must be positive")
+        if controls not in ("bounded", "interpolant"):
+            raise ValueError(f"controls must be 'bounded' or 'interpolant', got {controls!r}")
+        control = self.control if controls == "bounded" else self.control_interpolant
         problem = self.problem
         scale = problem.state_scale
         t_eval = np.union1d(self.time_grid(n), self.breakpoints)
@@ -126,7 +153,7 @@ class Solution:
         n_rhs = 0
 
         def rhs(t, y):
-            return problem.rhs(t, y, self.control_interpolant(np.array(t)))
+            return problem.rhs(t, y, control(np.array(t)))
 
         bp = self.breakpoints
         for a, b in zip(bp[:-1], bp[1:]):

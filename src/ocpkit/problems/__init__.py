@@ -1,10 +1,22 @@
 """Test problems, each reading its constants from ``data/problems``."""
 
 from ._data import load_problem_data
+from .entry_landing import (
+    entry_landing,
+    entry_landing_constants,
+    landing_summary,
+    minimum_downrange_bound,
+    physical_histories,
+)
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants, smoothing_study
 
 __all__ = [
+    "entry_landing",
+    "entry_landing_constants",
+    "landing_summary",
+    "minimum_downrange_bound",
+    "physical_histories",
     "flat_moon_ascent",
     "linear_tangent_solution",
     "load_problem_data",

@@ -96,6 +96,18 @@ class LinearTangentSolution:
     def theta(self, t) -> np.ndarray:
         return np.arctan(self.tan_theta0 - self.c * np.asarray(t, dtype=float))
 
+    def costate(self, t) -> np.ndarray:
+        """Costates (lambda_x, lambda_y, lambda_vx, lambda_vy) of H = lambda' f for min tf; linear in time.
+
+        lambda_x = 0 (x(tf) free), lambda_y = c1 c, lambda_vx = c1, lambda_vy = c1 (tan theta_0 - c t),
+        with c1 = -1 / (a sec theta_0 - g tan theta_0) from H = -1 (free tf, Mayer cost tf).
+        """
+        t = np.asarray(t, dtype=float)
+        s0 = self.tan_theta0
+        c1 = -1.0 / (self.a * np.sqrt(1 + s0**2) - self.g * s0)
+        one = np.ones_like(t)
+        return np.stack([0 * one, c1 * self.c * one, c1 * one, c1 * (s0 - self.c * t)], axis=-1)
+
     def state(self, t) -> np.ndarray:
         """States (x, y, vx, vy) at times ``t``; shape ``t.shape + (4,)``."""
         t = np.asarray(t, dtype=float)
@@ -170,3 +182,20 @@ def convergence_study(segments, ipopt_options: dict | None = None):
         row["build_s"], row["solve_s"] = sol.build_s, sol.solve_s
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def compare_costates(solution, exact: LinearTangentSolution) -> dict:
+    """Largest error of each costate estimate against the exact (linear-in-time) costates.
+
+    Errors are taken at the estimate's own points, mapped to the exact solution
+    by normalised time, and divided by the largest magnitude of the exact costate
+    vector (lambda_x is identically zero, so a per-component ratio would not exist).
+    """
+    if solution.costate_values is None:
+        raise ValueError(f"{solution.transcription} provides no costate estimates")
+    s = (solution.costate_times - solution.t0) / (solution.tf - solution.t0)
+    lam_exact = exact.costate(s * exact.tf)
+    scale = np.abs(lam_exact).max()
+    err = np.abs(solution.costate_values - lam_exact).max(axis=0) / scale
+    names = ["lambda_x", "lambda_y", "lambda_vx", "lambda_vy"]
+    return dict(zip(names, err.tolist())) | {"max": float(err.max())}

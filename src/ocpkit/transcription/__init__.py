@@ -3,5 +3,6 @@
 from .base import Transcription, mesh_fractions
 from .hlgl import HLGL
 from .multirate import MultiRateHLGL, state_partition
+from .radau import Radau
 
-__all__ = ["HLGL", "MultiRateHLGL", "Transcription", "mesh_fractions", "state_partition"]
+__all__ = ["HLGL", "MultiRateHLGL", "Radau", "Transcription", "mesh_fractions", "state_partition"]

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
-from ..problem import Guess, OptimalControlProblem
+from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
 
 
@@ -36,19 +37,46 @@ def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     lb = np.empty((n_nodes, len(states)))
     ub = np.empty((n_nodes, len(states)))
     for j, s in enumerate(states):
-        lb[:, j], ub[:, j] = s.lower / s.scale, s.upper / s.scale
+        def nlp(v, s=s):
+            return (v - s.shift) / s.scale
+
+        lb[:, j], ub[:, j] = nlp(s.lower), nlp(s.upper)
         lo, hi = s.boundary_interval("initial")
-        lb[0, j], ub[0, j] = lo / s.scale, hi / s.scale
+        lb[0, j], ub[0, j] = nlp(lo), nlp(hi)
         lo, hi = s.boundary_interval("final")
-        lb[-1, j], ub[-1, j] = max(lb[-1, j], lo / s.scale), min(ub[-1, j], hi / s.scale)
+        lb[-1, j], ub[-1, j] = max(lb[-1, j], nlp(lo)), min(ub[-1, j], nlp(hi))
     return lb, ub
 
 
 def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_points, len(controls)) of controls at their parameter points."""
-    lb = np.tile([c.lower / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
-    ub = np.tile([c.upper / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    lb = np.tile([(c.lower - c.shift) / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    ub = np.tile([(c.upper - c.shift) / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
     return lb, ub
+
+
+@dataclass(frozen=True)
+class VariableGroup:
+    """A run of NLP variables: the values of ``variables`` at ``points`` points, point by point.
+
+    State groups carry the boundary conditions at their first and last point.
+    """
+
+    name: str
+    variables: tuple
+    points: int
+
+    @property
+    def size(self) -> int:
+        return self.points * len(self.variables)
+
+    @property
+    def is_state(self) -> bool:
+        return bool(self.variables) and isinstance(self.variables[0], State)
+
+    @property
+    def scaling(self) -> AffineScaling:
+        return AffineScaling(np.array([v.shift for v in self.variables]), np.array([v.scale for v in self.variables]))
 
 
 class Transcription(ABC):
@@ -57,6 +85,9 @@ class Transcription(ABC):
     Subclasses define the variable layout, the blocks and the interpolants;
     this class times the build, runs IPOPT and returns a :class:`~ocpkit.Solution`.
     """
+
+    #: IPOPT options this scheme prefers over :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (user options win).
+    ipopt_defaults: dict = {}
 
     def __init__(self, problem: OptimalControlProblem):
         if not isinstance(problem, OptimalControlProblem):
@@ -74,9 +105,9 @@ class Transcription(ABC):
     def label(self) -> str:
         """Short description, e.g. ``HLGL(segments=20)``."""
 
-    @property
     @abstractmethod
-    def n_variables(self) -> int: ...
+    def _groups(self) -> list[VariableGroup]:
+        """The NLP variables in layout order (a free final time follows them)."""
 
     @property
     @abstractmethod
@@ -86,16 +117,65 @@ class Transcription(ABC):
     def _blocks(self) -> list: ...
 
     @abstractmethod
-    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Scaled lower and upper bounds of the NLP variables."""
-
-    @abstractmethod
     def _initial_point(self, tf: float, states, controls) -> np.ndarray:
         """Scaled NLP vector sampled from guess functions of time."""
 
     @abstractmethod
     def _package(self, result: NLPResult) -> dict:
         """Solution fields (times, values, interpolants, breakpoints) from the NLP result."""
+
+    # -- layout: sizes, indices, bounds, packing -------------------------------------------
+    @property
+    def n_variables(self) -> int:
+        return sum(g.size for g in self._groups()) + int(self.problem.free_final_time)
+
+    def _index_tables(self) -> tuple[list[np.ndarray], int | None]:
+        """Global NLP indices of each group, shaped (variables, points), and of tf (None if fixed)."""
+        tables, offset = [], 0
+        for g in self._groups():
+            tables.append(offset + np.arange(g.size).reshape(g.points, len(g.variables)).T)
+            offset += g.size
+        return tables, (offset if self.problem.free_final_time else None)
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled bounds of the NLP variables; state groups carry the boundary conditions."""
+        return self._stack_bounds([
+            node_bounds(g.variables, g.points) if g.is_state else point_bounds(g.variables, g.points)
+            for g in self._groups()
+        ])
+
+    def pack(self, *values, tf: float | None = None) -> np.ndarray:
+        """Scaled NLP vector from physical values, one (points, variables) array per group, and tf."""
+        groups = self._groups()
+        if len(values) == len(groups) + 1 and tf is None:
+            *values, tf = values
+        if len(values) != len(groups):
+            raise ValueError(f"expected {len(groups)} arrays ({', '.join(g.name for g in groups)}), got {len(values)}")
+        parts = []
+        for g, v in zip(groups, values):
+            v = np.asarray(v, dtype=float)
+            if v.shape != (g.points, len(g.variables)):
+                raise ValueError(f"{g.name} have shape {v.shape}, expected ({g.points}, {len(g.variables)})")
+            parts.append(g.scaling.to_nlp(v).ravel() if g.variables else np.zeros(0))
+        if self.problem.free_final_time:
+            if tf is None:
+                raise ValueError("this problem has a free final time: give tf")
+            parts.append([tf / self.problem.tf.scale])
+        return np.concatenate(parts)
+
+    def unpack(self, w) -> tuple:
+        """Physical values, one (points, variables) array per group, then tf, from a scaled NLP vector."""
+        w = np.asarray(w, dtype=float).ravel()
+        if w.size != self.n_variables:
+            raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
+        out, offset = [], 0
+        for g in self._groups():
+            z = w[offset:offset + g.size].reshape(g.points, len(g.variables))
+            out.append(g.scaling.from_nlp(z) if g.variables else z)
+            offset += g.size
+        pr = self.problem
+        out.append(float(w[-1] * pr.tf.scale if pr.free_final_time else pr.tf))
+        return tuple(out)
 
     # -- helpers for subclasses ------------------------------------------------------------
     def _times(self, tf: float, fractions: np.ndarray) -> np.ndarray:
@@ -120,7 +200,8 @@ class Transcription(ABC):
         z = ca.SX.sym("z", 2 * nx + int(free))
         p = ca.SX.sym("p", int(not free))
         tf = z[-1] * pr.tf.scale if free else p[0]
-        phi = pr.mayer(z[:nx] * pr.state_scale, z[nx:2 * nx] * pr.state_scale, pr.t0, tf)
+        xs = pr.state_scaling
+        phi = pr.mayer(xs.from_nlp(z[:nx]), xs.from_nlp(z[nx:2 * nx]), pr.t0, tf)
         var = np.concatenate([first, last] + ([[tf_index]] if free else []))
         par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
         return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
@@ -156,7 +237,7 @@ class Transcription(ABC):
         if self._solver is None or key != self._solver_options:
             self.build()
             t = time.perf_counter()
-            self._solver = self.nlp.solver(ipopt_options)
+            self._solver = self.nlp.solver({**self.ipopt_defaults, **(ipopt_options or {})})
             self._solver_build_s = time.perf_counter() - t
             self._solver_options = key
         return self._solver

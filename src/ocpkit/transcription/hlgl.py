@@ -27,7 +27,7 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, mesh_fractions, node_bounds, point_bounds
+from .base import Transcription, VariableGroup, mesh_fractions
 
 
 def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
@@ -99,17 +99,10 @@ class HLGL(Transcription):
     def n_control_points(self) -> int:
         return 4 * self.segments + 1
 
-    @property
-    def _nX(self) -> int:
-        return self.problem.nx * self.n_state_nodes
-
-    @property
-    def _nU(self) -> int:
-        return self.problem.nu * self.n_control_points
-
-    @property
-    def n_variables(self) -> int:
-        return self._nX + self._nU + int(self.problem.free_final_time)
+    def _groups(self) -> list[VariableGroup]:
+        pr = self.problem
+        return [VariableGroup("states", pr.states, self.n_state_nodes),
+                VariableGroup("controls", pr.controls, self.n_control_points)]
 
     @property
     def n_defects(self) -> int:
@@ -131,17 +124,6 @@ class HLGL(Transcription):
         s[-1] = 1.0
         return s
 
-    def _state_index(self) -> np.ndarray:
-        nx = self.problem.nx
-        return np.arange(self._nX).reshape(self.n_state_nodes, nx).T  # (nx, nodes)
-
-    def _control_index(self) -> np.ndarray:
-        nu = self.problem.nu
-        return self._nX + np.arange(self._nU).reshape(self.n_control_points, nu).T  # (nu, points)
-
-    def _tf_index(self) -> int | None:
-        return self.n_variables - 1 if self.problem.free_final_time else None
-
     # -- NLP blocks ----------------------------------------------------------------------
     def _segment_symbols(self):
         """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, (tf)] scaled; p = [start, frac, (tf)]."""
@@ -150,9 +132,9 @@ class HLGL(Transcription):
         free = pr.free_final_time
         z = ca.SX.sym("z", 3 * nx + 5 * nu + int(free))
         p = ca.SX.sym("p", 2 + int(not free))
-        sx, su = pr.state_scale, pr.control_scale
-        x = [z[j * nx:(j + 1) * nx] * sx for j in range(3)]
-        u = [z[3 * nx + j * nu:3 * nx + (j + 1) * nu] * su for j in range(5)]
+        xs, us = pr.state_scaling, pr.control_scaling
+        x = [xs.from_nlp(z[j * nx:(j + 1) * nx]) for j in range(3)]
+        u = [us.from_nlp(z[3 * nx + j * nu:3 * nx + (j + 1) * nu]) for j in range(5)]
         tf = z[-1] * pr.tf.scale if free else p[2]
         T = tf - pr.t0
         h = T * p[1]
@@ -163,11 +145,11 @@ class HLGL(Transcription):
         pr = self.problem
         n = self.segments
         k = np.arange(n)
-        Xi, Ui = self._state_index(), self._control_index()
+        (Xi, Ui), tfi = self._index_tables()
         rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
         rows += [Ui[:, 4 * k + j] for j in range(5)]
         if pr.free_final_time:
-            rows.append(np.full((1, n), self._tf_index()))
+            rows.append(np.full((1, n), tfi))
         variables = np.vstack(rows)
         params = [self.starts, self.fractions]
         if not pr.free_final_time:
@@ -194,18 +176,11 @@ class HLGL(Transcription):
             blocks.append(Block("lagrange", fun, variables, params))
 
         if pr.mayer is not None:
-            Xi = self._state_index()
-            blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], self._tf_index()))
+            (Xi, _), tfi = self._index_tables()
+            blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], tfi))
         return blocks
 
     # -- bounds and guess -------------------------------------------------------------
-    def _bounds(self):
-        pr = self.problem
-        return self._stack_bounds([
-            node_bounds(pr.states, self.n_state_nodes),
-            point_bounds(pr.controls, self.n_control_points),
-        ])
-
     def _initial_point(self, tf, states, controls):
         pr = self.problem
         X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)
@@ -215,31 +190,6 @@ class HLGL(Transcription):
         if U.shape != (self.n_control_points, pr.nu):
             raise ValueError(f"control guess has shape {U.shape}, expected ({self.n_control_points}, {pr.nu})")
         return self.pack(X, U, tf)
-
-    def pack(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
-        """Scaled NLP vector from physical node values X (2n+1, nx), U (4n+1, nu) and tf."""
-        pr = self.problem
-        X = np.asarray(X, dtype=float)
-        U = np.asarray(U, dtype=float).reshape(self.n_control_points, pr.nu)
-        if X.shape != (self.n_state_nodes, pr.nx):
-            raise ValueError(f"X has shape {X.shape}, expected ({self.n_state_nodes}, {pr.nx})")
-        parts = [(X / pr.state_scale).ravel(), (U / pr.control_scale).ravel() if pr.nu else np.zeros(0)]
-        if pr.free_final_time:
-            if tf is None:
-                raise ValueError("this problem has a free final time: give tf")
-            parts.append([tf / pr.tf.scale])
-        return np.concatenate(parts)
-
-    def unpack(self, w: np.ndarray):
-        """Physical (X, U, tf) from a scaled NLP vector."""
-        pr = self.problem
-        w = np.asarray(w, dtype=float).ravel()
-        if w.size != self.n_variables:
-            raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
-        X = w[:self._nX].reshape(self.n_state_nodes, pr.nx) * pr.state_scale
-        U = w[self._nX:self._nX + self._nU].reshape(self.n_control_points, pr.nu) * pr.control_scale
-        tf = w[-1] * pr.tf.scale if pr.free_final_time else pr.tf
-        return X, U, float(tf)
 
     def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
         """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""

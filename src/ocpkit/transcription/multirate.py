@@ -36,7 +36,7 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, mesh_fractions, node_bounds, point_bounds
+from .base import Transcription, VariableGroup, mesh_fractions
 from .hlgl import hermite_coefficients
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
@@ -153,14 +153,11 @@ class MultiRateHLGL(Transcription):
     def n_control_points(self) -> int:
         return 4 * self.segments + 1
 
-    @property
-    def _sizes(self) -> tuple[int, int, int]:
+    def _groups(self) -> list[VariableGroup]:
         pr = self.problem
-        return (len(self.slow) * self.n_coarse_nodes, len(self.fast) * self.n_fine_nodes, pr.nu * self.n_control_points)
-
-    @property
-    def n_variables(self) -> int:
-        return sum(self._sizes) + int(self.problem.free_final_time)
+        return [VariableGroup("slow states", tuple(pr.states[i] for i in self.slow), self.n_coarse_nodes),
+                VariableGroup("fast states", tuple(pr.states[i] for i in self.fast), self.n_fine_nodes),
+                VariableGroup("controls", pr.controls, self.n_control_points)]
 
     @property
     def n_defects(self) -> int:
@@ -186,12 +183,7 @@ class MultiRateHLGL(Transcription):
 
     def _indices(self):
         """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
-        nxs, nzf, nu = len(self.slow), len(self.fast), self.problem.nu
-        a, b, c = self._sizes
-        X = np.arange(a).reshape(self.n_coarse_nodes, nxs).T
-        Z = a + np.arange(b).reshape(self.n_fine_nodes, nzf).T
-        U = a + b + np.arange(c).reshape(self.n_control_points, nu).T
-        tf = a + b + c if self.problem.free_final_time else None
+        (X, Z, U), tf = self._index_tables()
         return X, Z, U, tf
 
     # -- NLP blocks -------------------------------------------------------------------
@@ -213,15 +205,14 @@ class MultiRateHLGL(Transcription):
         nloc = 3 * nxs + (2 * M + 1) * nzf + 5 * nu + int(free)
         w = ca.SX.sym("w", nloc)
         p = ca.SX.sym("p", 2 + int(not free))
-        sx = pr.state_scale[self.slow]
-        sz = pr.state_scale[self.fast]
-        su = pr.control_scale
+        xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
+        sx, sz = xsc.scale, zsc.scale
         off = 0
-        X = [w[off + k * nxs: off + (k + 1) * nxs] * sx for k in range(3)]
+        X = [xsc.from_nlp(w[off + k * nxs: off + (k + 1) * nxs]) for k in range(3)]
         off += 3 * nxs
-        Z = [w[off + k * nzf: off + (k + 1) * nzf] * sz for k in range(2 * M + 1)]
+        Z = [zsc.from_nlp(w[off + k * nzf: off + (k + 1) * nzf]) for k in range(2 * M + 1)]
         off += (2 * M + 1) * nzf
-        U = [w[off + k * nu: off + (k + 1) * nu] * su for k in range(5)]
+        U = [pr.control_scaling.from_nlp(w[off + k * nu: off + (k + 1) * nu]) for k in range(5)]
         tf = w[-1] * pr.tf.scale if free else p[2]
         T = tf - pr.t0
         h = T * p[1]
@@ -339,53 +330,11 @@ class MultiRateHLGL(Transcription):
         return blocks
 
     # -- bounds, guess, packing -----------------------------------------------------------
-    def _bounds(self):
-        pr = self.problem
-        return self._stack_bounds([
-            node_bounds([pr.states[i] for i in self.slow], self.n_coarse_nodes),
-            node_bounds([pr.states[i] for i in self.fast], self.n_fine_nodes),
-            point_bounds(pr.controls, self.n_control_points),
-        ])
-
     def _initial_point(self, tf, states, controls):
         Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions())), dtype=float)
         Xf = np.asarray(states(self._times(tf, self.fine_node_fractions())), dtype=float)
         U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
         return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf)
-
-    def pack(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
-        """Scaled NLP vector from slow states (coarse nodes, nxs), fast states (fine nodes, nzf), controls and tf."""
-        pr = self.problem
-        shapes = {
-            "slow states": (np.asarray(X_slow, float), (self.n_coarse_nodes, len(self.slow))),
-            "fast states": (np.asarray(Z_fast, float), (self.n_fine_nodes, len(self.fast))),
-            "controls": (np.asarray(U, float), (self.n_control_points, pr.nu)),
-        }
-        for name, (arr, shape) in shapes.items():
-            if arr.shape != shape:
-                raise ValueError(f"{name} have shape {arr.shape}, expected {shape}")
-        parts = [
-            (shapes["slow states"][0] / pr.state_scale[self.slow]).ravel(),
-            (shapes["fast states"][0] / pr.state_scale[self.fast]).ravel(),
-            (shapes["controls"][0] / pr.control_scale).ravel() if pr.nu else np.zeros(0),
-        ]
-        if pr.free_final_time:
-            if tf is None:
-                raise ValueError("this problem has a free final time: give tf")
-            parts.append([tf / pr.tf.scale])
-        return np.concatenate(parts)
-
-    def unpack(self, w):
-        pr = self.problem
-        w = np.asarray(w, dtype=float).ravel()
-        if w.size != self.n_variables:
-            raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
-        a, b, c = self._sizes
-        Xs = w[:a].reshape(self.n_coarse_nodes, len(self.slow)) * pr.state_scale[self.slow]
-        Zf = w[a:a + b].reshape(self.n_fine_nodes, len(self.fast)) * pr.state_scale[self.fast]
-        U = w[a + b:a + b + c].reshape(self.n_control_points, pr.nu) * pr.control_scale
-        tf = w[-1] * pr.tf.scale if pr.free_final_time else pr.tf
-        return Xs, Zf, U, float(tf)
 
     def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
         """All defects (physical units), in NLP row order, at given parameter values."""
