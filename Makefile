@@ -52,6 +52,7 @@ bench: setup
 	$(PY) benchmarks/bench_hlgl.py
 	$(PY) benchmarks/bench_multirate.py
 	$(PY) benchmarks/bench_radau.py
+	$(PY) benchmarks/bench_shooting.py
 
 store: setup
 	$(PY) -m ocpkit.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)

@@ -195,6 +195,13 @@ class OptimalControlProblem:
     lagrange : callable ``L(x, u, t)`` returning a scalar, optional.
     objective_scale : float
         The NLP minimises ``J / objective_scale``.
+    parameters : mapping name -> value, optional
+        Named constants that may change between solves without rebuilding the
+        problem's symbolic form (a homotopy parameter, a thrust level). When given,
+        ``dynamics``, ``lagrange`` and ``mayer`` receive one more argument: a dict
+        of CasADi symbols by name. ``dynamics``, ``lagrange`` and ``mayer`` below
+        have the values substituted; ``*_p`` versions take the parameter vector
+        as their last input.
     """
 
     def __init__(
@@ -210,7 +217,12 @@ class OptimalControlProblem:
         lagrange: Callable | None = None,
         objective_scale: float = 1.0,
         description: str = "",
+        parameters: Mapping[str, float] | None = None,
     ) -> None:
+        self._spec = dict(
+            name=name, states=states, controls=controls, dynamics=dynamics, t0=t0, tf=tf, mayer=mayer,
+            lagrange=lagrange, objective_scale=objective_scale, description=description, parameters=parameters,
+        )
         self.name = name
         self.description = description
         self.states = tuple(states)
@@ -239,29 +251,66 @@ class OptimalControlProblem:
                 raise ValueError(f"final time {tf} must exceed t0 = {self.t0}")
             self.tf = float(tf)
 
+        self.parameters = {} if parameters is None else {str(k): float(v) for k, v in parameters.items()}
+        for k in self.parameters:
+            if not k.isidentifier():
+                raise ValueError(f"parameter name must be an identifier, got {k!r}")
+        P = ca.SX.sym("P", len(self.parameters))
+        pdict = {k: P[i] for i, k in enumerate(self.parameters)}
+        extra = (pdict,) if parameters is not None else ()
+        pval = ca.DM(list(self.parameters.values())) if self.parameters else ca.DM(0, 1)
+
         nx, nu = self.nx, self.nu
         x = ca.SX.sym("x", nx)
         u = ca.SX.sym("u", nu)
         t = ca.SX.sym("t")
-        xdot = _column(dynamics(x, u, t), "dynamics")
+        xdot = _column(dynamics(x, u, t, *extra), "dynamics")
         if xdot.shape != (nx, 1):
             raise ValueError(
                 f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {self.state_names}"
             )
-        self.dynamics = ca.Function("f", [x, u, t], [xdot], ["x", "u", "t"], ["xdot"])
-        self.lagrange = None
+        self.dynamics_p = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
+        self.dynamics = ca.Function("f", [x, u, t], [self.dynamics_p(x, u, t, pval)], ["x", "u", "t"], ["xdot"])
+        self.lagrange = self.lagrange_p = None
         if lagrange is not None:
-            L = _column(lagrange(x, u, t), "lagrange")
+            L = _column(lagrange(x, u, t, *extra), "lagrange")
             if L.shape != (1, 1):
                 raise ValueError(f"lagrange must return a scalar, got shape {L.shape}")
-            self.lagrange = ca.Function("L", [x, u, t], [L], ["x", "u", "t"], ["L"])
-        self.mayer = None
+            self.lagrange_p = ca.Function("L_p", [x, u, t, P], [L], ["x", "u", "t", "P"], ["L"])
+            self.lagrange = ca.Function("L", [x, u, t], [self.lagrange_p(x, u, t, pval)], ["x", "u", "t"], ["L"])
+        self.mayer = self.mayer_p = None
         if mayer is not None:
             x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-            phi = _column(mayer(x0, xf, s0, sf), "mayer")
+            phi = _column(mayer(x0, xf, s0, sf, *extra), "mayer")
             if phi.shape != (1, 1):
                 raise ValueError(f"mayer must return a scalar, got shape {phi.shape}")
-            self.mayer = ca.Function("phi", [x0, xf, s0, sf], [phi], ["x0", "xf", "t0", "tf"], ["phi"])
+            self.mayer_p = ca.Function("phi_p", [x0, xf, s0, sf, P], [phi], ["x0", "xf", "t0", "tf", "P"], ["phi"])
+            self.mayer = ca.Function(
+                "phi", [x0, xf, s0, sf], [self.mayer_p(x0, xf, s0, sf, pval)], ["x0", "xf", "t0", "tf"], ["phi"]
+            )
+
+    def replace(self, **changes) -> "OptimalControlProblem":
+        """A copy with some constructor arguments changed, e.g. ``parameters={"lam": 0.5}``.
+
+        Parameter values given are merged into the current ones; an unknown
+        parameter name is an error.
+        """
+        spec = dict(self._spec)
+        unknown = sorted(set(changes) - set(spec))
+        if unknown:
+            raise TypeError(f"unknown problem arguments {unknown}")
+        if "parameters" in changes and changes["parameters"] is not None:
+            new = dict(changes["parameters"])
+            bad = sorted(set(new) - set(self.parameters))
+            if bad:
+                raise KeyError(f"unknown parameters {bad}; {self.name!r} has {sorted(self.parameters)}")
+            changes["parameters"] = {**self.parameters, **new}
+        spec.update(changes)
+        return OptimalControlProblem(**spec)
+
+    @property
+    def parameter_values(self) -> np.ndarray:
+        return np.array(list(self.parameters.values()), dtype=float)
 
     # -- descriptors -----------------------------------------------------------------
     @property

@@ -10,8 +10,16 @@ from .entry_landing import (
 )
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants, smoothing_study
+from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
+from .orbit_transfer import orbit_transfer, orbit_transfer_constants, thrust_units
 
 __all__ = [
+    "orbit_transfer",
+    "orbit_transfer_constants",
+    "thrust_units",
+    "double_integrator",
+    "double_integrator_solution",
+    "harmonic_oscillator",
     "entry_landing",
     "entry_landing_constants",
     "landing_summary",

@@ -1,0 +1,209 @@
+"""Compiling a Hamiltonian system with the Dormand-Prince integrator into a shared library.
+
+CasADi generates C for the mode-wise flows, switching functions and Hamiltonian of a
+:class:`~ocpkit.shooting.hamiltonian.HamiltonianSystem`; ``dopri5.c`` (next to this
+module) integrates them. Both are compiled with the system's C compiler (``CC``,
+default ``gcc``) into one library, cached under ``build/cache/shooting`` by the hash of
+its sources, and called through ctypes: the whole integration, switching handling
+included, runs in C.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ..paths import repo_root
+from .hamiltonian import HamiltonianSystem
+
+DETECTION_MODES = ("none", "detection", "correction")
+_STATUS = {0: "ok", 1: "maximum number of steps reached", 2: "step size too small", 3: "non-finite values",
+           4: "out of memory", 5: "switching root not found"}
+_SOURCE = Path(__file__).with_name("dopri5.c")
+CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99"]
+
+
+def cache_dir() -> Path:
+    """Where compiled libraries are kept: ``OCPKIT_CACHE_DIR`` or ``<repo>/build/cache/shooting``."""
+    env = os.environ.get("OCPKIT_CACHE_DIR")
+    path = Path(env) if env else repo_root() / "build" / "cache" / "shooting"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _compiler() -> str:
+    cc = os.environ.get("CC", "gcc")
+    if shutil.which(cc) is None:
+        raise RuntimeError(f"the C compiler {cc!r} was not found; the shooting engine needs one: install gcc or set CC")
+    return cc
+
+
+def generate_c(system: HamiltonianSystem) -> str:
+    """C source of the system's functions (CasADi code generation)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        name = "ocp_generated.c"
+        gen = ca.CodeGenerator(name, {"casadi_int": "long long", "casadi_real": "double", "with_header": False})
+        for fun in (system.flow, system.varflow, system.switching, system.dswitch, system.hamiltonian):
+            gen.add(fun)
+        cwd = os.getcwd()
+        try:
+            os.chdir(tmp)
+            gen.generate()
+        finally:
+            os.chdir(cwd)
+        return (Path(tmp) / name).read_text()
+
+
+def build_library(system: HamiltonianSystem) -> Path:
+    """Compile (or reuse from the cache) the integrator for ``system``; returns the library path."""
+    generated = generate_c(system)
+    integrator = _SOURCE.read_text()
+    cc = _compiler()
+    source = "\n".join([generated, integrator, cc, " ".join(CFLAGS), ca.__version__])
+    key = hashlib.sha256(source.encode()).hexdigest()[:20]
+    lib = cache_dir() / f"ocp_{key}.so"
+    if lib.exists():
+        return lib
+    with tempfile.TemporaryDirectory() as tmp:
+        gen_path = Path(tmp) / "ocp_generated.c"
+        gen_path.write_text(generated)
+        out = Path(tmp) / lib.name
+        cmd = [cc, *CFLAGS, "-o", str(out), str(_SOURCE), str(gen_path), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"compiling the shooting integrator failed:\n{' '.join(cmd)}\n{proc.stderr[-4000:]}")
+        shutil.move(str(out), lib)  # atomic within one file system, so concurrent builds cannot see half a file
+    return lib
+
+
+@dataclass
+class Integration:
+    """Result of one integration from t0 to tf."""
+
+    y: np.ndarray
+    Psi: np.ndarray | None
+    status: str
+    accepted: int
+    rejected: int
+    rhs_evaluations: int
+    switchings: int
+    step_times: np.ndarray = field(repr=False)
+    step_sizes: np.ndarray = field(repr=False)
+    hamiltonian: np.ndarray = field(repr=False)
+    rejected_times: np.ndarray = field(repr=False)
+    rejected_sizes: np.ndarray = field(repr=False)
+    switching_times: np.ndarray = field(repr=False)
+    switching_index: np.ndarray = field(repr=False)
+    states: np.ndarray = field(repr=False)
+    """y = (x, p, J) at ``step_times`` (rows), when recorded."""
+
+    @property
+    def steps(self) -> int:
+        return self.accepted + self.rejected
+
+    @property
+    def rejected_ratio(self) -> float:
+        return self.rejected / self.steps if self.steps else 0.0
+
+    def controls(self, system: HamiltonianSystem, parameters=None) -> np.ndarray:
+        """The control at the recorded points (rows), in the mode their switching functions select."""
+        P = system.problem.parameter_values if parameters is None else np.asarray(parameters, dtype=float)
+        return np.array([np.asarray(system.control(y, system.mode_at(y, P), P)).ravel() for y in self.states])
+
+    @property
+    def hamiltonian_drift(self) -> float:
+        """Largest deviation of H from its initial value along the accepted steps."""
+        return float(np.abs(self.hamiltonian - self.hamiltonian[0]).max()) if self.hamiltonian.size else float("nan")
+
+
+class CompiledSystem:
+    """A :class:`HamiltonianSystem` compiled with the Dormand-Prince integrator."""
+
+    def __init__(self, system: HamiltonianSystem):
+        self.system = system
+        self.library_path = build_library(system)
+        lib = ctypes.CDLL(str(self.library_path))
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+        i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+        fn = lib.ocp_integrate
+        fn.restype = ctypes.c_int
+        fn.argtypes = [dbl, ctypes.c_double, ctypes.c_double, dbl, i32, dbl, i32, dbl, i64,
+                       dbl, dbl, dbl, dbl, dbl, dbl, i32, ctypes.c_void_p]
+        self._fn = fn
+        self._lib = lib
+        self._groups = np.asarray(system.law.group_sizes, dtype=np.int32)
+
+    def integrate(
+        self,
+        y0,
+        t0: float,
+        tf: float,
+        parameters=None,
+        *,
+        detection: str = "correction",
+        rtol: float = 1e-8,
+        atol: float = 1e-8,
+        Psi0=None,
+        record: bool = True,
+        max_steps: int = 1_000_000,
+        capacity: int | None = None,
+        h0: float = 0.0,
+        hmax: float = 0.0,
+    ) -> Integration:
+        """Integrate y = (x, p) from t0 to tf (tf > t0), optionally with variational columns Psi0 (n x nvar)."""
+        sysm = self.system
+        n = sysm.n
+        if detection not in DETECTION_MODES:
+            raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
+        if not tf > t0:
+            raise ValueError(f"integration must run forward: tf = {tf} <= t0 = {t0}")
+        y0 = np.asarray(y0, dtype=float).ravel()
+        if y0.size != n:
+            raise ValueError(f"y0 must have {n} entries (states and costates), got {y0.size}")
+        P = sysm.problem.parameter_values if parameters is None else np.asarray(parameters, dtype=float).ravel()
+        if P.size != len(sysm.problem.parameters):
+            raise ValueError(f"expected {len(sysm.problem.parameters)} parameters, got {P.size}")
+        nvar = 0
+        Y0 = y0
+        if Psi0 is not None:
+            Psi0 = np.asarray(Psi0, dtype=float)
+            if Psi0.shape != (n, sysm.n_variational):
+                raise ValueError(f"Psi0 must have shape ({n}, {sysm.n_variational}), got {Psi0.shape}")
+            nvar = sysm.n_variational
+            Y0 = np.concatenate([y0, Psi0.ravel(order="F")])
+        cap = int(capacity if capacity is not None else min(max_steps, 200_000)) if record else 1
+        ng = sysm.law.n_switching
+        opt_int = np.array([n, nvar, ng, len(self._groups), DETECTION_MODES.index(detection), max_steps,
+                            int(record), cap], dtype=np.int32)
+        opt_dbl = np.array([rtol, atol, h0, hmax], dtype=float)
+        Y = np.empty(Y0.size)
+        out = np.zeros(8, dtype=np.int64)
+        arrays = [np.empty(cap) for _ in range(6)]
+        sw_k = np.empty(cap, dtype=np.int32)
+        states = np.empty((cap, n)) if record else None
+        self._fn(np.ascontiguousarray(Y0), float(t0), float(tf), np.ascontiguousarray(P), opt_int, opt_dbl,
+                 self._groups, Y, out, *arrays, sw_k, None if states is None else states.ctypes.data)
+        status, acc, rej, nfev, nsw, nhist, nrej, nswr = (int(v) for v in out)
+        ht, hh, hH, rt, rh, st = arrays
+        return Integration(
+            y=Y[:n].copy(),
+            Psi=Y[n:].reshape(n, nvar, order="F").copy() if nvar else None,
+            status=_STATUS.get(status, f"error {status}"),
+            accepted=acc, rejected=rej, rhs_evaluations=nfev, switchings=nsw,
+            step_times=ht[:nhist].copy(), step_sizes=hh[:nhist].copy(), hamiltonian=hH[:nhist].copy(),
+            rejected_times=rt[:nrej].copy(), rejected_sizes=rh[:nrej].copy(),
+            switching_times=st[:nswr].copy(), switching_index=sw_k[:nswr].copy(),
+            states=states[:nhist].copy() if states is not None else np.zeros((0, n)),
+        )

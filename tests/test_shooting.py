@@ -1,0 +1,186 @@
+"""Indirect shooting engine: control laws, compiled integrator, switching handling, Jacobians (ocpkit.shooting)."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from ocpkit import Control, OptimalControlProblem, SolverError, State
+from ocpkit.problems import double_integrator, double_integrator_solution, harmonic_oscillator
+from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
+
+
+@pytest.fixture(scope="module")
+def di_l1():
+    pr = double_integrator(lam=1.0)
+    return Shooting(pr, control_law(pr, "box"), detection="correction", rtol=1e-12, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def osc_system():
+    pr = harmonic_oscillator(lam=1.0)
+    return pr, CompiledSystem(HamiltonianSystem(pr, control_law(pr, "box")))
+
+
+def ball_problem(lam):
+    return OptimalControlProblem(
+        "ball", [State("a", initial=0.0, final=1.0), State("b", initial=0.0, final=0.0), State("m", initial=1.0)],
+        [Control("u1", -1, 1), Control("u2", -1, 1)],
+        lambda x, u, t, P: ca.vertcat(u[0] / x[2], u[1] / x[2] + x[0], -0.1 * ca.norm_2(u)),
+        tf=2.0, lagrange=lambda x, u, t, P: P["lam"] * ca.norm_2(u) + (1 - P["lam"]) * ca.sumsqr(u),
+        parameters={"lam": lam},
+    )
+
+
+@pytest.mark.parametrize("case", ["box-l1", "box-regularized", "ball-l1", "ball-regularized"])
+def test_control_law_minimises_the_hamiltonian(case):
+    kind, reg = case.split("-")
+    reg = reg == "regularized"
+    lam = 0.4 if reg else 1.0
+    pr = double_integrator(lam=lam) if kind == "box" else ball_problem(lam)
+    law = control_law(pr, kind, regularized=reg)
+    sysm = HamiltonianSystem(pr, law)
+    x, p, u = ca.SX.sym("x", pr.nx), ca.SX.sym("p", pr.nx), ca.SX.sym("u", pr.nu)
+    P = pr.parameter_values
+    H = ca.Function("H", [x, p, u], [pr.lagrange_p(x, u, 0, P) + ca.dot(p, pr.dynamics_p(x, u, 0, P))])
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        xs = np.array([0.3, -0.2, 1.2][: pr.nx]) + 0.1 * rng.normal(size=pr.nx)
+        ps = 3 * rng.normal(size=pr.nx)
+        y = np.concatenate([xs, ps, [0.0]])
+        mode = sysm.mode_at(y, P)
+        ustar = np.asarray(sysm.control(y, mode, P)).ravel()
+        cand = rng.uniform(-1, 1, size=(50, pr.nu))
+        if kind == "ball":
+            cand /= np.maximum(1.0, np.linalg.norm(cand, axis=1))[:, None]
+            assert np.linalg.norm(ustar) <= 1 + 1e-12
+        best = min(float(H(xs, ps, c)) for c in cand)
+        assert float(H(xs, ps, ustar)) <= best + 1e-12
+
+
+def test_hamiltonian_of_the_wrong_form_is_rejected():
+    pr = OptimalControlProblem("quartic", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
+                               lambda x, u, t: u[0], tf=1.0, lagrange=lambda x, u, t: u[0] ** 4)
+    with pytest.raises(ValueError, match="not of the form"):
+        control_law(pr, "box")
+    with pytest.raises(ValueError, match="regularized=True"):
+        control_law(double_integrator(lam=0.5), "box")
+    with pytest.raises(ValueError, match="control_set"):
+        control_law(double_integrator(), "sphere")
+
+
+def test_non_autonomous_problem_is_rejected():
+    pr = OptimalControlProblem("timed", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
+                               lambda x, u, t: u[0] * t, tf=1.0, lagrange=lambda x, u, t: ca.fabs(u[0]))
+    with pytest.raises(ValueError, match="autonomous"):
+        control_law(pr, "box")
+
+
+def test_analytic_switching_times_with_correction(di_l1):
+    exact = double_integrator_solution()
+    guess = np.array(exact.p0) * (1 + np.array([0.05, -0.03]))
+    r = di_l1.solve(guess)
+    assert r.converged and r.norm < 1e-12
+    assert np.allclose(r.p0, exact.p0, atol=1e-10)
+    assert np.allclose(r.trajectory.switching_times, [exact.t1, exact.t2], atol=1e-10)
+    assert r.objective == pytest.approx(exact.fuel, abs=1e-10)
+
+
+def test_detection_alone_and_no_detection_land_further_away():
+    pr = double_integrator(lam=1.0)
+    law = control_law(pr, "box")
+    exact = double_integrator_solution()
+    errors = {}
+    for det in ("none", "detection", "correction"):
+        s = Shooting(pr, law, detection=det, jacobian="fd", rtol=1e-8, atol=1e-8)
+        r = s.solve(np.array(exact.p0) * 1.02, raise_on_failure=False)
+        errors[det] = np.abs(r.p0 - exact.p0).max()
+    assert errors["correction"] < 1e-10
+    assert errors["none"] > 100 * errors["correction"]
+
+
+@pytest.mark.parametrize("detection", ["detection", "correction"])
+def test_variational_jacobian_matches_central_differences(osc_system, detection):
+    pr, compiled = osc_system
+    s = Shooting(pr, compiled.system.law, detection=detection, rtol=1e-12, atol=1e-12, system=compiled)
+    z = np.array([1.0328, 0.003])
+    S_var, J_var = s.jacobian_matrix(z, method="variational")
+    traj = s.integrate(z)
+    assert traj.switchings >= 30, "switchings inside the horizon"
+    S_fd, J_fd = s.jacobian_matrix(z, method="central")
+    assert np.allclose(S_var, S_fd, atol=1e-12)
+    assert np.abs(J_var - J_fd).max() <= 1e-6 * np.abs(J_fd).max()
+
+
+def test_energy_to_l1_homotopy_ends_at_the_l1_solution():
+    reg_pr, l1_pr = double_integrator(lam=0.0), double_integrator(lam=1.0)
+    reg = Shooting(reg_pr, control_law(reg_pr, "box", regularized=True), rtol=1e-12, atol=1e-12)
+    l1 = Shooting(l1_pr, control_law(l1_pr, "box"), rtol=1e-12, atol=1e-12)
+    path = homotopy(reg, [0.0, 0.5, 0.9, 0.99], [0.5, 0.5], final=l1)
+    assert [r.parameters[0] for r in path] == [0.0, 0.5, 0.9, 0.99, 1.0]
+    fuels = [r.objective for r in path]
+    exact = double_integrator_solution()
+    assert np.allclose(path[-1].p0, exact.p0, atol=1e-9)
+    assert fuels[-1] == pytest.approx(exact.fuel, abs=1e-10)
+    assert path[0].trajectory.switchings < path[-1].trajectory.switchings + 3
+
+
+def test_no_detection_rejects_about_half_the_steps(osc_system):
+    pr, compiled = osc_system
+    z = np.array([1.03279562, 3.2e-9])
+    y0 = np.concatenate([[10.0, 0.0], z, [0.0]])
+    none = compiled.integrate(y0, 0.0, float(pr.tf), detection="none")
+    det = compiled.integrate(y0, 0.0, float(pr.tf), detection="correction")
+    assert none.rejected_ratio > 0.25
+    assert det.rejected_ratio < 0.1
+    assert det.steps < none.steps
+    assert det.hamiltonian_drift < none.hamiltonian_drift
+
+
+def test_integrator_is_accurate_on_a_smooth_flow(osc_system):
+    """|p2| < 1 throughout: no thrust, the oscillator rotates freely; costates too."""
+    pr, compiled = osc_system
+    T = float(pr.tf)
+    y0 = np.array([10.0, 0.0, 0.3, 0.2, 0.0])
+    r = compiled.integrate(y0, 0.0, T, detection="correction", rtol=1e-11, atol=1e-11)
+    c, s = np.cos(T), np.sin(T)
+    # x' = (x2, -x1); p' = (p2, -p1) (p1' = -dH/dx1 = p2, p2' = -p1)
+    expected = np.array([10 * c, -10 * s, 0.3 * c + 0.2 * s, 0.2 * c - 0.3 * s, 0.0])
+    assert r.switchings == 0
+    assert np.abs(r.y - expected).max() < 1e-8
+    assert r.hamiltonian_drift < 1e-9
+
+
+def test_failed_shooting_reports_norm_and_iterations(di_l1):
+    with pytest.raises(SolverError, match=r"\|S\| = .* after \d+ shooting-function") as info:
+        di_l1.solve([5.0, -3.0], maxfev=3)
+    assert info.value.iterations is not None
+
+
+def test_bad_shooting_input(osc_system):
+    pr, compiled = osc_system
+    law = compiled.system.law
+    with pytest.raises(ValueError, match="tolerances must be positive"):
+        Shooting(pr, law, rtol=0.0, system=compiled)
+    with pytest.raises(ValueError, match="detection must be one of"):
+        Shooting(pr, law, detection="bisection", system=compiled)
+    with pytest.raises(ValueError, match="jacobian must be one of"):
+        Shooting(pr, law, jacobian="broyden", system=compiled)
+    with pytest.raises(ValueError, match="needs the switchings located"):
+        Shooting(pr, law, detection="none", jacobian="variational", system=compiled)
+    s = Shooting(pr, law, system=compiled)
+    with pytest.raises(ValueError, match="z0 must have 2 entries"):
+        s.solve([1.0])
+    with pytest.raises(ValueError, match="tolerances must be positive"):
+        compiled.integrate(np.zeros(5), 0.0, 1.0, atol=-1.0)
+    with pytest.raises(ValueError, match="detection must be one of"):
+        compiled.integrate(np.zeros(5), 0.0, 1.0, detection="fast")
+    free_start = OptimalControlProblem("free", [State("x", final=1.0)], [Control("u", -1, 1)], lambda x, u, t: u[0],
+                                       tf=1.0, lagrange=lambda x, u, t: ca.fabs(u[0]))
+    with pytest.raises(ValueError, match="fixed initial value"):
+        Shooting(free_start, control_law(free_start, "box"))
+
+
+def test_compiled_library_is_cached(osc_system):
+    pr, compiled = osc_system
+    again = CompiledSystem(HamiltonianSystem(pr, control_law(pr, "box")))
+    assert again.library_path == compiled.library_path
