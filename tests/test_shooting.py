@@ -165,8 +165,8 @@ def test_bad_shooting_input(osc_system):
         Shooting(pr, law, detection="bisection", system=compiled)
     with pytest.raises(ValueError, match="jacobian must be one of"):
         Shooting(pr, law, jacobian="broyden", system=compiled)
-    with pytest.raises(ValueError, match="needs the switchings located"):
-        Shooting(pr, law, detection="none", jacobian="variational", system=compiled)
+    with pytest.raises(ValueError, match="solver must be one of"):
+        Shooting(pr, law, system=compiled).solve([1.0, 0.0], solver="broyden")
     s = Shooting(pr, law, system=compiled)
     with pytest.raises(ValueError, match="z0 must have 2 entries"):
         s.solve([1.0])

@@ -89,3 +89,97 @@ def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, tf: float | None = N
         mayer=lambda x0, xf, t0, tff, Pm: tff, lagrange=lambda x, u, t, Pm: 0 * ca.norm_2(u),
         parameters=params, description=f"GTO-GEO minimum time, {thrust_N} N",
     )
+
+
+def equinoctial_to_cartesian(x, mu):
+    """Position and velocity (Mm, Mm/h) from equinoctial elements (P, ex, ey, hx, hy, L).
+
+    Walker, Ireland & Owens (1985) modified equinoctial elements with p = P,
+    f = ex, g = ey, h = hx, k = hy; works on numpy arrays and CasADi symbols.
+    """
+    lib = ca if isinstance(x, (ca.SX, ca.MX)) else np
+    P, f, g, h, k, L = (x[i] for i in range(6))
+    cL, sL = lib.cos(L), lib.sin(L)
+    alpha2 = h * h - k * k
+    s2 = 1 + h * h + k * k
+    w = 1 + f * cL + g * sL
+    r = P / w
+    sq = lib.sqrt(mu / P)
+    pos = [r / s2 * (cL + alpha2 * cL + 2 * h * k * sL),
+           r / s2 * (sL - alpha2 * sL + 2 * h * k * cL),
+           2 * r / s2 * (h * sL - k * cL)]
+    vel = [-sq / s2 * (sL + alpha2 * sL - 2 * h * k * cL + g - 2 * f * h * k + alpha2 * g),
+           -sq / s2 * (-cL + alpha2 * cL + 2 * h * k * sL - f + 2 * g * h * k + alpha2 * f),
+           2 * sq / s2 * (h * cL + k * sL + f * h + g * k)]
+    return pos, vel
+
+
+def orbit_transfer_direct(thrust_N: float, objective: str = "time", tf: float | None = None,
+                          revolutions_guess: float = 1.0, tf_guess: float = 15.0) -> OptimalControlProblem:
+    """A form of the transfer for direct transcriptions: the thrust direction as two angles.
+
+    ``u = rho (cos(beta) cos(alpha), cos(beta) sin(alpha), sin(beta))`` (radial, orthoradial,
+    normal), so ``|u| <= 1`` needs no path constraint. ``objective="time"``: full thrust
+    (rho = 1), minimise tf. ``objective="energy"``: controls (rho, alpha, beta), rho in [0, 1],
+    minimise the integral of rho^2 over the fixed ``tf``. The state costates are those of
+    :func:`orbit_transfer` (the parameterisation changes only the controls), which lets a
+    direct solution start the shooting.
+    """
+    c = orbit_transfer_constants()
+    mu, beta_ = c["mu_Mm3_h2"], c["beta"]
+    Tmax = thrust_units(thrust_N)
+    energy = objective == "energy"
+    if objective not in ("time", "energy"):
+        raise ValueError(f"objective must be 'time' or 'energy', got {objective!r}")
+
+    def dynamics(x, u, t):
+        rho, a, b = (u[0], u[1], u[2]) if energy else (1.0, u[0], u[1])
+        d = [ca.cos(b) * ca.cos(a), ca.cos(b) * ca.sin(a), ca.sin(b)]
+        F0, F1, F2, F3 = equinoctial_fields(x, mu)
+        acc = Tmax * rho / x[6]
+        xdot = [F0[i] + acc * (d[0] * F1[i] + d[1] * F2[i] + d[2] * F3[i]) for i in range(6)]
+        return ca.vertcat(*xdot, -beta_ * Tmax * rho)
+
+    ini, fin = c["initial"], c["final"]
+    L_end = ini["L"] + 2 * math.pi * revolutions_guess
+    scales = {"P": 10.0, "ex": 1.0, "ey": 1.0, "hx": 0.1, "hy": 0.1, "L": max(math.pi, L_end), "m": 100.0}
+    shifts = {"m": 1400.0}
+    states = [State(n, initial=ini[n], final=fin.get(n), scale=scales[n], shift=shifts.get(n, 0.0),
+                    lower=0.5 if n == "P" else -math.inf,
+                    guess=(ini[n], L_end) if n == "L" else None) for n in STATE_NAMES]
+    angles = [Control("alpha", -2 * math.pi, 2 * math.pi, guess=math.pi / 2),
+              Control("beta", -math.pi / 2, math.pi / 2)]
+    if energy:
+        if tf is None:
+            raise ValueError("the energy problem needs a fixed final time tf (hours)")
+        return OptimalControlProblem(
+            "orbit_transfer_energy_direct", states, [Control("rho", 0.0, 1.0, guess=0.5), *angles], dynamics,
+            tf=float(tf), lagrange=lambda x, u, t: u[0] ** 2, objective_scale=max(float(tf), 1.0),
+            description=f"GTO-GEO energy problem (direct form), {thrust_N} N, tf = {tf} h",
+        )
+    return OptimalControlProblem(
+        "orbit_transfer_time_direct", states, angles, dynamics,
+        tf=FreeFinalTime(0.1 * tf_guess, 10 * tf_guess, tf_guess, scale=tf_guess),
+        mayer=lambda x0, xf, t0, tff: tff, objective_scale=tf_guess,
+        description=f"GTO-GEO minimum time (direct form), {thrust_N} N",
+    )
+
+
+def tangential_thrust_guess(thrust_N: float):
+    """Trajectory with full tangential thrust until P reaches the GEO value: (tf, states as a function of time)."""
+    from scipy.integrate import solve_ivp
+
+    c = orbit_transfer_constants()
+    pr = orbit_transfer(thrust_N, tf=1.0)
+    x0 = [c["initial"][n] for n in STATE_NAMES]
+
+    def rhs(t, x):
+        return np.asarray(pr.dynamics(x, [0.0, 1.0, 0.0], t)).ravel()
+
+    def reached(t, x):
+        return x[0] - c["final"]["P"]
+
+    reached.terminal = True
+    sol = solve_ivp(rhs, (0, 1e6), x0, events=reached, rtol=1e-9, atol=1e-9, dense_output=True)
+    tf = float(sol.t[-1])
+    return tf, (lambda t: sol.sol(np.asarray(t, dtype=float)).T)

@@ -3,20 +3,24 @@ detection and correction, variational Jacobians, and a shooting solver."""
 
 from .compiled import DETECTION_MODES, CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
-from .shooting import JACOBIANS, Shooting, ShootingResult, homotopy
-from .study import COMBINATIONS, compare_methods
+from .shooting import JACOBIANS, SOLVERS, HomotopyPath, Shooting, ShootingResult, adaptive_homotopy, homotopy
+from .study import ALL_COMBINATIONS, COMBINATIONS, compare_methods
 
 __all__ = [
+    "ALL_COMBINATIONS",
     "COMBINATIONS",
     "DETECTION_MODES",
     "JACOBIANS",
+    "SOLVERS",
     "CompiledSystem",
     "ControlLaw",
     "HamiltonianSystem",
+    "HomotopyPath",
     "Integration",
     "Shooting",
     "ShootingResult",
     "compare_methods",
     "control_law",
+    "adaptive_homotopy",
     "homotopy",
 ]

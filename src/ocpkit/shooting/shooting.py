@@ -8,7 +8,8 @@ problem's fixed initial state. The shooting function collects, at ``tf``:
 * ``H(tf) + d phi / d tf`` when ``tf`` is free (H is constant along an autonomous flow).
 
 ``S(z) = 0`` is solved with MINPACK's hybrid method (``scipy.optimize.root``,
-``hybr``) given a Jacobian either by forward finite differences (step
+``hybr``; the source's solver) or a damped Newton method (Armijo backtracking on
+``|S|``), given a Jacobian either by forward finite differences (step
 ``sqrt(max(rtol, eps)) max(|z_j|, 1)``, MINPACK's rule with ``epsfcn = rtol``) or
 from the variational equations integrated alongside (``dy/dz`` with its jump at
 each switching).
@@ -29,6 +30,7 @@ from .compiled import DETECTION_MODES, CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem
 
 JACOBIANS = ("fd", "variational")
+SOLVERS = ("hybr", "newton")
 
 
 @dataclass
@@ -85,8 +87,6 @@ class Shooting:
             raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
         if jacobian not in JACOBIANS:
             raise ValueError(f"jacobian must be one of {JACOBIANS}, got {jacobian!r}")
-        if jacobian == "variational" and detection == "none":
-            raise ValueError("the variational Jacobian needs the switchings located: use detection or correction")
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
         self.problem, self.law = problem, law
@@ -203,18 +203,26 @@ class Shooting:
         return S0, J
 
     # -- solve ------------------------------------------------------------------------------------
-    def solve(self, z0, parameters=None, *, stol: float = 1e-8, xtol: float = 1e-12, maxfev: int = 400,
-              raise_on_failure: bool = True, record: bool = True) -> ShootingResult:
+    def solve(self, z0, parameters=None, *, solver: str = "hybr", stol: float = 1e-8, xtol: float = 1e-14,
+              maxfev: int = 400, factor: float = 100.0, raise_on_failure: bool = True,
+              record: bool = True) -> ShootingResult:
         """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with |S| and counts) on failure.
 
         Converged means ``|S| <= stol`` at the returned point, whatever MINPACK's own
         status (which stops on ``xtol`` and can stall at a residual of 1e-16 or
         succeed at one of 1e-3). With ``raise_on_failure=False`` a non-converged run
         is returned with ``converged=False`` (for tables that report failures, as the
-        source does).
+        source does). ``solver``: ``"hybr"`` (MINPACK; ``factor`` is its initial
+        trust-region bound ``factor * |diag * z0|``, ``xtol`` its step tolerance) or
+        ``"newton"`` (damped Newton; a Jacobian every iteration, until |S| stops
+        decreasing below ``stol`` or ``maxfev`` evaluations). With the variational
+        Jacobian the first notes only which detection mode places the switchings;
+        with ``detection="none"`` the variational equations carry no jump terms.
         """
         if not stol > 0:
             raise ValueError(f"stol must be positive, got {stol}")
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
         P = self._params(parameters)
         z0 = np.asarray(z0, dtype=float).ravel()
         if z0.size != self.nz:
@@ -227,7 +235,13 @@ class Shooting:
             key = z.tobytes()
             if key in cache:
                 return cache[key]
-            return self.residual(z, P)
+            try:
+                S = self.residual(z, P)
+            except (SolverError, ValueError):
+                # an iterate outside the domain (tf <= t0, an integration that fails): a large
+                # residual makes MINPACK's trust region shrink back towards the last good point
+                return np.full(self.nz, 1e10)
+            return S if np.all(np.isfinite(S)) else np.full(self.nz, 1e10)
 
         def jac(z):
             self.counts["jac"] += 1
@@ -238,8 +252,11 @@ class Shooting:
 
         t = time.process_time()
         try:
-            sol = root(fun, z0, jac=jac, method="hybr", options={"xtol": xtol, "maxfev": maxfev})
-            z, message = sol.x, " ".join(sol.message.split())
+            if solver == "hybr":
+                sol = root(fun, z0, jac=jac, method="hybr", options={"xtol": xtol, "maxfev": maxfev, "factor": factor})
+                z, message = sol.x, " ".join(sol.message.split())
+            else:
+                z, message = self._newton(z0, fun, jac, stol, maxfev)
         except SolverError as exc:
             if raise_on_failure:
                 raise
@@ -261,6 +278,57 @@ class Shooting:
             cpu_s=cpu, objective=self._objective(final, tf, P), detection=self.detection,
             jacobian=self.jacobian, parameters=P, trajectory=final,
         )
+
+    @staticmethod
+    def _newton(z0, fun, jac, stol: float, maxfev: int):
+        """Damped Newton: least-squares Newton step, halved until |S|^2 decreases (Armijo, c = 1e-4).
+
+        Stops at the first |S| <= 1e-15, when no step length down to 2^-14 decreases |S|
+        (the integrator's noise floor, or a failure far from a solution), when |S| is
+        below ``stol`` and the last step gained less than a factor 10, or after
+        ``maxfev`` shooting-function evaluations. Returns the best point seen.
+        """
+        z = np.asarray(z0, dtype=float)
+        J = jac(z)
+        S = fun(z)
+        best = (np.linalg.norm(S), z)
+        evaluations = 1
+        message = "maximum number of evaluations reached"
+        while evaluations < maxfev:
+            norm = np.linalg.norm(S)
+            if norm <= 1e-15:
+                message = "residual at machine precision"
+                break
+            if not np.all(np.isfinite(J)):
+                message = "the Jacobian is not finite (a grazing switching)"
+                break
+            try:
+                step = np.linalg.lstsq(J, -S, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                message = "the Newton step could not be computed"
+                break
+            a, accepted = 1.0, False
+            while a >= 2.0 ** -14 and evaluations < maxfev:
+                trial = z + a * step
+                St = fun(trial)
+                evaluations += 1
+                if np.linalg.norm(St) ** 2 <= (1 - 1e-4 * a) * norm**2:
+                    accepted = True
+                    break
+                a *= 0.5
+            if not accepted:
+                message = "no step length decreases |S| (noise floor or stagnation)"
+                break
+            z = trial
+            J = jac(z)
+            S = fun(z)
+            new = np.linalg.norm(S)
+            if new < best[0]:
+                best = (new, z)
+            if new <= stol and new > 0.1 * norm:
+                message = "converged: |S| below stol and no longer decreasing quadratically"
+                break
+        return best[1], message
 
     def _objective(self, res: Integration, tf: float, P) -> float:
         """Running cost (integrated along the trajectory) plus the Mayer term."""
@@ -294,3 +362,73 @@ def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", fina
         Pf = final.problem.parameter_values.copy()
         results.append(final.solve(z, Pf, **solve_options))
     return results
+
+
+@dataclass
+class HomotopyPath:
+    """An adaptive homotopy: the solved parameter values, their results, and the end solution."""
+
+    lambdas: list
+    results: list
+    final: ShootingResult | None
+    failures: int
+    cpu_s: float
+
+    @property
+    def n_shooting(self) -> int:
+        return sum(r.n_shooting for r in self.results) + (self.final.n_shooting if self.final else 0)
+
+    @property
+    def n_jacobian(self) -> int:
+        return sum(r.n_jacobian for r in self.results) + (self.final.n_jacobian if self.final else 0)
+
+
+def adaptive_homotopy(regularized: Shooting, z0, *, parameter: str = "lam", start: float = 0.0,
+                      end: float = 0.999, final: Shooting | None = None, step: float = 0.25,
+                      min_step: float = 1e-4, solvers=("hybr", "newton"), **solve_options) -> HomotopyPath:
+    """Continuation from ``start`` (where ``z0`` solves) to ``end`` with step halving on failure.
+
+    At each value the solvers are tried in turn from the last solution; a success
+    doubles the step (up to ``step``), a failure halves it. ``final`` (typically
+    the bang-bang law at the end value 1) solves once more from the last solution.
+    Raises :class:`~ocpkit.SolverError` if the step falls below ``min_step``.
+    """
+    problem = regularized.problem
+    if parameter not in problem.parameters:
+        raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
+    k = list(problem.parameters).index(parameter)
+    t = time.process_time()
+    lam, z, h = float(start), np.asarray(z0, dtype=float), float(step)
+    lambdas, results, failures = [], [], 0
+    while lam < end:
+        trial = min(end, lam + h)
+        P = problem.parameter_values.copy()
+        P[k] = trial
+        result = None
+        for solver in solvers:
+            try:
+                result = regularized.solve(z, P, solver=solver, **solve_options)
+                break
+            except SolverError:
+                continue
+        if result is None:
+            failures += 1
+            h *= 0.5
+            if h < min_step:
+                raise SolverError("homotopy", f"step below {min_step} at {parameter} = {lam:.6g}", failures)
+            continue
+        lam, z = trial, result.z
+        lambdas.append(lam)
+        results.append(result)
+        h = min(step, 2 * h)
+    end_result = None
+    if final is not None:
+        for solver in solvers:
+            try:
+                end_result = final.solve(z, solver=solver, **solve_options)
+                break
+            except SolverError as exc:
+                last = exc
+        if end_result is None:
+            raise last
+    return HomotopyPath(lambdas, results, end_result, failures, time.process_time() - t)

@@ -11,6 +11,8 @@ from .shooting import Shooting
 #: (detection, jacobian) pairs of Martinon & Gergaud's tables; no detection only with finite differences
 COMBINATIONS = [("none", "fd"), ("detection", "fd"), ("correction", "fd"), ("detection", "variational"),
                 ("correction", "variational")]
+#: every detection mode with both Jacobians (no detection with the variational Jacobian: no jump terms)
+ALL_COMBINATIONS = [(d, j) for j in ("fd", "variational") for d in ("none", "detection", "correction")]
 
 
 def compare_methods(problem, law, z0, parameters=None, *, combinations=COMBINATIONS, rtol: float = 1e-8,

@@ -1,0 +1,170 @@
+"""Pseudo-arclength continuation of shooting solutions in a problem parameter.
+
+Plain parameter continuation (solve at the next parameter value from the last
+solution) stalls where the path of extremals folds back in the parameter, as the
+minimum-time orbit transfer does when the thrust decreases. Here the unknown
+``X = (z, theta)``, with ``theta`` the parameter (or its logarithm), follows the
+curve ``S(z, theta) = 0`` by arclength (Allgower & Georg, *Numerical Continuation
+Methods*, Ch. 2):
+
+* the unknowns are scaled by their initial magnitudes (``max(|X0_i|, 1)``) so that
+  arclength is not dominated by the largest costate;
+* tangent ``t``: the unit null vector of ``[dS/dz, dS/dtheta]``, oriented like the last one;
+* predictor ``X + h t``; corrector: Newton on ``S(X) = 0, t . (X - X_pred) = 0``;
+* step control: shrink on a failed corrector, grow after quick convergence.
+
+Where the path crosses a target parameter value the solution there is refined by
+the shooting solver; a target crossed several times (several branches) yields
+several solutions, and the caller keeps the one it needs (for minimum time, the
+smallest tf).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SolverError
+from .shooting import Shooting, ShootingResult
+
+
+@dataclass
+class ContinuationPath:
+    """The points of a continuation: parameter values, unknowns, and the refined target solutions."""
+
+    parameter: str
+    values: list = field(default_factory=list)
+    z: list = field(default_factory=list)
+    targets: dict = field(default_factory=dict)  # value -> list of ShootingResult (one per crossing)
+    steps: int = 0
+    failures: int = 0
+    message: str = ""
+
+    @property
+    def turning_points(self) -> list[int]:
+        """Indices where the parameter reverses direction along the path (folds)."""
+        v = np.asarray(self.values, dtype=float)
+        d = np.diff(v)
+        return [i + 1 for i in range(len(d) - 1) if d[i] * d[i + 1] < 0]
+
+    def best(self, value: float, key=lambda r: r.tf) -> ShootingResult:
+        """The crossing of ``value`` that minimises ``key`` (default: the final time)."""
+        if value not in self.targets or not self.targets[value]:
+            raise KeyError(f"the path did not reach {self.parameter} = {value}")
+        return min(self.targets[value], key=key)
+
+
+def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float, *, targets=(),
+              log: bool = True, h0: float = 0.05, hmin: float = 1e-7, hmax: float = 0.5,
+              tol: float = 1e-9, max_steps: int = 5000, max_corrector: int = 8, fd_step: float = 1e-7,
+              stop_at_turn: bool = False, callback=None) -> ContinuationPath:
+    """Follow ``S(z, parameter) = 0`` from ``(z0, start)`` until the parameter passes ``stop``.
+
+    ``z0`` must solve the problem at ``start``. ``log``: continue in the logarithm
+    of the parameter (a thrust, a scale). Targets are refined with
+    ``shooting.solve`` each time the path crosses them. ``stop_at_turn``: stop
+    once the path has folded back (the parameter has reversed direction and moved
+    back past the turning point by 5 % of the distance travelled).
+    """
+    problem = shooting.problem
+    names = list(problem.parameters)
+    if parameter not in names:
+        raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {names}")
+    k = names.index(parameter)
+    base = problem.parameter_values.copy()
+    to_theta = np.log if log else (lambda v: v)
+    from_theta = np.exp if log else (lambda v: v)
+    theta_stop = to_theta(stop)
+    direction = np.sign(to_theta(stop) - to_theta(start))
+    if direction == 0:
+        raise ValueError("start and stop must differ")
+    target_thetas = sorted({float(to_theta(t)) for t in targets})
+
+    def params(theta):
+        P = base.copy()
+        P[k] = from_theta(theta)
+        return P
+
+    scale = np.concatenate([np.maximum(np.abs(np.asarray(z0, dtype=float)), 1.0), [1.0]])
+
+    def F_and_J(Xs):
+        """Residual and Jacobian in the scaled unknowns ``Xs = X / scale``."""
+        X = Xs * scale
+        z, theta = X[:-1], X[-1]
+        S, Jz = shooting.jacobian_matrix(z, params(theta))
+        Sp = shooting.residual(z, params(theta + fd_step))
+        return S, np.hstack([Jz, ((Sp - S) / fd_step)[:, None]]) * scale
+
+    def tangent(J, previous):
+        _, _, vt = np.linalg.svd(J)
+        t = vt[-1]
+        if previous is None:
+            return t if np.sign(t[-1]) == direction else -t
+        return t if t @ previous >= 0 else -t
+
+    path = ContinuationPath(parameter)
+    X = np.concatenate([np.asarray(z0, dtype=float), [to_theta(start)]]) / scale
+    S, J = F_and_J(X)
+    if np.linalg.norm(S) > 1e3 * tol:
+        raise ValueError(f"z0 does not solve the problem at {parameter} = {start}: |S| = {np.linalg.norm(S):.2e}")
+    t = tangent(J, None)
+    h = h0
+    path.values.append(from_theta(X[-1]))
+    path.z.append(X[:-1] * scale[:-1])
+    while path.steps < max_steps:
+        path.steps += 1
+        Xp = X + h * t
+        Y, ok = Xp.copy(), False
+        for _ in range(max_corrector):
+            try:
+                S, J = F_and_J(Y)
+            except (SolverError, ValueError):
+                break
+            G = np.concatenate([S, [t @ (Y - Xp)]])
+            if np.linalg.norm(S) <= tol:
+                ok = True
+                break
+            try:
+                dY = np.linalg.solve(np.vstack([J, t]), -G)
+            except np.linalg.LinAlgError:
+                break
+            Y = Y + dY
+            if not np.all(np.isfinite(Y)):
+                break
+        if not ok:
+            path.failures += 1
+            h *= 0.5
+            if h < hmin:
+                path.message = f"step size below {hmin} at {parameter} = {from_theta(X[-1]):.6g}"
+                break
+            continue
+        # targets crossed between X and Y
+        for tt in target_thetas:
+            if (X[-1] - tt) * (Y[-1] - tt) <= 0 and X[-1] != tt:
+                a = (tt - X[-1]) / (Y[-1] - X[-1])
+                guess = (X[:-1] + a * (Y[:-1] - X[:-1])) * scale[:-1]
+                try:
+                    r = shooting.solve(guess, params(tt))
+                    path.targets.setdefault(float(from_theta(tt)), []).append(r)
+                    if callback:
+                        callback(float(from_theta(tt)), r)
+                except SolverError:
+                    pass
+        t_new = tangent(J, t)
+        X, t = Y, t_new
+        path.values.append(from_theta(X[-1]))
+        path.z.append(X[:-1] * scale[:-1])
+        if direction * (X[-1] - theta_stop) >= 0:
+            path.message = "reached the end of the interval"
+            break
+        if stop_at_turn and path.turning_points:
+            theta = np.array([to_theta(v) for v in path.values])
+            turn = theta[path.turning_points[0]]
+            if abs(theta[-1] - turn) > 0.05 * abs(turn - theta[0]):
+                path.message = f"folded back at {parameter} = {from_theta(turn):.6g}"
+                break
+        h = min(hmax, h * 1.5)
+    else:
+        path.message = f"stopped after {max_steps} steps"
+    return path
