@@ -54,3 +54,17 @@ def test_arclength_rejects_a_start_that_is_not_a_solution():
         arclength(Fold(), [0.1], "theta", 0.5, 2.0, log=False)
     with pytest.raises(KeyError, match="no parameter"):
         arclength(Fold(), [np.sqrt(0.5)], "kappa", 0.5, 2.0, log=False)
+
+
+def test_targets_are_found_under_the_callers_values_in_log_mode():
+    """exp(log(0.35)) is not 0.35 in floating point; the refined target must still be found as 0.35."""
+
+    class PositiveFold(Fold):
+        class problem:
+            name = "fold"
+            parameters = {"theta": 0.3}
+            parameter_values = np.array([0.3])
+
+    path = arclength(PositiveFold(), [np.sqrt(0.7)], "theta", 0.3, 2.0, targets=[0.35, 0.5], log=True, max_steps=60)
+    assert path.best(0.35).z[0] ** 2 + 0.35 - 1 == pytest.approx(0.0, abs=1e-12)
+    assert set(path.targets) == {0.35, 0.5}

@@ -184,3 +184,21 @@ def test_compiled_library_is_cached(osc_system):
     pr, compiled = osc_system
     again = CompiledSystem(HamiltonianSystem(pr, control_law(pr, "box")))
     assert again.library_path == compiled.library_path
+
+
+@pytest.mark.parametrize("d", [1e-17, 1e-16, 3e-16, 1e-15, 1e-14])
+@pytest.mark.parametrize("detection", ["detection", "correction"])
+def test_switching_at_the_final_time_to_rounding(d, detection):
+    """The last switching of a bang-off-bang arc placed within a few ulps of tf: the integration ends normally."""
+    pr = double_integrator(lam=1.0)
+    compiled = CompiledSystem(HamiltonianSystem(pr, control_law(pr, "box")))
+    T, c = 3.0, 2.0
+    # p2(t) = p20 - c t reaches -1 (switch to u = +1) at T (1 - d)
+    p20 = -1.0 + c * T * (1 - d)
+    y0 = np.array([1.0, 0.0, c, p20, 0.0])
+    Psi0 = np.zeros((5, 2))
+    Psi0[2:4] = np.eye(2)
+    for psi in (None, Psi0):
+        r = compiled.integrate(y0, 0.0, T, detection=detection, Psi0=psi, rtol=1e-9, atol=1e-9)
+        assert r.status == "ok"
+        assert np.all(np.isfinite(r.y))

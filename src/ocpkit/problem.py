@@ -243,8 +243,8 @@ class OptimalControlProblem:
         self.objective_scale = float(objective_scale)
         self.t0 = float(t0)
         if isinstance(tf, FreeFinalTime):
-            if tf.upper <= self.t0:
-                raise ValueError(f"final time upper bound {tf.upper} must exceed t0 = {self.t0}")
+            if tf.lower <= self.t0:
+                raise ValueError(f"final time lower bound {tf.lower} must exceed t0 = {self.t0}")
             self.tf: float | FreeFinalTime = tf
         else:
             if float(tf) <= self.t0:

@@ -152,11 +152,14 @@ class Solution:
         x = self.state_values[0].astype(float)
         n_rhs = 0
 
-        def rhs(t, y):
-            return problem.rhs(t, y, control(np.array(t)))
-
         bp = self.breakpoints
         for a, b in zip(bp[:-1], bp[1:]):
+            # the control of this interval up to its end (piecewise controls may jump at b)
+            b_left = np.nextafter(b, a)
+
+            def rhs(t, y, b_left=b_left):
+                return problem.rhs(t, y, control(np.array(min(t, b_left))))
+
             mask = (t_eval >= a) & (t_eval <= b)
             sol = solve_ivp(rhs, (a, b), x, method="DOP853", rtol=rtol, atol=atol * scale, dense_output=True)
             if sol.status != 0:

@@ -105,6 +105,8 @@ class Integration:
     switching_index: np.ndarray = field(repr=False)
     states: np.ndarray = field(repr=False)
     """y = (x, p, J) at ``step_times`` (rows), when recorded."""
+    truncated: bool = False
+    """The recorded histories hit their capacity and stop before tf (the integration itself did not)."""
 
     @property
     def steps(self) -> int:
@@ -206,4 +208,5 @@ class CompiledSystem:
             rejected_times=rt[:nrej].copy(), rejected_sizes=rh[:nrej].copy(),
             switching_times=st[:nswr].copy(), switching_index=sw_k[:nswr].copy(),
             states=states[:nhist].copy() if states is not None else np.zeros((0, n)),
+            truncated=bool(record and max(nhist, nrej, nswr) >= cap),
         )

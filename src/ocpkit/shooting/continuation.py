@@ -79,7 +79,8 @@ def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float,
     direction = np.sign(to_theta(stop) - to_theta(start))
     if direction == 0:
         raise ValueError("start and stop must differ")
-    target_thetas = sorted({float(to_theta(t)) for t in targets})
+    target_values = {float(to_theta(t)): float(t) for t in targets}  # keyed by the caller's own values
+    target_thetas = sorted(target_values)
 
     def params(theta):
         P = base.copy()
@@ -146,9 +147,9 @@ def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float,
                 guess = (X[:-1] + a * (Y[:-1] - X[:-1])) * scale[:-1]
                 try:
                     r = shooting.solve(guess, params(tt))
-                    path.targets.setdefault(float(from_theta(tt)), []).append(r)
+                    path.targets.setdefault(target_values[tt], []).append(r)
                     if callback:
-                        callback(float(from_theta(tt)), r)
+                        callback(target_values[tt], r)
                 except SolverError:
                     pass
         t_new = tangent(J, t)

@@ -438,7 +438,9 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
                 switched = 1;
                 last = 0;
                 reject = 0;
-                if (t >= tf) break;
+                /* a switching at tf (to rounding): nothing is left to integrate, and a sub-ulp step
+                   would see the crossed function still on its old side */
+                if (t >= tf || tf - t <= 8.0 * 2.220446049250313e-16 * fmax(1.0, fabs(tf))) break;
                 continue;
             }
             memcpy(c->g, gnew, sizeof(double) * ng);

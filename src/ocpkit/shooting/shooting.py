@@ -246,6 +246,8 @@ class Shooting:
         def jac(z):
             self.counts["jac"] += 1
             S, J = self.jacobian_matrix(z, P)
+            if not np.all(np.isfinite(J)):
+                raise SolverError("shooting", "the Jacobian is not finite (a grazing switching?)", self.counts["S"])
             cache.clear()
             cache[z.tobytes()] = S
             return J
@@ -356,6 +358,8 @@ def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", fina
     for lam in lambdas:
         P[names.index(parameter)] = lam
         r = regularized.solve(z, P.copy(), **solve_options)
+        if not r.converged:
+            raise SolverError("homotopy", f"not converged at {parameter} = {lam}: {r.message}", r.n_shooting)
         results.append(r)
         z = r.z
     if final is not None:
@@ -396,6 +400,9 @@ def adaptive_homotopy(regularized: Shooting, z0, *, parameter: str = "lam", star
     problem = regularized.problem
     if parameter not in problem.parameters:
         raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
+    if not solvers:
+        raise ValueError("give at least one solver")
+    solve_options = {**solve_options, "raise_on_failure": True}
     k = list(problem.parameters).index(parameter)
     t = time.process_time()
     lam, z, h = float(start), np.asarray(z0, dtype=float), float(step)
@@ -421,7 +428,7 @@ def adaptive_homotopy(regularized: Shooting, z0, *, parameter: str = "lam", star
         lambdas.append(lam)
         results.append(result)
         h = min(step, 2 * h)
-    end_result = None
+    end_result, last = None, None
     if final is not None:
         for solver in solvers:
             try:
