@@ -13,7 +13,7 @@ STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 ORBIT     := notebooks/05_orbit_transfer.ipynb
 # the full orbit-transfer run (all five thrusts, continuations from scratch); CI's nbval uses the fast defaults
-ORBIT_PARAMS := -p thrusts "[5.0, 1.0, 0.5, 0.2, 0.1]" -p recompute True
+ORBIT_PARAMS := -p thrusts None -p recompute True
 
 # One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core.
 export OPENBLAS_NUM_THREADS := 1

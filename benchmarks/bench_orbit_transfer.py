@@ -19,13 +19,15 @@ import pandas as pd
 from ocpkit import orbit_study as study
 from ocpkit.paper import paper_table
 from ocpkit.paths import build_dir
+from ocpkit.problems.orbit_transfer import orbit_transfer_constants
 from ocpkit.tables import markdown_table
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--thrusts", type=float, nargs="+", default=[5.0, 1.0, 0.5, 0.2, 0.1])
+    ap.add_argument("--thrusts", type=float, nargs="+", default=orbit_transfer_constants()["thrusts_N"],
+                    help="default: the slides' thrusts (data/problems/orbit_transfer.toml)")
     ap.add_argument("--output", default=str(build_dir() / "bench" / "orbit_transfer.csv"))
     args = ap.parse_args()
     energy = study.read_cache("orbit_transfer_energy")
@@ -42,8 +44,8 @@ def main() -> None:
         e = match.iloc[0]
         z = e[study.COSTATES].to_numpy(dtype=float)
         best = None
+        s = systems.shooting("fuel", T, e.tf_h, detection="correction", jacobian="variational", tol=1e-8)
         for _ in range(args.repeat):
-            s = systems.shooting("fuel", T, e.tf_h, detection="correction", jacobian="variational", tol=1e-8)
             r = s.solve(z, maxfev=300, raise_on_failure=False)
             best = r if best is None or r.cpu_s < best.cpu_s else best
         sl = slides[np.isclose(slides.thrust_N, T) & (slides.detection == "correction")
@@ -51,7 +53,7 @@ def main() -> None:
         rows.append({"thrust_N": T, "converged": best.converged, "norm_S": best.norm, "norm_S_slides": sl.norm_S,
                      "cpu_s": best.cpu_s, "cpu_s_slides": sl.cpu_s, "n_S": best.n_shooting, "n_jac": best.n_jacobian,
                      "fuel_kg": study.fuel_kg(best), "switchings": best.trajectory.switchings,
-                     "goal_met": bool(best.converged and best.norm <= sl.norm_S and best.cpu_s < sl.cpu_s + 0.5)})
+                     "goal_met": study.goal_met(best.converged, best.norm, best.cpu_s, sl)})
         print(f"{T:g} N: |S| = {best.norm:.1e} (slides {sl.norm_S:.1e}), "
               f"CPU {best.cpu_s:.2f} s (slides {sl.cpu_s:g} s)", flush=True)
     df = pd.DataFrame(rows)

@@ -25,6 +25,7 @@ import pandas as pd
 
 from ocpkit.paths import build_dir
 from ocpkit.problems import orbit_transfer
+from ocpkit.problems.orbit_transfer import STATE_NAMES, orbit_transfer_constants
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, control_law
 from ocpkit.tables import markdown_table
 
@@ -57,7 +58,8 @@ def main() -> None:
     compiled = CompiledSystem(system)
     build = time.perf_counter() - t
     P = problem.parameter_values
-    x0 = [11.625, 0.75, 0, 0.0612, 0, np.pi, 1500]
+    initial = orbit_transfer_constants()["initial"]
+    x0 = [initial[name] for name in STATE_NAMES]
     y0 = np.concatenate([x0, 300 * np.array([0.02, 0.1, 0.05, 0.1, 0.05, 0, 0]), [0]])
     Psi0 = np.zeros((system.n, system.n_variational))
     Psi0[7:14] = np.eye(7)

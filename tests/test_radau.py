@@ -103,6 +103,15 @@ def test_flat_moon_states_and_costates_against_closed_form(nodes, intervals):
     assert np.abs((lam_v * f).sum(axis=1) + 1.0).max() < 1e-6
 
 
+def test_costates_dataframe_exports_the_estimates_and_refuses_without_them():
+    sol = Radau(min_energy_double_integrator(), 4, 2).solve()
+    df = sol.costates_dataframe()
+    assert list(df.columns) == ["t", "lambda_x1", "lambda_x2"]
+    assert np.array_equal(df.to_numpy()[:, 1:], sol.costate_values)
+    with pytest.raises(ValueError, match="no costate estimates"):
+        HLGL(min_energy_double_integrator(), 2).solve().costates_dataframe()
+
+
 def test_affine_scaling_does_not_change_the_solution():
     base = min_energy_double_integrator()
     shifted = OptimalControlProblem(

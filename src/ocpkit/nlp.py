@@ -103,10 +103,6 @@ class Block:
             if self.rows is None or self.linear.shape != (nout, nz):
                 raise ValueError(f"block {self.name!r}: a linear map must be a ({nout}, {nz}) constraint block")
 
-    @property
-    def count(self) -> int:
-        return self.variables.shape[1]
-
 
 def _nonzeros(expr: ca.SX) -> ca.SX:
     return ca.vertcat(*expr.nonzeros()) if expr.nnz() else ca.SX(0, 1)
@@ -118,7 +114,7 @@ def _map(fun: ca.Function, count: int) -> ca.Function:
     return fun.map(count, "serial")
 
 
-def _assembly(keys: np.ndarray, weights: np.ndarray, n_keys_total: int):
+def _assembly(keys: np.ndarray, weights: np.ndarray):
     """Unique sorted keys and the sparse matrix that sums entries into them."""
     ukeys, inverse = np.unique(keys, return_inverse=True)
     A = sps.csc_matrix((weights, (inverse, np.arange(keys.size))), shape=(ukeys.size, keys.size))
@@ -206,7 +202,7 @@ class SeparableNLP:
         f = sum(f_terms[1:], f_terms[0]) if f_terms else ca.MX(0)
         if g_vals:
             rows = np.concatenate(g_rows)
-            _, A = _assembly(rows, np.ones(rows.size), M)
+            _, A = _assembly(rows, np.ones(rows.size))
             g = ca.mtimes(A, ca.vertcat(*g_vals))
             if not np.array_equal(np.unique(rows), np.arange(M)):
                 raise ValueError("every constraint row must receive at least one block output")
@@ -216,14 +212,14 @@ class SeparableNLP:
         jr = np.concatenate(j_rows) if j_rows else np.zeros(0, np.int64)
         jc = np.concatenate(j_cols) if j_cols else np.zeros(0, np.int64)
         keys = jc * M + jr
-        ukeys, A = _assembly(keys, np.ones(keys.size), M * N)
+        ukeys, A = _assembly(keys, np.ones(keys.size))
         sp_j = ca.Sparsity.triplet(M, N, (ukeys % M).tolist(), (ukeys // M).tolist())
         jac = ca.MX(sp_j, ca.mtimes(A, ca.vertcat(*j_vals))) if j_vals else ca.MX(M, N)
 
         hr = np.concatenate(h_rows) if h_rows else np.zeros(0, np.int64)
         hc = np.concatenate(h_cols) if h_cols else np.zeros(0, np.int64)
         keys = hc * N + hr
-        ukeys, A = _assembly(keys, np.concatenate(h_wts) if h_wts else np.zeros(0), N * N)
+        ukeys, A = _assembly(keys, np.concatenate(h_wts) if h_wts else np.zeros(0))
         sp_h = ca.Sparsity.triplet(N, N, (ukeys % N).tolist(), (ukeys // N).tolist())
         hess = ca.MX(sp_h, ca.mtimes(A, ca.vertcat(*h_vals))) if h_vals else ca.MX(N, N)
 

@@ -57,15 +57,3 @@ def save_figure(fig: plt.Figure, name: str, formats: Sequence[str] = ("png", "pd
         fig.savefig(path, format=fmt, metadata=meta)
         out.append(path)
     return out
-
-
-def plot_histories(ax, df, columns: Sequence[str], labels: Sequence[str] | None = None, *, x: str = "t", **kw):
-    """Plot ``df[columns]`` against ``df[x]`` on ``ax`` with a legend."""
-    labels = list(columns) if labels is None else list(labels)
-    if len(labels) != len(columns):
-        raise ValueError("one label per column")
-    for col, lab in zip(columns, labels):
-        ax.plot(df[x], df[col], label=lab, **kw)
-    if len(columns) > 1:
-        ax.legend()
-    return ax

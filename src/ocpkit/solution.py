@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -38,10 +39,6 @@ class Reintegration:
     def max_error(self) -> float:
         """Largest absolute error over all states, in units of each state's scale."""
         return float((np.abs(self.error) / self.scale).max())
-
-    @property
-    def final_error(self) -> np.ndarray:
-        return self.error[-1]
 
 
 @dataclass
@@ -88,10 +85,13 @@ class Solution:
         point, can leave it); the values are projected onto the control bounds,
         the only values the dynamics admit.
         """
-        u = self.control_interpolant(self._check_times(t))
-        lo = np.array([c.lower for c in self.problem.controls])
-        hi = np.array([c.upper for c in self.problem.controls])
-        return np.clip(u, lo, hi)
+        lo, hi = self._control_bounds
+        return np.clip(self.control_interpolant(self._check_times(t)), lo, hi)
+
+    @cached_property
+    def _control_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        controls = self.problem.controls
+        return np.array([c.lower for c in controls]), np.array([c.upper for c in controls])
 
     def _check_times(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)

@@ -184,13 +184,9 @@ def physical_histories(solution, t=None, n: int = 501):
     import pandas as pd
 
     c = entry_landing_constants()
-    t = solution.time_grid(n) if t is None else np.asarray(t, dtype=float)
-    x = solution.state(t)
-    u = solution.control(t)
-    names = solution.problem.state_names + solution.problem.control_names
-    col = {name: (x[:, i] if i < x.shape[1] else u[:, i - x.shape[1]]) for i, name in enumerate(names)}
+    col = solution.to_dataframe(t=t, n=n)
     return pd.DataFrame({
-        "t_s": t * c["time_unit_s"],
+        "t_s": col["t"] * c["time_unit_s"],
         "altitude_m": (col["r"] - 1.0) * c["R0_m"],
         "downrange_m": col["s"] * c["R0_m"],
         "velocity_m_s": col["V"] * c["velocity_unit_m_s"],
@@ -207,10 +203,9 @@ def landing_summary(solution) -> dict:
     """Final mass (m0 units), fuel (kg) and final downrange (m) of a solution."""
     c = entry_landing_constants()
     xf = solution.state_values[-1]
-    names = solution.problem.state_names
-    mf = float(xf[names.index("m")])
+    mf = float(xf[solution.problem.state_index("m")])
     return {
         "final_mass": mf,
         "fuel_kg": (c["m_initial"] - mf) * c["m0_kg"],
-        "final_downrange_m": float(xf[names.index("s")]) * c["R0_m"],
+        "final_downrange_m": float(xf[solution.problem.state_index("s")]) * c["R0_m"],
     }

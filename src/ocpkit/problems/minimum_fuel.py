@@ -11,7 +11,6 @@ import math
 from dataclasses import dataclass
 
 import casadi as ca
-import numpy as np
 
 from ..problem import Control, OptimalControlProblem, State
 from ._data import load_problem_data
@@ -85,9 +84,3 @@ def harmonic_oscillator(lam: float = 1.0, x0=None, periods: float | None = None)
         tf=2 * math.pi * n, lagrange=_cost, parameters={"lam": lam},
         description="Minimum-fuel harmonic oscillator",
     )
-
-
-def switching_times_from_costate(p0, t) -> np.ndarray:
-    """Times where |p2| = 1 for the double integrator's linear p2(t) = p2(0) - p1 t (for checks)."""
-    c, p20 = p0
-    return np.sort(np.array([(p20 - 1) / c, (p20 + 1) / c]))

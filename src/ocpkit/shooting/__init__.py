@@ -3,7 +3,7 @@ detection and correction, variational Jacobians, and a shooting solver."""
 
 from .compiled import DETECTION_MODES, CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
-from .shooting import JACOBIANS, SOLVERS, HomotopyPath, Shooting, ShootingResult, adaptive_homotopy, homotopy
+from .shooting import JACOBIANS, SOLVERS, Shooting, ShootingResult, homotopy
 from .study import ALL_COMBINATIONS, COMBINATIONS, compare_methods
 
 __all__ = [
@@ -15,12 +15,10 @@ __all__ = [
     "CompiledSystem",
     "ControlLaw",
     "HamiltonianSystem",
-    "HomotopyPath",
     "Integration",
     "Shooting",
     "ShootingResult",
     "compare_methods",
     "control_law",
-    "adaptive_homotopy",
     "homotopy",
 ]

@@ -52,14 +52,9 @@ def generate_c(system: HamiltonianSystem) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         name = "ocp_generated.c"
         gen = ca.CodeGenerator(name, {"casadi_int": "long long", "casadi_real": "double", "with_header": False})
-        for fun in (system.flow, system.varflow, system.switching, system.dswitch, system.hamiltonian):
+        for fun in system.compiled_functions():
             gen.add(fun)
-        cwd = os.getcwd()
-        try:
-            os.chdir(tmp)
-            gen.generate()
-        finally:
-            os.chdir(cwd)
+        gen.generate(tmp + os.sep)
         return (Path(tmp) / name).read_text()
 
 

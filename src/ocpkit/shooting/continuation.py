@@ -40,6 +40,7 @@ class ContinuationPath:
     steps: int = 0
     failures: int = 0
     message: str = ""
+    refinement_failures: dict = field(default_factory=dict)  # value -> messages of crossings that did not refine
 
     @property
     def turning_points(self) -> list[int]:
@@ -51,6 +52,9 @@ class ContinuationPath:
     def best(self, value: float, key=lambda r: r.tf) -> ShootingResult:
         """The crossing of ``value`` that minimises ``key`` (default: the final time)."""
         if value not in self.targets or not self.targets[value]:
+            if value in self.refinement_failures:
+                raise KeyError(f"the path crossed {self.parameter} = {value} but the shooting there failed: "
+                               + "; ".join(self.refinement_failures[value]))
             raise KeyError(f"the path did not reach {self.parameter} = {value}")
         return min(self.targets[value], key=key)
 
@@ -58,7 +62,7 @@ class ContinuationPath:
 def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float, *, targets=(),
               log: bool = True, h0: float = 0.05, hmin: float = 1e-7, hmax: float = 0.5,
               tol: float = 1e-9, max_steps: int = 5000, max_corrector: int = 8, fd_step: float = 1e-7,
-              stop_at_turn: bool = False, callback=None) -> ContinuationPath:
+              stop_at_turn: bool = False) -> ContinuationPath:
     """Follow ``S(z, parameter) = 0`` from ``(z0, start)`` until the parameter passes ``stop``.
 
     ``z0`` must solve the problem at ``start``. ``log``: continue in the logarithm
@@ -148,10 +152,8 @@ def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float,
                 try:
                     r = shooting.solve(guess, params(tt))
                     path.targets.setdefault(target_values[tt], []).append(r)
-                    if callback:
-                        callback(target_values[tt], r)
-                except SolverError:
-                    pass
+                except SolverError as exc:
+                    path.refinement_failures.setdefault(target_values[tt], []).append(str(exc))
         t_new = tangent(J, t)
         X, t = Y, t_new
         path.values.append(from_theta(X[-1]))

@@ -26,7 +26,6 @@ H at ``u = 0, +-e_i, 2 e_i``; a mass equation driven by ``|u|`` fits the form.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from itertools import product
 
 import casadi as ca
 import numpy as np
@@ -200,6 +199,7 @@ def _check_form(problem, law, H, u, psi, w, b, samples: int = 20, tol: float = 1
         model = ca.dot(ca.vertcat(*psi), u) + w[0] * ca.norm_2(u) + b[0] * ca.sumsqr(u)
     H0 = ca.substitute(H, u, ca.DM.zeros(nu))
     residual = ca.Function("residual", [x, p, u, P], [H - H0 - model])
+    hfun = ca.Function("h", [x, p, u, P], [H])
     bfun = ca.Function("b", [x, p, P], [ca.vertcat(*b)])
     rng = np.random.default_rng(0)
     pv = problem.parameter_values
@@ -208,7 +208,7 @@ def _check_form(problem, law, H, u, psi, w, b, samples: int = 20, tol: float = 1
         ps = rng.normal(size=problem.nx)
         us = rng.uniform(-1, 1, size=nu)
         r = abs(float(residual(xs, ps, us, pv)))
-        if r > tol * (1 + abs(float(ca.Function("h", [x, p, u, P], [H])(xs, ps, us, pv)))):
+        if r > tol * (1 + abs(float(hfun(xs, ps, us, pv)))):
             raise ValueError(
                 "the Hamiltonian is not of the form H0 + psi.u + w|u| + b|u|^2 for this control set "
                 f"({law.control_set}); this control law does not apply"
@@ -279,7 +279,33 @@ class HamiltonianSystem:
             [sel(mode, flows, zero_phi), sel(mode, varflows, ca.SX.zeros(self.n, self.n_variational))],
             ["y", "Psi", "mode", "P"], ["ydot", "Psidot"],
         )
-        self.mode_flows = [ca.Function(f"phi_{m}", [y, P], [flows[m]]) for m in range(law.n_modes)]
+        self._branches = (y, Psi, P, flows, varflows, hams)
+
+    def compiled_functions(self) -> list[ca.Function]:
+        """The functions the C integrator calls: flow, varflow, switching, dswitch, hamiltonian.
+
+        Same names and signatures as :attr:`flow`, :attr:`varflow`, ... but the
+        mode selects its branch through a C ``switch`` (``Function.conditional``),
+        so each call evaluates one mode; an SX ``conditional`` evaluates every branch.
+        """
+        y, Psi, P, flows, varflows, hams = self._branches
+        mode = ca.MX.sym("mode")
+
+        def switched(name, sx_inputs, branches, names_in, names_out):
+            per_mode = [ca.Function(f"{name}_{m}", sx_inputs, list(b)) for m, b in enumerate(branches)]
+            zero = ca.Function(f"{name}_none", sx_inputs, [ca.SX.zeros(o.sparsity()) for o in branches[0]])
+            select = ca.Function.conditional(f"{name}_switch", per_mode, zero)
+            mx = [ca.MX.sym(n, s.sparsity()) for n, s in zip([n for n in names_in if n != "mode"], sx_inputs)]
+            out = select(mode, *mx)
+            out = out if isinstance(out, (list, tuple)) else [out]
+            inputs = mx[:-1] + [mode, mx[-1]]  # (..., mode, P), as the SX functions
+            return ca.Function(name, inputs, list(out), names_in, names_out)
+
+        flow = switched("ocp_flow", [y, P], [(phi,) for phi in flows], ["y", "mode", "P"], ["ydot"])
+        varflow = switched("ocp_varflow", [y, Psi, P], list(zip(flows, varflows)),
+                           ["y", "Psi", "mode", "P"], ["ydot", "Psidot"])
+        ham = switched("ocp_ham", [y, P], [(h,) for h in hams], ["y", "mode", "P"], ["H"])
+        return [flow, varflow, self.switching, self.dswitch, ham]
 
     def mode_at(self, y, P) -> int:
         """The mode selected by the signs of the switching functions at ``y``."""
@@ -289,6 +315,3 @@ class HamiltonianSystem:
             regimes.append(int(np.sum(g[k:k + size] > 0)))
             k += size
         return self.law.mode_of(regimes)
-
-    def all_modes(self):
-        return list(product(*[range(s + 1) for s in self.law.group_sizes]))

@@ -152,7 +152,7 @@ class Shooting:
                                       max_steps=self.max_steps)
         if res.status != "ok":
             raise SolverError("Dormand-Prince integrator", res.status, res.accepted + res.rejected,
-                              f"at z = {np.array2string(np.asarray(z), precision=6)}")
+                              f"at z = {np.array2string(np.asarray(z), precision=6)}", unit="steps")
         return res
 
     def _params(self, parameters):
@@ -170,8 +170,12 @@ class Shooting:
         mode = self.compiled.system.mode_at(res.y, P)
         return np.asarray(self._S(res.y, tf, mode, P)[0]).ravel()
 
-    def jacobian_matrix(self, z, parameters=None, method: str | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """``(S(z), dS/dz)`` by ``method`` (default: this run's): variational, forward or central differences."""
+    def jacobian_matrix(self, z, parameters=None, method: str | None = None,
+                        S0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(S(z), dS/dz)`` by ``method`` (default: this run's): variational, forward or central differences.
+
+        ``S0``: S(z) when already known, spared by the finite differences.
+        """
         method = method or self.jacobian
         P = self._params(parameters)
         z = np.asarray(z, dtype=float).ravel()
@@ -186,7 +190,7 @@ class Shooting:
                 ydot = np.asarray(sysm.flow(res.y, mode, P)).ravel()
                 J = np.hstack([J, (dSdy @ ydot + dSdtf.ravel())[:, None]])
             return S.ravel(), J
-        S0 = self.residual(z, P)
+        S0 = self.residual(z, P) if S0 is None else np.asarray(S0, dtype=float)
         J = np.empty((S0.size, z.size))
         for j in range(z.size):
             h = np.sqrt(max(self.rtol, np.finfo(float).eps)) * max(abs(z[j]), 1.0)
@@ -228,29 +232,39 @@ class Shooting:
         if z0.size != self.nz:
             raise ValueError(f"z0 must have {self.nz} entries, got {z0.size}")
         self.counts = {"S": 0, "jac": 0, "integrations": 0}
-        cache = {}
+        # the solvers ask for S and J at the same points more than once (scipy checks the shapes at z0,
+        # Newton evaluates S where it took J): each is computed once per point; counts are the requests
+        last_S, last_J = {}, {}
 
         def fun(z):
             self.counts["S"] += 1
             key = z.tobytes()
-            if key in cache:
-                return cache[key]
-            try:
-                S = self.residual(z, P)
-            except (SolverError, ValueError):
-                # an iterate outside the domain (tf <= t0, an integration that fails): a large
-                # residual makes MINPACK's trust region shrink back towards the last good point
-                return np.full(self.nz, 1e10)
-            return S if np.all(np.isfinite(S)) else np.full(self.nz, 1e10)
+            if key not in last_S:
+                try:
+                    S = self.residual(z, P)
+                except (SolverError, ValueError):
+                    # an iterate outside the domain (tf <= t0, an integration that fails): a large
+                    # residual makes MINPACK's trust region shrink back towards the last good point
+                    return np.full(self.nz, 1e10)
+                if not np.all(np.isfinite(S)):
+                    return np.full(self.nz, 1e10)
+                last_S.clear()
+                last_S[key] = S
+            return last_S[key]
 
         def jac(z):
             self.counts["jac"] += 1
-            S, J = self.jacobian_matrix(z, P)
-            if not np.all(np.isfinite(J)):
-                raise SolverError("shooting", "the Jacobian is not finite (a grazing switching?)", self.counts["S"])
-            cache.clear()
-            cache[z.tobytes()] = S
-            return J
+            key = z.tobytes()
+            if key not in last_J:
+                S, J = self.jacobian_matrix(z, P, S0=last_S.get(key))
+                if not np.all(np.isfinite(J)):
+                    raise SolverError("shooting", "the Jacobian is not finite (a grazing switching?)",
+                                      self.counts["S"], unit="shooting-function evaluations")
+                last_S.clear()
+                last_S[key] = S
+                last_J.clear()
+                last_J[key] = J
+            return last_J[key]
 
         t = time.process_time()
         try:
@@ -270,9 +284,10 @@ class Shooting:
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
         if not ok and raise_on_failure:
-            raise SolverError("shooting (MINPACK hybrid)", message, counts["S"],
+            name = "MINPACK hybrid" if solver == "hybr" else "damped Newton"
+            raise SolverError(f"shooting ({name})", message, counts["S"],
                               f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
-                              f"{counts['jac']} Jacobian evaluations")
+                              f"{counts['jac']} Jacobian evaluations", unit="shooting-function evaluations")
         p0, tf = self._split(z)
         return ShootingResult(
             z=z, p0=p0, tf=tf, residual=S, norm=norm, converged=ok, message=message,
@@ -300,9 +315,6 @@ class Shooting:
             norm = np.linalg.norm(S)
             if norm <= 1e-15:
                 message = "residual at machine precision"
-                break
-            if not np.all(np.isfinite(J)):
-                message = "the Jacobian is not finite (a grazing switching)"
                 break
             try:
                 step = np.linalg.lstsq(J, -S, rcond=None)[0]
@@ -347,95 +359,20 @@ def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", fina
 
     ``regularized`` solves the problems with ``parameter`` in ``lambdas``; ``final``
     (typically the bang-bang law at the end value) solves once more from the last
-    solution. Returns every solve's result.
+    solution. Returns every solve's result; a solve that fails raises :class:`~ocpkit.SolverError`.
     """
     problem = regularized.problem
     if parameter not in problem.parameters:
         raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
+    solve_options = {**solve_options, "raise_on_failure": True}
     names = list(problem.parameters)
     results, z = [], np.asarray(z0, dtype=float)
     P = problem.parameter_values.copy()
     for lam in lambdas:
         P[names.index(parameter)] = lam
-        r = regularized.solve(z, P.copy(), **solve_options)
-        if not r.converged:
-            raise SolverError("homotopy", f"not converged at {parameter} = {lam}: {r.message}", r.n_shooting)
-        results.append(r)
-        z = r.z
+        results.append(regularized.solve(z, P.copy(), **solve_options))
+        z = results[-1].z
     if final is not None:
         Pf = final.problem.parameter_values.copy()
         results.append(final.solve(z, Pf, **solve_options))
     return results
-
-
-@dataclass
-class HomotopyPath:
-    """An adaptive homotopy: the solved parameter values, their results, and the end solution."""
-
-    lambdas: list
-    results: list
-    final: ShootingResult | None
-    failures: int
-    cpu_s: float
-
-    @property
-    def n_shooting(self) -> int:
-        return sum(r.n_shooting for r in self.results) + (self.final.n_shooting if self.final else 0)
-
-    @property
-    def n_jacobian(self) -> int:
-        return sum(r.n_jacobian for r in self.results) + (self.final.n_jacobian if self.final else 0)
-
-
-def adaptive_homotopy(regularized: Shooting, z0, *, parameter: str = "lam", start: float = 0.0,
-                      end: float = 0.999, final: Shooting | None = None, step: float = 0.25,
-                      min_step: float = 1e-4, solvers=("hybr", "newton"), **solve_options) -> HomotopyPath:
-    """Continuation from ``start`` (where ``z0`` solves) to ``end`` with step halving on failure.
-
-    At each value the solvers are tried in turn from the last solution; a success
-    doubles the step (up to ``step``), a failure halves it. ``final`` (typically
-    the bang-bang law at the end value 1) solves once more from the last solution.
-    Raises :class:`~ocpkit.SolverError` if the step falls below ``min_step``.
-    """
-    problem = regularized.problem
-    if parameter not in problem.parameters:
-        raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
-    if not solvers:
-        raise ValueError("give at least one solver")
-    solve_options = {**solve_options, "raise_on_failure": True}
-    k = list(problem.parameters).index(parameter)
-    t = time.process_time()
-    lam, z, h = float(start), np.asarray(z0, dtype=float), float(step)
-    lambdas, results, failures = [], [], 0
-    while lam < end:
-        trial = min(end, lam + h)
-        P = problem.parameter_values.copy()
-        P[k] = trial
-        result = None
-        for solver in solvers:
-            try:
-                result = regularized.solve(z, P, solver=solver, **solve_options)
-                break
-            except SolverError:
-                continue
-        if result is None:
-            failures += 1
-            h *= 0.5
-            if h < min_step:
-                raise SolverError("homotopy", f"step below {min_step} at {parameter} = {lam:.6g}", failures)
-            continue
-        lam, z = trial, result.z
-        lambdas.append(lam)
-        results.append(result)
-        h = min(step, 2 * h)
-    end_result, last = None, None
-    if final is not None:
-        for solver in solvers:
-            try:
-                end_result = final.solve(z, solver=solver, **solve_options)
-                break
-            except SolverError as exc:
-                last = exc
-        if end_result is None:
-            raise last
-    return HomotopyPath(lambdas, results, end_result, failures, time.process_time() - t)

@@ -32,6 +32,22 @@ def mesh_fractions(segments: int | None, mesh) -> np.ndarray:
     return np.full(int(segments), 1.0 / segments)
 
 
+def segment_starts(fractions: np.ndarray) -> np.ndarray:
+    """Normalised start times (0..1) of segments with lengths ``fractions``."""
+    return np.concatenate([[0.0], np.cumsum(fractions)[:-1]])
+
+
+def segment_point_fractions(starts: np.ndarray, fractions: np.ndarray, local) -> np.ndarray:
+    """Normalised times (0..1) of points at ``local`` positions in [0, 1) of every segment, then the end (1).
+
+    Points are ordered segment by segment, as in the NLP layouts: consecutive
+    segments share their boundary point, so ``local`` excludes 1.
+    """
+    local = np.asarray(local, dtype=float)
+    s = (starts[:, None] + fractions[:, None] * local[None, :]).ravel()
+    return np.concatenate([s, [1.0]])
+
+
 def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_nodes, len(states)) of states on a node set, with the boundary conditions at both ends."""
     lb = np.empty((n_nodes, len(states)))

@@ -27,7 +27,25 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions
+from .base import Transcription, VariableGroup, mesh_fractions, segment_point_fractions, segment_starts
+
+
+def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
+    """States ``(x_a, x_b)`` at the collocation points: the quintic Hermite interpolant of the nodes."""
+    A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
+    x_a = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
+    A, B = nodes.HLGL_XB_X, nodes.HLGL_XB_F
+    x_b = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
+    return x_a, x_b
+
+
+def hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h):
+    """Defects ``(C1, C2)`` of Eqs. (6)-(7) from the node states and the slopes at all five points."""
+    D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
+    c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
+    D, E = nodes.HLGL_C2_X, nodes.HLGL_C2_F
+    c2 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_b + E[2] * f_c + E[3] * f_e)
+    return c1, c2
 
 
 def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
@@ -39,16 +57,15 @@ def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
     symbols and on numbers.
     """
     f_i, f_c, f_e = f(x_i, u[0], t[0]), f(x_c, u[2], t[2]), f(x_e, u[4], t[4])
-    A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
-    x_a = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
-    A, B = nodes.HLGL_XB_X, nodes.HLGL_XB_F
-    x_b = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
+    x_a, x_b = hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h)
     f_a, f_b = f(x_a, u[1], t[1]), f(x_b, u[3], t[3])
-    D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
-    c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
-    D, E = nodes.HLGL_C2_X, nodes.HLGL_C2_F
-    c2 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_b + E[2] * f_c + E[3] * f_e)
+    c1, c2 = hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h)
     return c1, c2, x_a, x_b, (f_i, f_a, f_c, f_b, f_e)
+
+
+def segment_points(values: np.ndarray, n: int) -> np.ndarray:
+    """Values (5, n, d) at the five points of each of ``n`` segments from (4n+1, d) values laid out point by point."""
+    return np.stack([values[j:4 * n:4] if j < 4 else values[4::4] for j in range(5)])
 
 
 def hermite_coefficients(x_nodes: np.ndarray, f_nodes: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -84,7 +101,7 @@ class HLGL(Transcription):
         super().__init__(problem)
         self.fractions = mesh_fractions(segments, mesh)
         self.segments = self.fractions.size
-        self.starts = np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+        self.starts = segment_starts(self.fractions)
 
     # -- sizes and layout --------------------------------------------------------------
     @property
@@ -110,19 +127,11 @@ class HLGL(Transcription):
 
     def state_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2n+1 state nodes."""
-        s = np.empty(self.n_state_nodes)
-        s[0:-1:2] = self.starts
-        s[1::2] = self.starts + 0.5 * self.fractions
-        s[-1] = 1.0
-        return s
+        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_STATE_NODES[:2])
 
     def control_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 4n+1 control points."""
-        s = np.empty(self.n_control_points)
-        for j in range(4):
-            s[j:-1:4] = self.starts + nodes.HLGL_CONTROL_NODES[j] * self.fractions
-        s[-1] = 1.0
-        return s
+        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_CONTROL_NODES[:4])
 
     # -- NLP blocks ----------------------------------------------------------------------
     def _segment_symbols(self):
@@ -182,13 +191,8 @@ class HLGL(Transcription):
 
     # -- bounds and guess -------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
-        pr = self.problem
         X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)
         U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
-        if X.shape != (self.n_state_nodes, pr.nx):
-            raise ValueError(f"state guess has shape {X.shape}, expected ({self.n_state_nodes}, {pr.nx})")
-        if U.shape != (self.n_control_points, pr.nu):
-            raise ValueError(f"control guess has shape {U.shape}, expected ({self.n_control_points}, {pr.nu})")
         return self.pack(X, U, tf)
 
     def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
@@ -209,8 +213,7 @@ class HLGL(Transcription):
         breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
-        n = self.segments
-        Useg = np.stack([U[j:4 * n:4] if j < 4 else U[4::4] for j in range(5)])  # (5, n, nu)
+        Useg = segment_points(U, self.segments)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
         return dict(

@@ -36,8 +36,8 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions
-from .hlgl import hermite_coefficients
+from .base import Transcription, VariableGroup, mesh_fractions, segment_point_fractions, segment_starts
+from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
 
@@ -78,15 +78,6 @@ def state_partition(problem: OptimalControlProblem, slow=None, fast=None) -> tup
 def _hermite(b, x_i, d_i, x_c, d_c, x_e, d_e):
     """Quintic Hermite value from basis weights ``b`` (6,) and node values/slopes (slopes times h)."""
     return b[0] * x_i + b[1] * d_i + b[2] * x_c + b[3] * d_c + b[4] * x_e + b[5] * d_e
-
-
-def _hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h):
-    """Eqs. (6)-(7) for one segment, from states at the nodes and slopes at all five points."""
-    D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
-    c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
-    D, E = nodes.HLGL_C2_X, nodes.HLGL_C2_F
-    c2 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_b + E[2] * f_c + E[3] * f_e)
-    return c1, c2
 
 
 class MultiRateHLGL(Transcription):
@@ -132,7 +123,7 @@ class MultiRateHLGL(Transcription):
         self.slow, self.fast = state_partition(problem, slow, fast)
         self.fractions = mesh_fractions(segments, mesh)
         self.segments = self.fractions.size
-        self.starts = np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+        self.starts = segment_starts(self.fractions)
 
     # -- sizes and layout -------------------------------------------------------------
     @property
@@ -164,22 +155,16 @@ class MultiRateHLGL(Transcription):
         return 2 * self.segments * (len(self.slow) + self.ratio * len(self.fast))
 
     def coarse_node_fractions(self) -> np.ndarray:
-        s = np.empty(self.n_coarse_nodes)
-        s[0:-1:2] = self.starts
-        s[1::2] = self.starts + 0.5 * self.fractions
-        s[-1] = 1.0
-        return s
+        """Normalised times (0..1) of the 2N+1 coarse (slow-state) nodes."""
+        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_STATE_NODES[:2])
 
     def fine_node_fractions(self) -> np.ndarray:
-        M = self.ratio
-        k = np.arange(2 * M)
-        s = (self.starts[:, None] + self.fractions[:, None] * k[None, :] / (2 * M)).ravel()
-        return np.concatenate([s, [1.0]])
+        """Normalised times (0..1) of the 2MN+1 fine (fast-state) nodes."""
+        return segment_point_fractions(self.starts, self.fractions, np.arange(2 * self.ratio) / (2 * self.ratio))
 
     def control_point_fractions(self) -> np.ndarray:
-        k = np.arange(4)
-        s = (self.starts[:, None] + self.fractions[:, None] * nodes.EQUISPACED_CONTROL_NODES[k][None, :]).ravel()
-        return np.concatenate([s, [1.0]])
+        """Normalised times (0..1) of the 4N+1 control points."""
+        return segment_point_fractions(self.starts, self.fractions, nodes.EQUISPACED_CONTROL_NODES[:4])
 
     def _indices(self):
         """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
@@ -269,7 +254,7 @@ class MultiRateHLGL(Transcription):
         Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
         defects = []
         if nxs:
-            c1, c2 = _hlgl_defects(X[0], X[1], X[2], fx_c[0], split(Fa)[0], fx_c[1], split(Fb)[0], fx_c[2], h)
+            c1, c2 = hlgl_defects(X[0], X[1], X[2], fx_c[0], split(Fa)[0], fx_c[1], split(Fb)[0], fx_c[2], h)
             defects += [c1 / sx, c2 / sx]
         # fine defects for z
         if nzf:
@@ -278,14 +263,11 @@ class MultiRateHLGL(Transcription):
                 s0 = j / M
                 zi, zm, ze = Z[i], Z[i + 1], Z[i + 2]
                 fi, fm, fe = fz_nodes[i], fz_nodes[i + 1], fz_nodes[i + 2]
-                A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
-                za_f = A[0] * zi + A[1] * zm + A[2] * ze + hf * (B[0] * fi + B[1] * fm + B[2] * fe)
-                A, B = nodes.HLGL_XB_X, nodes.HLGL_XB_F
-                zb_f = A[0] * zi + A[1] * zm + A[2] * ze + hf * (B[0] * fi + B[1] * fm + B[2] * fe)
+                za_f, zb_f = hlgl_collocation_states(zi, zm, ze, fi, fm, fe, hf)
                 s_a, s_b = s0 + sa / M, s0 + sb / M
                 fa = split(f(x_at(s_a), za_f, s_a))[1]
                 fb = split(f(x_at(s_b), zb_f, s_b))[1]
-                c1, c2 = _hlgl_defects(zi, zm, ze, fi, fa, fm, fb, fe, hf)
+                c1, c2 = hlgl_defects(zi, zm, ze, fi, fa, fm, fb, fe, hf)
                 defects += [c1 / sz, c2 / sz]
 
         quad = None
@@ -357,8 +339,7 @@ class MultiRateHLGL(Transcription):
         breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
         h = np.diff(breaks)
 
-        useg = np.stack([U[j:4 * N:4] if j < 4 else U[4::4] for j in range(5)])  # (5, N, nu)
-        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), useg)
+        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, N))
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, ucoef))
 
         f_map = pr.dynamics.map

@@ -29,7 +29,7 @@ import numpy as np
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions
+from .base import Transcription, VariableGroup, mesh_fractions, segment_starts
 
 
 class PiecewiseBarycentric:
@@ -92,7 +92,7 @@ class Radau(Transcription):
             raise ValueError(f"{len(counts)} node counts given for {self.intervals} intervals")
         self.tau = [lgr_nodes(n) for n in counts]  # validates each count
         self.counts = np.array(counts, dtype=np.int64)
-        self.starts = np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+        self.starts = segment_starts(self.fractions)
         self.offsets = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
 
     # -- sizes and layout ---------------------------------------------------------------
@@ -191,7 +191,7 @@ class Radau(Transcription):
         return g.reshape(self.n_collocation, self.problem.nx) * self.problem.state_scale
 
     # -- solution -------------------------------------------------------------------------
-    def costates(self, lam_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def costates(self, lam_g: np.ndarray) -> np.ndarray:
         """Costate estimates (state points, nx) from the defect multipliers (Garg et al. 2010).
 
         ``lambda_k = -Lambda_k / w_k`` at the collocation points, ``-D_{N+1}' Lambda``
