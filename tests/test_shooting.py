@@ -202,3 +202,53 @@ def test_switching_at_the_final_time_to_rounding(d, detection):
         r = compiled.integrate(y0, 0.0, T, detection=detection, Psi0=psi, rtol=1e-9, atol=1e-9)
         assert r.status == "ok"
         assert np.all(np.isfinite(r.y))
+
+
+def _oscillator_switchings(R, theta, T):
+    """Times in (0, T) where |p2| = R |cos(t + theta)| = 1 (p1' = p2, p2' = -p1 for the L1 oscillator)."""
+    a = np.arccos(1.0 / R)
+    base = np.array([-a, a, np.pi - a, np.pi + a])
+    k = np.arange(-1, int(T / (2 * np.pi)) + 2)
+    t = (base[None, :] + 2 * np.pi * k[:, None]).ravel() - theta
+    return np.sort(t[(t > 0) & (t < T)])
+
+
+@pytest.mark.parametrize("detection", ["detection", "correction"])
+def test_short_arcs_inside_a_step_are_found(osc_system, detection):
+    """|p2| exceeds 1 by 1e-4 at each extremum: 20 thrust arcs of width 0.028, shorter than the steps.
+
+    The sign test at the step ends misses most of them; the interior check finds every one
+    at its analytic switching times."""
+    pr, compiled = osc_system
+    R, theta, T = 1.0 + 1e-4, 0.3, 20 * np.pi
+    y0 = np.array([1.0, 0.0, R * np.sin(theta), R * np.cos(theta), 0.0])
+    exact = _oscillator_switchings(R, theta, T)
+    assert exact.size == 40
+    blind = compiled.integrate(y0, 0.0, T, detection=detection, interior_check=False)
+    seen = compiled.integrate(y0, 0.0, T, detection=detection, interior_check=True)
+    assert blind.switchings < 10, "the end-of-step test alone misses the short arcs"
+    assert seen.switchings == 40 and seen.interior_switchings > 10
+    # located to the integrator's accuracy: a crossing this shallow (dg/dt = 0.014) turns the global error
+    # of the costates (rtol 1e-8, ten periods) into about 1e-5 in time, 0.05 % of an arc's width
+    assert np.abs(seen.switching_times - exact).max() < 5e-5
+    # the fuel is the total length of the thrust arcs
+    assert seen.y[-1] == pytest.approx(np.sum(exact[1::2] - exact[0::2]), rel=1e-3)
+
+
+def test_shooting_integrates_with_its_own_problem_parameters():
+    """A Shooting on a compiled system shared with another parameter value integrates with its problem's own
+    (regression: it used the values the shared system was compiled with)."""
+    def problem(gain):
+        return OptimalControlProblem(
+            "gain", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
+            lambda x, u, t, P: P["gain"] * u[0], tf=2.0,
+            lagrange=lambda x, u, t, P: ca.fabs(u[0]), parameters={"gain": gain})
+
+    compiled_at_one = CompiledSystem(HamiltonianSystem(problem(1.0), control_law(problem(1.0), "box")))
+    pr = problem(3.0)
+    s = Shooting(pr, control_law(pr, "box"), system=compiled_at_one)
+    z = np.array([-2.0])  # p = -2: |p gain| > 1, so u = +1 all along
+    traj = s.integrate(z, record=True)
+    assert traj.y[0] == pytest.approx(6.0)  # x(2) = gain * 2, with the problem's gain 3
+    assert np.allclose(traj.parameters, [3.0])
+    assert np.asarray(traj.controls(compiled_at_one.system)).ravel()[0] == pytest.approx(1.0)

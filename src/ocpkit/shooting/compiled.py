@@ -91,6 +91,9 @@ class Integration:
     rejected: int
     rhs_evaluations: int
     switchings: int
+    """Mode changes (a simultaneous crossing of several switching functions counts each)."""
+    interior_switchings: int
+    """Switchings found inside a step by the interior check (arcs a sign test at step ends misses)."""
     step_times: np.ndarray = field(repr=False)
     step_sizes: np.ndarray = field(repr=False)
     hamiltonian: np.ndarray = field(repr=False)
@@ -102,6 +105,8 @@ class Integration:
     """y = (x, p, J) at ``step_times`` (rows), when recorded."""
     truncated: bool = False
     """The recorded histories hit their capacity and stop before tf (the integration itself did not)."""
+    parameters: np.ndarray | None = field(default=None, repr=False)
+    """The problem parameters the flow was integrated with."""
 
     @property
     def steps(self) -> int:
@@ -112,8 +117,13 @@ class Integration:
         return self.rejected / self.steps if self.steps else 0.0
 
     def controls(self, system: HamiltonianSystem, parameters=None) -> np.ndarray:
-        """The control at the recorded points (rows), in the mode their switching functions select."""
-        P = system.problem.parameter_values if parameters is None else np.asarray(parameters, dtype=float)
+        """The control at the recorded points (rows), in the mode their switching functions select.
+
+        ``parameters``: default, those this trajectory was integrated with.
+        """
+        if parameters is None:
+            parameters = self.parameters if self.parameters is not None else system.problem.parameter_values
+        P = np.asarray(parameters, dtype=float)
         return np.array([np.asarray(system.control(y, system.mode_at(y, P), P)).ravel() for y in self.states])
 
     @property
@@ -156,8 +166,15 @@ class CompiledSystem:
         capacity: int | None = None,
         h0: float = 0.0,
         hmax: float = 0.0,
+        interior_check: bool = True,
     ) -> Integration:
-        """Integrate y = (x, p) from t0 to tf (tf > t0), optionally with variational columns Psi0 (n x nvar)."""
+        """Integrate y = (x, p) from t0 to tf (tf > t0), optionally with variational columns Psi0 (n x nvar).
+
+        ``interior_check`` (detection and correction): also look for a pair of crossings
+        inside one step (a short arc), from the cubic Hermite interpolant of each switching
+        function and the dense output (see ``dopri5.c``); off, only the signs at the step's
+        ends are compared, as in Martinon & Gergaud's slides.
+        """
         sysm = self.system
         n = sysm.n
         if detection not in DETECTION_MODES:
@@ -183,25 +200,26 @@ class CompiledSystem:
         cap = int(capacity if capacity is not None else min(max_steps, 200_000)) if record else 1
         ng = sysm.law.n_switching
         opt_int = np.array([n, nvar, ng, len(self._groups), DETECTION_MODES.index(detection), max_steps,
-                            int(record), cap], dtype=np.int32)
+                            int(record), cap, int(bool(interior_check))], dtype=np.int32)
         opt_dbl = np.array([rtol, atol, h0, hmax], dtype=float)
         Y = np.empty(Y0.size)
-        out = np.zeros(8, dtype=np.int64)
+        out = np.zeros(9, dtype=np.int64)
         arrays = [np.empty(cap) for _ in range(6)]
         sw_k = np.empty(cap, dtype=np.int32)
         states = np.empty((cap, n)) if record else None
         self._fn(np.ascontiguousarray(Y0), float(t0), float(tf), np.ascontiguousarray(P), opt_int, opt_dbl,
                  self._groups, Y, out, *arrays, sw_k, None if states is None else states.ctypes.data)
-        status, acc, rej, nfev, nsw, nhist, nrej, nswr = (int(v) for v in out)
+        status, acc, rej, nfev, nsw, nhist, nrej, nswr, ninside = (int(v) for v in out)
         ht, hh, hH, rt, rh, st = arrays
         return Integration(
             y=Y[:n].copy(),
             Psi=Y[n:].reshape(n, nvar, order="F").copy() if nvar else None,
             status=_STATUS.get(status, f"error {status}"),
-            accepted=acc, rejected=rej, rhs_evaluations=nfev, switchings=nsw,
+            accepted=acc, rejected=rej, rhs_evaluations=nfev, switchings=nsw, interior_switchings=ninside,
             step_times=ht[:nhist].copy(), step_sizes=hh[:nhist].copy(), hamiltonian=hH[:nhist].copy(),
             rejected_times=rt[:nrej].copy(), rejected_sizes=rh[:nrej].copy(),
             switching_times=st[:nswr].copy(), switching_index=sw_k[:nswr].copy(),
             states=states[:nhist].copy() if states is not None else np.zeros((0, n)),
             truncated=bool(record and max(nhist, nrej, nswr) >= cap),
+            parameters=P.copy(),
         )

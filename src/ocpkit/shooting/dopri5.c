@@ -13,6 +13,13 @@
  *                 actual Dormand-Prince step from the step's start (the dense-output
  *                 zero is the starting guess), and the integration restarts from tau.
  *
+ * Crossings inside a step (opt_int[I_INTERIOR], detection and correction only): a sign
+ * test at the step's ends misses a pair of crossings within one step, i.e. a short arc
+ * (Shampine & Thompson, "Event location for ordinary differential equations", 2000).
+ * With the check on, g's cubic Hermite interpolant from g and dg/dt = dg/dy . f at both
+ * ends locates g's interior extremum; where the cubic comes near or through zero there, g
+ * is evaluated on the dense output, and a sign change opens the arc at the first zero.
+ *
  * With variational columns (opt_int[I_NVAR] > 0) the state is augmented by
  * Psi = dy/dz (n x nvar, column-major), integrated on the same steps (error control on y
  * only), with the jump at a switching from branch I to II at tau
@@ -39,11 +46,11 @@ DECLARE(ocp_dswitch)
 DECLARE(ocp_ham)
 
 /* integer options */
-enum { I_N, I_NVAR, I_NG, I_NGROUPS, I_DETECT, I_MAXSTEPS, I_RECORD, I_CAP, I_NOPT };
+enum { I_N, I_NVAR, I_NG, I_NGROUPS, I_DETECT, I_MAXSTEPS, I_RECORD, I_CAP, I_INTERIOR, I_NOPT };
 /* real options */
 enum { D_RTOL, D_ATOL, D_H0, D_HMAX, D_NOPT };
 /* integer outputs */
-enum { O_STATUS, O_ACCEPTED, O_REJECTED, O_NFEV, O_SWITCHES, O_NHIST, O_NREJ, O_NSW, O_NOUT };
+enum { O_STATUS, O_ACCEPTED, O_REJECTED, O_NFEV, O_SWITCHES, O_NHIST, O_NREJ, O_NSW, O_INTERIOR, O_NOUT };
 /* status codes */
 enum { OK = 0, MAX_STEPS = 1, STEP_TOO_SMALL = 2, NOT_FINITE = 3, NO_MEMORY = 4, BAD_ROOT = 5 };
 
@@ -201,9 +208,10 @@ static void dense_eval(const Ctx *c, double theta, int count, double *out) {
         out[i] = r[i] + theta * (r[N + i] + t1 * (r[2 * N + i] + theta * (r[3 * N + i] + t1 * r[4 * N + i])));
 }
 
-/* zero of g_k along the dense output on theta in (0, 1], Illinois variant of regula falsi */
-static double dense_root(Ctx *c, int k, double g0, double g1) {
-    double a = 0.0, b = 1.0, fa = g0, fb = g1;
+/* zero of g_k along the dense output on theta in (a, b] (g_k(a) = ga, g_k(b) = gb of opposite
+   signs), Illinois variant of regula falsi */
+static double dense_root(Ctx *c, int k, double a, double b, double ga, double gb) {
+    double fa = ga, fb = gb;
     int side = 0;
     for (int it = 0; it < 200; it++) {
         double m = b - fb * (b - a) / (fb - fa);
@@ -226,6 +234,45 @@ static double dense_root(Ctx *c, int k, double g0, double g1) {
     return fabs(fa) < fabs(fb) ? a : b;
 }
 
+/* dg_k/dt = dg_k/dy . f at y (f: the first n entries of dy) for every k */
+static void switching_rates(Ctx *c, const double *y, const double *dy, double *rate) {
+    c->arg[0] = y; c->arg[1] = c->P; c->res[0] = c->dg;
+    ocp_dswitch(c->arg, c->res, c->iw, c->w, 0);
+    for (int k = 0; k < c->ng; k++) {
+        double r = 0;
+        for (int i = 0; i < c->n; i++) r += c->dg[k + (size_t)i * c->ng] * dy[i];
+        rate[k] = r;
+    }
+}
+
+/* theta in (0, 1) where the cubic Hermite interpolant of g on a step (values g0, g1, slopes
+   s0 = h dg/dt(t), s1 = h dg/dt(t + h)) has an interior extremum that reaches below half of
+   min(|g0|, |g1|) on g0's side (or crosses zero), the earliest such; -1 if none */
+static double interior_suspect(double g0, double g1, double s0, double s1) {
+    double sg = g0 > 0 ? 1.0 : -1.0;
+    double b = s0, cc = -3 * g0 - 2 * s0 + 3 * g1 - s1, d = 2 * g0 + s0 - 2 * g1 + s1;
+    double roots[2];
+    int nr = 0;
+    if (fabs(d) < 1e-14 * (fabs(b) + fabs(cc))) {
+        if (cc != 0) roots[nr++] = -b / (2 * cc);
+    } else {
+        double disc = cc * cc - 3 * d * b;
+        if (disc < 0) return -1.0;
+        double q = -(cc + (cc >= 0 ? 1 : -1) * sqrt(disc));
+        roots[nr++] = q / (3 * d);
+        if (q != 0) roots[nr++] = b / q;
+    }
+    if (nr == 2 && roots[1] < roots[0]) { double tmp = roots[0]; roots[0] = roots[1]; roots[1] = tmp; }
+    double margin = 0.5 * fmin(fabs(g0), fabs(g1));
+    for (int r = 0; r < nr; r++) {
+        double th = roots[r];
+        if (!(th > 0.0 && th < 1.0)) continue;
+        double p = g0 + th * (b + th * (cc + th * d));
+        if (sg * p < margin) return th;
+    }
+    return -1.0;
+}
+
 int ocp_integrate(const double *y0, double t0, double tf, const double *P, const int *opt_int,
                   const double *opt_dbl, const int *group_sizes, double *y_out, long long *out,
                   double *hist_t, double *hist_h, double *hist_H, double *rej_t, double *rej_h,
@@ -246,6 +293,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     long maxsteps = opt_int[I_MAXSTEPS];
     int record = opt_int[I_RECORD];
     long cap = opt_int[I_CAP];
+    int interior = c->detect > 0 && opt_int[I_INTERIOR];
     double hmax = opt_dbl[D_HMAX] > 0 ? opt_dbl[D_HMAX] : fabs(tf - t0);
     int n = c->n, N = c->N, ng = c->ng, nvar = c->nvar;
     for (int i = 0; i < O_NOUT; i++) out[i] = 0;
@@ -260,7 +308,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     c->res = malloc(sizeof(casadi_real *) * (m[1] + 1));
     c->iw = malloc(sizeof(casadi_int) * (m[2] + 1));
     c->w = malloc(sizeof(casadi_real) * (m[3] + 1));
-    double *buf = malloc(sizeof(double) * (17 * (size_t)N + 4 * (size_t)ng + (size_t)ng * n + 3 * (size_t)n));
+    double *buf = malloc(sizeof(double) * (17 * (size_t)N + 7 * (size_t)ng + (size_t)ng * n + 3 * (size_t)n));
     int *signs = malloc(sizeof(int) * (2 * (size_t)ng + 1));
     if (!c->arg || !c->res || !c->iw || !c->w || !buf || !signs) {
         out[O_STATUS] = NO_MEMORY;
@@ -274,6 +322,8 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     double *ysave = p; p += N;
     c->g = p; p += ng; c->gtmp = p; p += ng;
     double *gnew = p; p += ng; double *theta_k = p; p += ng;
+    double *rate0 = p; p += ng; double *rate1 = p; p += ng; /* dg/dt at the step's start and end */
+    double *hi_k = p; p += ng; /* the crossing of g_k lies in theta in (0, hi_k] */
     c->dg = p; p += (size_t)ng * n;
     c->phiI = p; p += n; c->phiII = p; p += n; c->ytmp = p; p += n;
     int *sc = signs + ng; /* scratch signs for mode -1 evaluations */
@@ -281,13 +331,14 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     memcpy(y, y0, sizeof(double) * N);
     double t = t0;
     int status = OK;
-    long accepted = 0, rejected = 0, nswitch = 0, nhist = 0, nrej = 0, nsw = 0;
+    long accepted = 0, rejected = 0, nswitch = 0, nhist = 0, nrej = 0, nsw = 0, ninterior = 0;
 
     switching(c, y, c->g);
     signs_of(c, c->g, signs);
     int mode = mode_from_signs(c, signs);
     int step_mode = c->detect == 0 ? -1 : mode;
     rhs(c, y, step_mode, c->k1, sc);
+    if (interior) switching_rates(c, y, c->k1, rate0);
 
     /* initial step size (Hairer's hinit) */
     double h = opt_dbl[D_H0];
@@ -352,21 +403,38 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
         int switched = 0;
         if (c->detect > 0) {
             switching(c, c->y1, gnew);
-            int first = -1;
+            if (interior) switching_rates(c, c->y1, c->k7, rate1);
+            int first = -1, prepared = 0;
             double theta = 2.0;
             for (int k = 0; k < ng; k++) {
                 theta_k[k] = 2.0;
+                hi_k[k] = 1.0;
                 if ((gnew[k] > 0) != signs[k]) {
-                    if (first < 0) dense_prepare(c, y, c->k1, h);
-                    theta_k[k] = dense_root(c, k, c->g[k], gnew[k]);
+                    if (!prepared) { dense_prepare(c, y, c->k1, h); prepared = 1; }
+                    theta_k[k] = dense_root(c, k, 0.0, 1.0, c->g[k], gnew[k]);
                     first = k;
                     if (theta_k[k] < theta) theta = theta_k[k];
+                } else if (interior) {
+                    double th = interior_suspect(c->g[k], gnew[k], h * rate0[k], h * rate1[k]);
+                    if (th > 0) {
+                        if (!prepared) { dense_prepare(c, y, c->k1, h); prepared = 1; }
+                        dense_eval(c, th, n, c->ytmp);
+                        switching(c, c->ytmp, c->gtmp);
+                        double gm = c->gtmp[k];
+                        if ((gm > 0) != signs[k]) {
+                            theta_k[k] = dense_root(c, k, 0.0, th, c->g[k], gm);
+                            hi_k[k] = th;
+                            first = k;
+                            if (theta_k[k] < theta) theta = theta_k[k];
+                        }
+                    }
                 }
             }
             if (first >= 0) {
                 int kstar = 0;
                 for (int k = 0; k < ng; k++) if (theta_k[k] == theta) { kstar = k; break; }
-                double tau = t + theta * h;
+                double tau = t + theta * h, t_hi = t + hi_k[kstar] * h;
+                if (hi_k[kstar] < 1.0) ninterior++;
                 if (c->detect == 1) {
                     dense_eval(c, theta, N, ysave);
                 } else {
@@ -383,7 +451,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
                     double slope = 0;
                     for (int i = 0; i < n; i++) slope += c->dg[kstar + (size_t)i * ng] * c->phiI[i];
                     tb = (slope != 0.0) ? ta - fa / slope : ta;
-                    if (!(tb > t && tb <= t + h)) tb = ta;
+                    if (!(tb > t && tb <= t_hi)) tb = ta;
                     fb = fa;
                     for (int it = 0; it < 30 && tb != ta; it++) {
                         dp_step(c, ysave, c->k1, tb - t, mode, sc);
@@ -391,7 +459,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
                         fb = c->gtmp[kstar];
                         if (fb == 0.0 || fabs(tb - ta) <= 4e-16 * fmax(fabs(tb), 1.0)) break;
                         double tn = (fb != fa) ? tb - fb * (tb - ta) / (fb - fa) : tb;
-                        if (!(tn > t && tn <= t + h)) tn = 0.5 * (ta + tb);
+                        if (!(tn > t && tn <= t_hi)) tn = 0.5 * (ta + tb);
                         ta = tb; fa = fb; tb = tn;
                     }
                     if (tb != ta || fb != fa) {
@@ -435,6 +503,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
                 step_mode = mode;
                 switching(c, y, c->g);
                 rhs(c, y, step_mode, c->k1, sc);
+                if (interior) switching_rates(c, y, c->k1, rate0);
                 switched = 1;
                 last = 0;
                 reject = 0;
@@ -458,6 +527,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
             }
             memcpy(c->k1, c->k7, sizeof(double) * N);
             memcpy(y, c->y1, sizeof(double) * N);
+            if (interior) memcpy(rate0, rate1, sizeof(double) * ng);
             double hstep = h;
             t += h;
             if (record && nhist < cap) {
@@ -482,6 +552,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     out[O_NHIST] = nhist;
     out[O_NREJ] = nrej;
     out[O_NSW] = nsw;
+    out[O_INTERIOR] = ninterior;
     free(c->arg); free(c->res); free(c->iw); free(c->w); free(buf); free(signs);
     return status;
 }

@@ -76,13 +76,16 @@ class Shooting:
     detection : ``"none" | "detection" | "correction"``
     jacobian : ``"fd" | "variational"``
     rtol, atol : integrator tolerances.
+    interior_check : bool
+        Also detect a pair of switchings inside one integration step (a short arc); see
+        :meth:`CompiledSystem.integrate`. Off: the sign test at the step's ends only.
     system : CompiledSystem, optional
         Reuse an already compiled system for the same problem and law.
     """
 
     def __init__(self, problem: OptimalControlProblem, law: ControlLaw, *, detection: str = "correction",
                  jacobian: str = "variational", rtol: float = 1e-8, atol: float = 1e-8,
-                 system: CompiledSystem | None = None, max_steps: int = 2_000_000):
+                 system: CompiledSystem | None = None, max_steps: int = 2_000_000, interior_check: bool = True):
         if detection not in DETECTION_MODES:
             raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
         if jacobian not in JACOBIANS:
@@ -92,6 +95,7 @@ class Shooting:
         self.problem, self.law = problem, law
         self.detection, self.jacobian = detection, jacobian
         self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
+        self.interior_check = bool(interior_check)
         nx = problem.nx
         x0 = []
         for s in problem.states:
@@ -138,7 +142,12 @@ class Shooting:
         return z[:self.problem.nx], tf
 
     def integrate(self, z, parameters=None, *, variational: bool = False, record: bool = False) -> Integration:
-        """The trajectory from the initial state and the costates (and tf) in ``z``."""
+        """The trajectory from the initial state and the costates (and tf) in ``z``.
+
+        ``parameters``: the problem's parameter vector; default, this problem's values
+        (not those of the problem the shared compiled system was built from).
+        """
+        P = self._params(parameters)
         p0, tf = self._split(z)
         nx, sysm = self.problem.nx, self.compiled.system
         y0 = np.concatenate([self.x0, p0, [0.0]])
@@ -147,9 +156,9 @@ class Shooting:
             Psi0 = np.zeros((sysm.n, nx))
             Psi0[nx:2 * nx] = np.eye(nx)
         self.counts["integrations"] += 1
-        res = self.compiled.integrate(y0, self.problem.t0, tf, parameters, detection=self.detection,
+        res = self.compiled.integrate(y0, self.problem.t0, tf, P, detection=self.detection,
                                       rtol=self.rtol, atol=self.atol, Psi0=Psi0, record=record,
-                                      max_steps=self.max_steps)
+                                      max_steps=self.max_steps, interior_check=self.interior_check)
         if res.status != "ok":
             raise SolverError("Dormand-Prince integrator", res.status, res.accepted + res.rejected,
                               f"at z = {np.array2string(np.asarray(z), precision=6)}", unit="steps")
