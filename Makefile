@@ -12,8 +12,9 @@ KERNEL := ocpkit
 STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 ORBIT     := notebooks/05_orbit_transfer.ipynb
-# the full orbit-transfer run (all five thrusts, continuations from scratch); CI's nbval uses the fast defaults
-ORBIT_PARAMS := -p thrusts None -p recompute True
+# the full orbit-transfer run (all five thrusts, continuations from scratch, the whole 5 N horizon study);
+# CI's nbval uses the fast defaults
+ORBIT_PARAMS := -p thrusts None -p recompute True -p horizon_seeds "[1.3, 1.6, 1.75, 2.0]"
 
 # One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core.
 export OPENBLAS_NUM_THREADS := 1

@@ -52,7 +52,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--output", default=str(build_dir() / "bench" / "shooting.csv"))
     args = ap.parse_args()
-    problem = orbit_transfer(5.0, lam=1.0, tf=args.hours)
+    problem = orbit_transfer(5.0, lam=1.0, final="time", tf=args.hours)
     t = time.perf_counter()
     system = HamiltonianSystem(problem, control_law(problem, "ball"))
     compiled = CompiledSystem(system)

@@ -4,7 +4,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit.problems import orbit_transfer, orbit_transfer_constants, thrust_units
+from ocpkit.problems import (
+    final_longitude,
+    minimum_longitude,
+    orbit_transfer,
+    orbit_transfer_constants,
+    thrust_units,
+)
 from ocpkit.problems.orbit_transfer import equinoctial_to_cartesian
 
 
@@ -17,7 +23,7 @@ def test_equinoctial_dynamics_match_cartesian_two_body_with_local_thrust():
     equals Newton's law with the thrust resolved in the radial / orthoradial / normal frame."""
     c = orbit_transfer_constants()
     mu = c["mu_Mm3_h2"]
-    pr = orbit_transfer(2.0, lam=1.0, tf=100.0)
+    pr = orbit_transfer(2.0, lam=1.0, final="time", tf=100.0)
     x = ca.SX.sym("x", 7)
     u = ca.SX.sym("u", 3)
     pos, vel = equinoctial_to_cartesian(x[:6], mu)
@@ -50,11 +56,38 @@ def test_mass_flow_is_about_2000_s_specific_impulse():
 
 def test_bad_orbit_transfer_arguments():
     with pytest.raises(ValueError, match="thrust_N"):
-        orbit_transfer(-1.0, tf=10.0)
-    with pytest.raises(ValueError, match="fixed final time"):
-        orbit_transfer(1.0)
+        orbit_transfer(-1.0)
+    with pytest.raises(ValueError, match="needs the final time"):
+        orbit_transfer(1.0, final="time")
     with pytest.raises(ValueError, match="objective"):
-        orbit_transfer(1.0, tf=10.0, objective="energy")
+        orbit_transfer(1.0, objective="energy")
+    with pytest.raises(ValueError, match="final must be one of"):
+        orbit_transfer(1.0, final="apogee")
+    with pytest.raises(ValueError, match="final must be one of"):
+        orbit_transfer(1.0, objective="time", final="time")
+    with pytest.raises(ValueError, match="final longitude must exceed"):
+        orbit_transfer(1.0, longitude=0.0)
+    with pytest.raises(ValueError, match="lam"):
+        orbit_transfer(1.0, lam=2.0)
+
+
+def test_the_slides_reading_fixes_the_final_longitude_and_frees_the_final_time():
+    """Default reading (data/problems): L(tf) = L0 + 1.25 * 267.537780225 / Tmax, tf free; fixed time is the other."""
+    c = orbit_transfer_constants()
+    L0 = c["initial"]["L"]
+    assert c["final_condition"] == "longitude"
+    for T in (5.0, 0.1):
+        pr = orbit_transfer(T)
+        assert pr.free_final_time
+        L = pr.states[pr.state_index("L")]
+        assert L.final == pytest.approx(L0 + 1.25 * 267.537780225 / T)
+        assert final_longitude(T) == pytest.approx(L.final)
+        assert minimum_longitude(T) == pytest.approx(L0 + 267.537780225 / T)
+    timed = orbit_transfer(5.0, final="time", tf=250.0)
+    assert not timed.free_final_time and timed.tf == 250.0
+    assert timed.states[timed.state_index("L")].final is None
+    assert orbit_transfer(5.0, longitude=80.0).states[5].final == 80.0
+    assert orbit_transfer(5.0, multiplier=2.0).states[5].final == pytest.approx(L0 + 2 * 267.537780225 / 5)
 
 
 @pytest.fixture(scope="module")
@@ -78,17 +111,61 @@ def test_minimum_time_shooting_at_strong_thrust(systems):
     assert np.abs(H + 1).max() < 1e-6  # H = -1 along the whole transfer
 
 
-def test_l1_solution_at_5N_from_the_cached_energy_solution(systems):
-    """Energy costates cached in data/derived by notebook 05 (computed by ocpkit.orbit_study)."""
+def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
+    """The slides' reading at 5 N from the energy costates cached by notebook 05: their fuel, switchings and steps.
+
+    Slides 11-12 (detection): 134.49 kg, 22 switchings, 604 steps (data/paper/switching_detection.csv); the free
+    final time makes H vanish along the whole transfer.
+    """
+    from ocpkit import orbit_study
+    from ocpkit.paper import paper_table
+
+    energy = orbit_study.read_cache("orbit_transfer_energy")
+    z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
+    slides = paper_table("switching_detection").set_index(["thrust_N", "detection", "jacobian"])
+    ref = slides.loc[(5.0, "detection", "fd")]
+    for detection in ("detection", "correction"):
+        s = systems.shooting("fuel", 5.0, detection=detection, jacobian="variational", tol=1e-8)
+        r = s.solve(z, maxfev=300)
+        assert r.norm < 1e-9
+        assert orbit_study.fuel_kg(r) == pytest.approx(ref.objective_kg, abs=0.05)
+        assert r.trajectory.switchings == ref.switchings
+        assert r.trajectory.steps == pytest.approx(ref.steps, rel=0.03)
+        traj = s.integrate(r.z, record=True)
+        assert np.abs(traj.hamiltonian).max() < 1e-6  # H(t) = 0 with a free final time
+        assert abs(traj.y[5] - final_longitude(5.0)) < 1e-9
+        u = np.linalg.norm(traj.controls(s.compiled.system), axis=1)
+        assert np.all(np.isclose(u, 0.0) | np.isclose(u, 1.0)), "bang-bang: |u| in {0, 1}"
+    assert orbit_study.fuel_kg(r) < energy[(energy.reading == "longitude") & (energy.thrust_N == 5.0)].energy_fuel_kg.iloc[0]
+
+
+def test_shared_system_integrates_at_the_problems_thrust(systems):
+    """Regression: the shared compiled system is built at 1 N; a 5 N shooting must burn 5 N worth of fuel."""
     from ocpkit import orbit_study
 
     energy = orbit_study.read_cache("orbit_transfer_energy")
-    row = energy[np.isclose(energy.thrust_N, 5.0)].iloc[0]
-    z = row[orbit_study.COSTATES].to_numpy(dtype=float)
-    s = systems.shooting("fuel", 5.0, row.tf_h, detection="correction", jacobian="variational", tol=1e-8)
-    r = s.solve(z, maxfev=300)
-    assert r.norm < 1e-9
-    assert orbit_study.fuel_kg(r) < row.energy_fuel_kg
-    u = np.linalg.norm(r.trajectory.controls(s.compiled.system), axis=1)
-    assert np.all(np.isclose(u, 0.0) | np.isclose(u, 1.0)), "bang-bang: |u| in {0, 1}"
-    assert r.trajectory.switchings > 10
+    z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
+    s = systems.shooting("fuel", 5.0, tol=1e-8)
+    full = s.integrate(z)
+    assert 1500.0 - full.y[6] > 100.0
+    assert s.residual(z) == pytest.approx(s.residual(z, s.problem.parameter_values))
+
+
+def test_follow_halves_a_failing_step():
+    """The continuation routine bisects a step its solver cannot take, and names the value where it gives up."""
+    from ocpkit.errors import SolverError
+    from ocpkit.orbit_study import follow
+
+    class Result:
+        def __init__(self, z):
+            self.z = z
+
+    def solve_at(v, z):  # converges only from within 0.3 of the value
+        if abs(v - z[0]) > 0.3:
+            raise SolverError("toy", "too far")
+        return Result(np.array([v]))
+
+    path = follow([1.0], solve_at, np.array([0.0]), start=0.0)
+    assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0]
+    with pytest.raises(SolverError, match="failed at"):
+        follow([10.0], solve_at, np.array([0.0]), start=0.0, max_halvings=3)

@@ -11,9 +11,17 @@ from .entry_landing import (
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants, smoothing_study
 from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
-from .orbit_transfer import orbit_transfer, orbit_transfer_constants, thrust_units
+from .orbit_transfer import (
+    final_longitude,
+    minimum_longitude,
+    orbit_transfer,
+    orbit_transfer_constants,
+    thrust_units,
+)
 
 __all__ = [
+    "final_longitude",
+    "minimum_longitude",
     "orbit_transfer",
     "orbit_transfer_constants",
     "thrust_units",

@@ -21,18 +21,50 @@ STATE_NAMES = ("P", "ex", "ey", "hx", "hy", "L", "m")
 
 def orbit_transfer_constants() -> dict:
     d = load_problem_data("orbit_transfer")
+    tr = d["transfer"]
     return {
         **d["constants"],
         "initial": dict(d["initial"]),
         "final": dict(d["final"]),
-        "thrusts_N": list(d["transfer"]["thrusts_N"]),
-        "final_time_factor": d["transfer"]["final_time_factor"],
+        "thrusts_N": list(tr["thrusts_N"]),
+        "final_condition": tr["final"],
+        "minimum_longitude_rad_N": tr["minimum_longitude_rad_N"],
+        "longitude_multiplier": tr["longitude_multiplier"],
+        "minimum_time_h_N": tr["minimum_time_h_N"],
+        "final_time_factor": tr["final_time_factor"],
     }
 
 
 def thrust_units(thrust_N: float) -> float:
     """A thrust in newtons, in kg Mm / h^2."""
     return float(thrust_N) * orbit_transfer_constants()["newton_to_kg_Mm_h2"]
+
+
+def minimum_longitude(thrust_N: float) -> float:
+    """The authors' estimate of the minimum transfer longitude (rad): ``L0 + 267.54 / Tmax``."""
+    c = orbit_transfer_constants()
+    return c["initial"]["L"] + c["minimum_longitude_rad_N"] / _positive_thrust(thrust_N)
+
+
+def final_longitude(thrust_N: float, multiplier: float | None = None) -> float:
+    """The fixed final longitude of the slides' reading: ``L0 + c (Lf_min - L0)`` (rad)."""
+    c = orbit_transfer_constants()
+    m = c["longitude_multiplier"] if multiplier is None else float(multiplier)
+    if not (m > 0 and math.isfinite(m)):
+        raise ValueError(f"the longitude multiplier must be positive, got {multiplier!r}")
+    L0 = c["initial"]["L"]
+    return L0 + m * (minimum_longitude(thrust_N) - L0)
+
+
+def minimum_time_estimate(thrust_N: float) -> float:
+    """The authors' rough estimate of the minimum transfer time (h): ``850 / Tmax``."""
+    return orbit_transfer_constants()["minimum_time_h_N"] / _positive_thrust(thrust_N)
+
+
+def _positive_thrust(thrust_N) -> float:
+    if not (isinstance(thrust_N, (int, float, np.floating)) and thrust_N > 0 and math.isfinite(thrust_N)):
+        raise ValueError(f"thrust_N must be a positive number of newtons, got {thrust_N!r}")
+    return float(thrust_N)
 
 
 def equinoctial_fields(x, mu):
@@ -52,18 +84,40 @@ def equinoctial_fields(x, mu):
     return F0, F1, F2, F3
 
 
-def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, tf: float | None = None,
+FINAL_CONDITIONS = ("longitude", "time", "free")
+
+
+def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, *, final: str | None = None, tf: float | None = None,
+                   longitude: float | None = None, multiplier: float | None = None,
                    objective: str = "fuel") -> OptimalControlProblem:
     """The transfer with thrust ``thrust_N`` (parameter ``Tmax`` in kg Mm/h^2).
 
-    ``objective="fuel"``: minimise ``int lam |u| + (1 - lam) |u|^2 dt`` over the fixed
-    ``tf`` (hours). ``objective="time"``: minimise tf (free) with ``|u| <= 1``.
+    Beyond the GEO elements (P, ex, ey, hx, hy), the final condition is one of
+    (``data/problems/orbit_transfer.toml`` gives the readings and their evidence):
+
+    * ``final="longitude"`` (the slides' problem; default for the fuel objective): the
+      final longitude is fixed, ``L(tf) = longitude``, default
+      ``L0 + c (Lf_min - L0)`` (:func:`final_longitude`, ``c = multiplier``), and tf is
+      free: the shooting adds the transversality condition ``H(tf) = 0``. ``tf`` is then
+      only the guess of the free final time.
+    * ``final="time"``: tf fixed (``tf`` hours, required), L free.
+    * ``final="free"`` (minimum time only; its default): tf minimised, L free.
+
+    ``objective="fuel"``: minimise ``int lam |u| + (1 - lam) |u|^2 dt`` (``lam = 0``: the
+    energy problem, ``lam = 1``: minimum fuel). ``objective="time"``: minimise tf with
+    ``|u| <= 1`` (``final`` ``"free"`` or ``"longitude"``).
     """
     c = orbit_transfer_constants()
     if objective not in ("fuel", "time"):
         raise ValueError(f"objective must be 'fuel' or 'time', got {objective!r}")
-    if not (thrust_N > 0 and math.isfinite(thrust_N)):
-        raise ValueError(f"thrust_N must be positive, got {thrust_N!r}")
+    _positive_thrust(thrust_N)
+    if final is None:
+        final = c["final_condition"] if objective == "fuel" else "free"
+    allowed = ("longitude", "time") if objective == "fuel" else ("free", "longitude")
+    if final not in allowed:
+        raise ValueError(f"final must be one of {allowed} for the {objective} objective, got {final!r}")
+    if not (isinstance(lam, (int, float, np.floating)) and 0.0 <= lam <= 1.0):
+        raise ValueError(f"lam must lie in [0, 1], got {lam!r}")
     mu, beta = c["mu_Mm3_h2"], c["beta"]
 
     def dynamics(x, u, t, Pm):
@@ -72,22 +126,37 @@ def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, tf: float | None = N
         xdot = [F0[i] + acc * (u[0] * F1[i] + u[1] * F2[i] + u[2] * F3[i]) for i in range(6)]
         return ca.vertcat(*xdot, -beta * Pm["Tmax"] * ca.norm_2(u))
 
-    ini, fin = c["initial"], c["final"]
+    ini, fin = dict(c["initial"]), dict(c["final"])
+    what = ""
+    if final == "longitude":
+        Lf = final_longitude(thrust_N, multiplier) if longitude is None else float(longitude)
+        if not (math.isfinite(Lf) and Lf > ini["L"]):
+            raise ValueError(f"the final longitude must exceed L0 = {ini['L']}, got {longitude!r}")
+        fin["L"] = Lf
+        what = f", L(tf) = {Lf:.6g} rad"
     states = [State(n, initial=ini[n], final=fin.get(n)) for n in STATE_NAMES]
     controls = [Control(f"u{i}", -1.0, 1.0) for i in (1, 2, 3)]
     params = {"Tmax": thrust_units(thrust_N), "lam": lam}
-    if objective == "fuel":
-        if tf is None or not tf > 0:
-            raise ValueError("the fuel problem needs a fixed final time tf (hours)")
+    guess = minimum_time_estimate(thrust_N)
+    if objective == "time":
         return OptimalControlProblem(
-            "orbit_transfer_fuel", states, controls, dynamics, tf=float(tf),
-            lagrange=lambda x, u, t, Pm: Pm["lam"] * ca.norm_2(u) + (1 - Pm["lam"]) * ca.sumsqr(u),
-            parameters=params, description=f"GTO-GEO minimum fuel, {thrust_N} N, tf = {tf} h",
+            "orbit_transfer_time", states, controls, dynamics, tf=FreeFinalTime(1e-3, 1e6, guess),
+            mayer=lambda x0, xf, t0, tff, Pm: tff, lagrange=lambda x, u, t, Pm: 0 * ca.norm_2(u),
+            parameters=params, description=f"GTO-GEO minimum time, {thrust_N} N{what}",
         )
+    if final == "time":
+        if tf is None or not tf > 0:
+            raise ValueError("the fixed-time reading (final='time') needs the final time tf (hours)")
+        tf_spec, what = float(tf), f", tf = {tf} h"
+    else:
+        g = guess * 1.2 if tf is None else float(tf)
+        if not g > 0:
+            raise ValueError(f"the final-time guess must be positive, got {tf!r}")
+        tf_spec = FreeFinalTime(1e-3, 1e6, g)
     return OptimalControlProblem(
-        "orbit_transfer_time", states, controls, dynamics, tf=FreeFinalTime(1.0, 1e5, 100.0),
-        mayer=lambda x0, xf, t0, tff, Pm: tff, lagrange=lambda x, u, t, Pm: 0 * ca.norm_2(u),
-        parameters=params, description=f"GTO-GEO minimum time, {thrust_N} N",
+        "orbit_transfer_fuel", states, controls, dynamics, tf=tf_spec,
+        lagrange=lambda x, u, t, Pm: Pm["lam"] * ca.norm_2(u) + (1 - Pm["lam"]) * ca.sumsqr(u),
+        parameters=params, description=f"GTO-GEO minimum fuel (lambda = {lam}), {thrust_N} N{what}",
     )
 
 
@@ -170,7 +239,7 @@ def tangential_thrust_guess(thrust_N: float):
     from scipy.integrate import solve_ivp
 
     c = orbit_transfer_constants()
-    pr = orbit_transfer(thrust_N, tf=1.0)
+    pr = orbit_transfer(thrust_N, final="time", tf=1.0)
     x0 = [c["initial"][n] for n in STATE_NAMES]
 
     def rhs(t, x):
