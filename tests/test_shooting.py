@@ -252,3 +252,16 @@ def test_shooting_integrates_with_its_own_problem_parameters():
     assert traj.y[0] == pytest.approx(6.0)  # x(2) = gain * 2, with the problem's gain 3
     assert np.allclose(traj.parameters, [3.0])
     assert np.asarray(traj.controls(compiled_at_one.system)).ravel()[0] == pytest.approx(1.0)
+
+
+def test_finite_difference_step_follows_the_noise_of_the_shooting_function(osc_system):
+    """sqrt(relative noise) (Dennis & Schnabel): the integrator's tolerance without detection, rounding with it."""
+    pr, compiled = osc_system
+    law = compiled.system.law
+    assert Shooting(pr, law, detection="none", rtol=1e-8, system=compiled).fd_step == pytest.approx(1e-4)
+    for detection in ("detection", "correction"):
+        s = Shooting(pr, law, detection=detection, rtol=1e-8, system=compiled)
+        assert s.fd_step == pytest.approx(np.sqrt(np.finfo(float).eps))
+    assert Shooting(pr, law, fd_step=1e-6, system=compiled).fd_step == 1e-6
+    with pytest.raises(ValueError, match="fd_step"):
+        Shooting(pr, law, fd_step=0.0, system=compiled)

@@ -15,10 +15,13 @@
  *
  * Crossings inside a step (opt_int[I_INTERIOR], detection and correction only): a sign
  * test at the step's ends misses a pair of crossings within one step, i.e. a short arc
- * (Shampine & Thompson, "Event location for ordinary differential equations", 2000).
- * With the check on, g's cubic Hermite interpolant from g and dg/dt = dg/dy . f at both
- * ends locates g's interior extremum; where the cubic comes near or through zero there, g
- * is evaluated on the dense output, and a sign change opens the arc at the first zero.
+ * (Shampine & Thompson, "Event location for ordinary differential equations", 2000), and
+ * may locate the last of three crossings rather than the first. With the check on, g's
+ * cubic Hermite interpolant from g and dg/dt = dg/dy . f at both ends says where g has an
+ * interior extremum; where the cubic comes near or through zero there, g is evaluated on
+ * the dense output, and a sign change there puts the first crossing before it (located on
+ * the dense output, and by the correction within that bracket). A heuristic: an excursion
+ * the cubic does not foresee is still missed.
  *
  * With variational columns (opt_int[I_NVAR] > 0) the state is augmented by
  * Psi = dy/dz (n x nvar, column-major), integrated on the same steps (error control on y
@@ -29,6 +32,7 @@
  * The flows come from CasADi-generated C (ocp_flow, ocp_varflow, ocp_switching,
  * ocp_dswitch, ocp_ham), compiled into the same shared library.
  */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -209,13 +213,16 @@ static void dense_eval(const Ctx *c, double theta, int count, double *out) {
 }
 
 /* zero of g_k along the dense output on theta in (a, b] (g_k(a) = ga, g_k(b) = gb of opposite
-   signs), Illinois variant of regula falsi */
+   signs), Illinois variant of regula falsi. An iterate within 1e-9 of the bracket's width from
+   an end is replaced by the midpoint: right after a switching g_k(a) is rounding noise, and the
+   secant would otherwise probe g where its sign is noise too. */
 static double dense_root(Ctx *c, int k, double a, double b, double ga, double gb) {
     double fa = ga, fb = gb;
     int side = 0;
     for (int it = 0; it < 200; it++) {
         double m = b - fb * (b - a) / (fb - fa);
-        if (!(m > a && m < b)) m = 0.5 * (a + b);
+        double guard = 1e-9 * (b - a);
+        if (!(m > a + guard && m < b - guard)) m = 0.5 * (a + b);
         dense_eval(c, m, c->n, c->ytmp);
         switching(c, c->ytmp, c->gtmp);
         double fm = c->gtmp[k];
@@ -246,10 +253,11 @@ static void switching_rates(Ctx *c, const double *y, const double *dy, double *r
 }
 
 /* theta in (0, 1) where the cubic Hermite interpolant of g on a step (values g0, g1, slopes
-   s0 = h dg/dt(t), s1 = h dg/dt(t + h)) has an interior extremum that reaches below half of
-   min(|g0|, |g1|) on g0's side (or crosses zero), the earliest such; -1 if none */
-static double interior_suspect(double g0, double g1, double s0, double s1) {
-    double sg = g0 > 0 ? 1.0 : -1.0;
+   s0 = h dg/dt(t), s1 = h dg/dt(t + h)) has an interior extremum that comes within half of
+   min(|g0|, |g1|) of zero from the mode's side (side = 1: g > 0), or crosses it; the earliest
+   such, -1 if none. A heuristic: it tells where to look on the dense output, not whether g crosses. */
+static double interior_suspect(int side, double g0, double g1, double s0, double s1) {
+    double sg = side ? 1.0 : -1.0;
     double b = s0, cc = -3 * g0 - 2 * s0 + 3 * g1 - s1, d = 2 * g0 + s0 - 2 * g1 + s1;
     double roots[2];
     int nr = 0;
@@ -309,7 +317,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     c->iw = malloc(sizeof(casadi_int) * (m[2] + 1));
     c->w = malloc(sizeof(casadi_real) * (m[3] + 1));
     double *buf = malloc(sizeof(double) * (17 * (size_t)N + 7 * (size_t)ng + (size_t)ng * n + 3 * (size_t)n));
-    int *signs = malloc(sizeof(int) * (2 * (size_t)ng + 1));
+    int *signs = malloc(sizeof(int) * (3 * (size_t)ng + 1));
     if (!c->arg || !c->res || !c->iw || !c->w || !buf || !signs) {
         out[O_STATUS] = NO_MEMORY;
         return NO_MEMORY;
@@ -327,6 +335,7 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
     c->dg = p; p += (size_t)ng * n;
     c->phiI = p; p += n; c->phiII = p; p += n; c->ytmp = p; p += n;
     int *sc = signs + ng; /* scratch signs for mode -1 evaluations */
+    int *inside = signs + 2 * ng; /* the crossing found for g_k opens an arc inside the step */
 
     memcpy(y, y0, sizeof(double) * N);
     double t = t0;
@@ -409,32 +418,42 @@ int ocp_integrate(const double *y0, double t0, double tf, const double *P, const
             for (int k = 0; k < ng; k++) {
                 theta_k[k] = 2.0;
                 hi_k[k] = 1.0;
-                if ((gnew[k] > 0) != signs[k]) {
-                    if (!prepared) { dense_prepare(c, y, c->k1, h); prepared = 1; }
-                    theta_k[k] = dense_root(c, k, 0.0, 1.0, c->g[k], gnew[k]);
-                    first = k;
-                    if (theta_k[k] < theta) theta = theta_k[k];
-                } else if (interior) {
-                    double th = interior_suspect(c->g[k], gnew[k], h * rate0[k], h * rate1[k]);
+                inside[k] = 0;
+                int crossed = (gnew[k] > 0) != signs[k];
+                /* just after a switching g_k is zero to rounding, possibly on the side it left: it starts
+                   on the side its mode says (the zero at the step's start is the switching itself) */
+                double g0 = c->g[k];
+                if (g0 == 0.0 || (g0 > 0) != signs[k]) g0 = signs[k] ? DBL_MIN : -DBL_MIN;
+                if (interior) {
+                    /* an excursion through zero before the step's end: the first crossing lies before it
+                       (a short arc when the ends agree, the first of three crossings when they do not) */
+                    double th = interior_suspect(signs[k], g0, gnew[k], h * rate0[k], h * rate1[k]);
                     if (th > 0) {
                         if (!prepared) { dense_prepare(c, y, c->k1, h); prepared = 1; }
                         dense_eval(c, th, n, c->ytmp);
                         switching(c, c->ytmp, c->gtmp);
                         double gm = c->gtmp[k];
                         if ((gm > 0) != signs[k]) {
-                            theta_k[k] = dense_root(c, k, 0.0, th, c->g[k], gm);
+                            theta_k[k] = dense_root(c, k, 0.0, th, g0, gm);
                             hi_k[k] = th;
-                            first = k;
-                            if (theta_k[k] < theta) theta = theta_k[k];
+                            inside[k] = !crossed; /* an arc the end-of-step test would miss */
                         }
                     }
+                }
+                if (crossed && theta_k[k] > 1.0) {
+                    if (!prepared) { dense_prepare(c, y, c->k1, h); prepared = 1; }
+                    theta_k[k] = dense_root(c, k, 0.0, 1.0, g0, gnew[k]);
+                }
+                if (theta_k[k] <= 1.0) {
+                    first = k;
+                    if (theta_k[k] < theta) theta = theta_k[k];
                 }
             }
             if (first >= 0) {
                 int kstar = 0;
                 for (int k = 0; k < ng; k++) if (theta_k[k] == theta) { kstar = k; break; }
                 double tau = t + theta * h, t_hi = t + hi_k[kstar] * h;
-                if (hi_k[kstar] < 1.0) ninterior++;
+                if (inside[kstar]) ninterior++;
                 if (c->detect == 1) {
                     dense_eval(c, theta, N, ysave);
                 } else {

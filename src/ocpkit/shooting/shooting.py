@@ -10,7 +10,11 @@ problem's fixed initial state. The shooting function collects, at ``tf``:
 ``S(z) = 0`` is solved with MINPACK's hybrid method (``scipy.optimize.root``,
 ``hybr``; the source's solver) or a damped Newton method (Armijo backtracking on
 ``|S|``), given a Jacobian either by forward finite differences (step
-``sqrt(max(rtol, eps)) max(|z_j|, 1)``, MINPACK's rule with ``epsfcn = rtol``) or
+``sqrt(eta) max(|z_j|, 1)`` with ``eta`` the relative noise of S, the rule of Dennis &
+Schnabel, *Numerical Methods for Unconstrained Optimization*, Sec. 5.4, and MINPACK's
+``epsfcn``: the integrator's tolerance without switching detection, whose error
+enters S at every switching, and the machine precision with detection or correction,
+MINPACK's default) or
 from the variational equations integrated alongside (``dy/dz`` with its jump at
 each switching).
 """
@@ -79,13 +83,17 @@ class Shooting:
     interior_check : bool
         Also detect a pair of switchings inside one integration step (a short arc); see
         :meth:`CompiledSystem.integrate`. Off: the sign test at the step's ends only.
+    fd_step : float, optional
+        Relative step of the finite-difference Jacobian; default ``sqrt(rtol)`` without
+        switching detection and ``sqrt(eps)`` with it (see the module docstring).
     system : CompiledSystem, optional
         Reuse an already compiled system for the same problem and law.
     """
 
     def __init__(self, problem: OptimalControlProblem, law: ControlLaw, *, detection: str = "correction",
                  jacobian: str = "variational", rtol: float = 1e-8, atol: float = 1e-8,
-                 system: CompiledSystem | None = None, max_steps: int = 2_000_000, interior_check: bool = True):
+                 system: CompiledSystem | None = None, max_steps: int = 2_000_000, interior_check: bool = True,
+                 fd_step: float | None = None):
         if detection not in DETECTION_MODES:
             raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
         if jacobian not in JACOBIANS:
@@ -96,6 +104,10 @@ class Shooting:
         self.detection, self.jacobian = detection, jacobian
         self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
         self.interior_check = bool(interior_check)
+        noise = max(rtol, np.finfo(float).eps) if detection == "none" else np.finfo(float).eps
+        self.fd_step = float(np.sqrt(noise)) if fd_step is None else float(fd_step)
+        if not (self.fd_step > 0 and np.isfinite(self.fd_step)):
+            raise ValueError(f"fd_step must be positive, got {fd_step!r}")
         nx = problem.nx
         x0 = []
         for s in problem.states:
@@ -202,7 +214,7 @@ class Shooting:
         S0 = self.residual(z, P) if S0 is None else np.asarray(S0, dtype=float)
         J = np.empty((S0.size, z.size))
         for j in range(z.size):
-            h = np.sqrt(max(self.rtol, np.finfo(float).eps)) * max(abs(z[j]), 1.0)
+            h = self.fd_step * max(abs(z[j]), 1.0)
             zp = z.copy()
             zp[j] += h
             if method == "fd":
