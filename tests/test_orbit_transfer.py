@@ -2,6 +2,7 @@
 
 import casadi as ca
 import numpy as np
+import pandas as pd
 import pytest
 
 from ocpkit.problems import (
@@ -169,3 +170,48 @@ def test_follow_halves_a_failing_step():
     assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0]
     with pytest.raises(SolverError, match="failed at"):
         follow([10.0], solve_at, np.array([0.0]), start=0.0, max_halvings=3)
+
+
+def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(systems):
+    """Regression: the thrust continuation ended at 5 N on an extremal at 173.48 h; restarting from the other
+    thrusts' solutions finds 168.75 h (the lowest minimum of t_min against the final longitude, notebook 05)."""
+    from ocpkit import orbit_study
+
+    cached = orbit_study.read_cache("orbit_transfer_tmin")
+    donors = cached[np.isclose(cached.thrust_N, 6.955217) | np.isclose(cached.thrust_N, 12.42003)]
+    assert len(donors) == 2
+    # the 5 N row as the continuation left it: the 6.96 N solution carried to 5 N converges to 173.48 h
+    z = donors[np.isclose(donors.thrust_N, 6.955217)][orbit_study.COSTATES + ["tmin_h"]].to_numpy(dtype=float)[0]
+    z[-1] *= 6.955217 / 5.0
+    at5 = systems.shooting("time", 5.0).solve(z, maxfev=150)
+    assert at5.tf == pytest.approx(173.4822, abs=1e-3)
+    table = pd.concat([donors, pd.DataFrame([orbit_study._tmin_row(5.0, at5.z, at5.norm, True)])], ignore_index=True)
+    table["target"] = np.isclose(table.thrust_N, 5.0)
+    refined, extremals = orbit_study.refine_minimum_time(systems, table, log=None)
+    row = refined[refined.target].iloc[0]
+    assert row.continuation_tmin_h == pytest.approx(173.4822, abs=1e-3)
+    assert row.tmin_h == pytest.approx(168.7510, abs=1e-3)
+    assert extremals.best.sum() == 1 and extremals[extremals.best].tmin_h.iloc[0] == pytest.approx(row.tmin_h)
+
+
+def test_horizon_branch_falls_as_the_final_time_grows(systems):
+    """The slides' 5 N transfer with its longitude released, followed in tf: fuel never rises, and its rate of
+    change is beta Tmax H(tf) (the continuation rejects steps that jump to another extremal)."""
+    from ocpkit import orbit_study
+
+    energy = orbit_study.read_cache("orbit_transfer_energy")
+    tmin = orbit_study.read_cache("orbit_transfer_tmin")
+    tmin5 = float(tmin[np.isclose(tmin.thrust_N, 5.0)].tmin_h.iloc[0])
+    sol = systems.shooting("fuel", 5.0, tol=1e-8).solve(orbit_study.energy_start_vector(energy, "longitude", 5.0))
+    released = orbit_study.solve_robustly(systems.shooting("fuel", 5.0, final="time", tf=sol.tf, tol=1e-8),
+                                          sol.z[:-1])
+    assert orbit_study.fuel_kg(released) < orbit_study.fuel_kg(sol)  # a free longitude costs no more fuel
+    lo, hi = (sol.tf - 4.0) / tmin5, (sol.tf + 4.0) / tmin5
+    branch = orbit_study.horizon_branches(systems, 5.0, [(sol.tf, released.z)], tmin5, lo=lo, hi=hi, step=0.005)
+    assert len(branch) >= 5 and branch.tf_h.min() < sol.tf < branch.tf_h.max()
+    dJ, dt = np.diff(branch.fuel_kg), np.diff(branch.tf_h)
+    assert dJ.max() <= 1e-9
+    rate = 0.5 * (branch.dfuel_dtf_kg_h.to_numpy()[1:] + branch.dfuel_dtf_kg_h.to_numpy()[:-1])
+    assert np.abs(dJ / dt - rate).max() < 0.02
+    bound = orbit_study.best_known_fuel(branch, np.linspace(branch.tf_h.min(), branch.tf_h.max(), 50))
+    assert np.all(np.diff(bound.fuel_kg) <= 1e-12)

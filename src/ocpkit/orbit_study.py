@@ -249,14 +249,15 @@ def _tmin_row(T, z, norm, target):
 def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev: int = 80, log=print):
     """The best minimum time at each target thrust of ``table``, by restarts from every solution in it.
 
-    The minimum-time transfer has many local minima, and a continuation can follow
-    one that is not the lowest. At each target thrust T, the shooting is restarted
-    from every row's costates with its tf scaled by ``T_row / T`` (t_min x Tmax is
-    nearly constant); the smallest converged tf is kept. Returns
-    ``(table, candidates)``: the table with the targets' rows replaced by the best
-    solutions (``continuation_tmin_h`` keeps what the continuation found), and one
-    row per distinct local minimum found at each target (thrust, t_min, final
-    longitude, how many starts reached it).
+    The minimum-time transfer has many extremals (solutions of the shooting
+    equations: local minima, and saddles that are maxima of t_min against the final
+    longitude), and a continuation can follow one that is not the lowest. At each
+    target thrust T, the shooting is restarted from every row's costates with its tf
+    scaled by ``T_row / T`` (t_min x Tmax is nearly constant); the smallest converged
+    tf is kept. Returns ``(table, extremals)``: the table with the targets' rows
+    replaced by the best solutions (``continuation_tmin_h`` keeps what the
+    continuation found), and one row per distinct extremal found at each target
+    (thrust, t_f, final longitude, how many starts reached it).
     """
     table = table.copy()
     table["continuation_tmin_h"] = table.tmin_h
@@ -290,7 +291,7 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
         for name, value in _tmin_row(T, best.z, best.norm, True).items():
             table.at[i, name] = value
         if log:
-            log(f"{T:g} N: {len(minima)} distinct local minima from {len(table)} starts; "
+            log(f"{T:g} N: {len(minima)} distinct extremals from {len(table)} starts; "
                 f"t_min = {best.tf:.4f} h (the continuation had {table.at[i, 'continuation_tmin_h']:.4f} h)")
     return table, pd.DataFrame(found)
 
@@ -322,6 +323,29 @@ def minimum_time_versus_longitude(systems: TransferSystems, thrust_N: float, z_t
         except SolverError:
             pass  # the edge of the feasible longitudes, or a fold: the curve stops there
     return pd.DataFrame(rows).sort_values("dL_rad").drop_duplicates("dL_rad").reset_index(drop=True)
+
+
+def classify_on_scan(dL, scan: pd.DataFrame, width: float = 0.5) -> str:
+    """Whether the free-longitude extremal at ``dL`` (Lf - L0) is a minimum or a maximum of t_min(Lf).
+
+    Compares t_min on the scan (:func:`minimum_time_versus_longitude`) at ``dL`` and
+    ``width`` radians either side; ``"outside"`` when the scan does not cover them.
+    """
+    if not (scan.dL_rad.min() <= dL - width and dL + width <= scan.dL_rad.max()):
+        return "outside"
+    left, mid, right = np.interp([dL - width, dL, dL + width], scan.dL_rad, scan.tmin_h)
+    if left > mid and right > mid:
+        return "minimum"
+    if left < mid and right < mid:
+        return "maximum"
+    return "neither"
+
+
+def scan_minima(scan: pd.DataFrame) -> pd.DataFrame:
+    """The local minima of t_min(Lf) among the scan's points."""
+    t = scan.tmin_h.to_numpy()
+    i = [k for k in range(1, len(t) - 1) if t[k] < t[k - 1] and t[k] < t[k + 1]]
+    return scan.iloc[i].reset_index(drop=True)
 
 
 # -- 3. energy problem -------------------------------------------------------------------------
@@ -517,14 +541,16 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
 
 
 def best_known_fuel(branches: pd.DataFrame, grid) -> pd.DataFrame:
-    """The least fuel known at each final time of ``grid``: an upper bound of the minimum fuel.
+    """The least fuel known at each final time of ``grid``.
 
     A transfer that reaches GEO at tf' can coast there until any tf > tf' (the
-    longitude is free), so the minimum fuel cannot rise with tf, and the best point
-    found at any tf' <= tf (linear interpolation along each branch) bounds it at tf.
+    longitude is free), so the minimum fuel cannot rise with tf, and the best
+    transfer found at any tf' <= tf bounds it at tf. Between solved points the
+    branches are interpolated linearly (the bound is strict at solved points).
     """
     points = []
     for _, br in branches.groupby("branch"):
+        br = br.sort_values("tf_h")
         fine = np.union1d(br.tf_h.to_numpy(), [g for g in grid if br.tf_h.min() <= g <= br.tf_h.max()])
         points.append(np.column_stack([fine, np.interp(fine, br.tf_h, br.fuel_kg)]))
     pts = np.vstack(points)
