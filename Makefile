@@ -29,17 +29,18 @@ $(STAMP): environment.txt pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --disable-pip-version-check -q -r environment.txt
 	$(PY) -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e .
+	$(PY) -c "import pathlib, sysconfig; pathlib.Path(sysconfig.get_paths()['purelib'], 'compendium.pth').write_text('$(CURDIR)/src\n')"
 	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (ocpkit)"
 	touch $@
 
 reproduce: notebooks report
 
 notebooks: setup
-	$(PY) -m ocpkit.notebooks run $(filter-out $(ORBIT),$(NOTEBOOKS)) --output build/notebooks --kernel $(KERNEL)
-	$(PY) -m ocpkit.notebooks run $(ORBIT) --output build/notebooks --kernel $(KERNEL) $(ORBIT_PARAMS)
+	$(PY) -m compendium.notebooks run $(filter-out $(ORBIT),$(NOTEBOOKS)) --output build/notebooks --kernel $(KERNEL)
+	$(PY) -m compendium.notebooks run $(ORBIT) --output build/notebooks --kernel $(KERNEL) $(ORBIT_PARAMS)
 
 report: notebooks
-	$(PY) -m ocpkit.notebooks report build/notebooks --output build/report
+	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
 test: unit nbval
 
@@ -63,7 +64,7 @@ bench: setup
 # stored outputs use the default parameters; their figures and tables go to build/store-output,
 # so storing never overwrites what make reproduce wrote to figures/ and data/derived/
 store: setup
-	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/store-output $(PY) -m ocpkit.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
+	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/store-output $(PY) -m compendium.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
 
 clean:
 	rm -rf build

@@ -11,7 +11,7 @@ import time
 import casadi
 import pandas as pd
 
-from ocpkit.tables import markdown_table
+from compendium.tables import markdown_table
 
 
 def ipopt_overrides(pairs: list[str]) -> dict:

@@ -15,8 +15,8 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import HLGL
-from ocpkit.paths import build_dir
-from ocpkit.problems import lunar_ascent
+from compendium.paths import build_dir
+from compendium.problems import lunar_ascent
 
 TARGETS_S = {20: 0.1, 1000: 2.0, 5000: 15.0}
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import HLGL, MultiRateHLGL
-from ocpkit.paths import build_dir
-from ocpkit.problems import lunar_ascent
+from compendium.paths import build_dir
+from compendium.problems import lunar_ascent
 
 
 def main() -> None:

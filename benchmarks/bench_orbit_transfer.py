@@ -18,11 +18,11 @@ import os
 import numpy as np
 import pandas as pd
 
-from ocpkit import orbit_study as study
-from ocpkit.paper import paper_table
-from ocpkit.paths import build_dir
-from ocpkit.problems.orbit_transfer import orbit_transfer_constants
-from ocpkit.tables import markdown_table
+from compendium.studies import orbit_transfer as study
+from compendium.paper import paper_table
+from compendium.paths import build_dir
+from compendium.problems.orbit_transfer import orbit_transfer_constants
+from compendium.tables import markdown_table
 
 
 def main() -> None:

@@ -13,8 +13,8 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import Radau
-from ocpkit.paths import build_dir
-from ocpkit.problems import entry_landing
+from compendium.paths import build_dir
+from compendium.problems import entry_landing
 
 MESHES = [(60, 1, float("nan")), (100, 1, 1.0), (10, 20, float("nan")), (10, 80, float("nan"))]
 

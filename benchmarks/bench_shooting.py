@@ -23,11 +23,11 @@ import time
 import numpy as np
 import pandas as pd
 
-from ocpkit.paths import build_dir
-from ocpkit.problems import orbit_transfer
-from ocpkit.problems.orbit_transfer import STATE_NAMES, orbit_transfer_constants
+from compendium.paths import build_dir
+from compendium.problems import orbit_transfer
+from compendium.problems.orbit_transfer import STATE_NAMES, orbit_transfer_constants
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, control_law
-from ocpkit.tables import markdown_table
+from compendium.tables import markdown_table
 
 A = [[], [0.2], [3 / 40, 9 / 40], [44 / 45, -56 / 15, 32 / 9], [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729],
      [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]]

@@ -6,9 +6,9 @@ import pytest
 from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, Control, FreeFinalTime, Guess, OptimalControlProblem, Radau, SolverError, State
-from ocpkit.paper import paper_table
-from ocpkit.problems import flat_moon_ascent, linear_tangent_solution, lunar_ascent
-from ocpkit.problems.flat_moon import compare_with_exact
+from compendium.paper import paper_table
+from compendium.problems import flat_moon_ascent, linear_tangent_solution, lunar_ascent
+from compendium.studies.flat_moon import compare_with_exact
 
 
 def polynomial_problem(coeffs, t0=0.3, tf=1.7):

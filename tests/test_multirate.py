@@ -7,9 +7,9 @@ from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, State
 from ocpkit.analysis import max_difference_pct
-from ocpkit.multirate_study import compare_case
-from ocpkit.paper import paper_table
-from ocpkit.problems import lunar_ascent
+from compendium.studies.two_timescale import compare_case
+from compendium.paper import paper_table
+from compendium.problems import lunar_ascent
 
 CASES = {  # paper table -> (scheme row, fast states, ratio)
     "table1": ("two_to_one", ["U", "V"], 2),

@@ -6,7 +6,7 @@ import pytest
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, Radau
 from ocpkit.nlp import Block, SeparableNLP
-from ocpkit.problems import entry_landing, flat_moon_ascent, lunar_ascent
+from compendium.problems import entry_landing, flat_moon_ascent, lunar_ascent
 
 
 def reference_derivatives(nlp, w, lam_f, lam_g):

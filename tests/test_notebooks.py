@@ -1,4 +1,4 @@
-"""Notebook structure, parameter handling and folder independence (ocpkit.notebooks)."""
+"""Notebook structure, parameter handling and folder independence (compendium.notebooks)."""
 
 import json
 from pathlib import Path
@@ -6,8 +6,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from ocpkit import paths
-from ocpkit.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters
+from compendium import paths
+from compendium.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters
 
 NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
 

@@ -1,18 +1,18 @@
-"""The orbit-transfer model (ocpkit.problems.orbit_transfer) against independent physics."""
+"""The orbit-transfer model (compendium.problems.orbit_transfer) against independent physics."""
 
 import casadi as ca
 import numpy as np
 import pandas as pd
 import pytest
 
-from ocpkit.problems import (
+from compendium.problems import (
     final_longitude,
     minimum_longitude,
     orbit_transfer,
     orbit_transfer_constants,
     thrust_units,
 )
-from ocpkit.problems.orbit_transfer import equinoctial_to_cartesian
+from compendium.problems.orbit_transfer import equinoctial_to_cartesian
 
 
 def test_thrust_units():
@@ -93,7 +93,7 @@ def test_the_slides_reading_fixes_the_final_longitude_and_frees_the_final_time()
 
 @pytest.fixture(scope="module")
 def systems():
-    from ocpkit import orbit_study
+    from compendium.studies import orbit_transfer as orbit_study
 
     return orbit_study.TransferSystems()
 
@@ -101,7 +101,7 @@ def systems():
 def test_minimum_time_shooting_at_strong_thrust(systems):
     """From a direct Radau solution's costate estimates: converged, with the transversality conditions of
     a free final time (H = -1, the Mayer cost being tf) and free final L and m (their costates vanish)."""
-    from ocpkit import orbit_study
+    from compendium.studies import orbit_transfer as orbit_study
 
     result, direct = orbit_study.minimum_time_start(systems, 60.0)
     assert result.converged and result.norm < 1e-10
@@ -118,8 +118,8 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
     Slides 11-12 (detection): 134.49 kg, 22 switchings, 604 steps (data/paper/switching_detection.csv); the free
     final time makes H vanish along the whole transfer.
     """
-    from ocpkit import orbit_study
-    from ocpkit.paper import paper_table
+    from compendium.studies import orbit_transfer as orbit_study
+    from compendium.paper import paper_table
 
     energy = orbit_study.read_cache("orbit_transfer_energy")
     z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
@@ -142,7 +142,7 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
 
 def test_shared_system_integrates_at_the_problems_thrust(systems):
     """Regression: the shared compiled system is built at 1 N; a 5 N shooting must burn 5 N worth of fuel."""
-    from ocpkit import orbit_study
+    from compendium.studies import orbit_transfer as orbit_study
 
     energy = orbit_study.read_cache("orbit_transfer_energy")
     z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
@@ -155,7 +155,7 @@ def test_shared_system_integrates_at_the_problems_thrust(systems):
 def test_follow_halves_a_failing_step():
     """The continuation routine bisects a step its solver cannot take, and names the value where it gives up."""
     from ocpkit.errors import SolverError
-    from ocpkit.orbit_study import follow
+    from compendium.studies.orbit_transfer import follow
 
     class Result:
         def __init__(self, z):
@@ -175,7 +175,7 @@ def test_follow_halves_a_failing_step():
 def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(systems):
     """Regression: the thrust continuation ended at 5 N on an extremal at 173.48 h; restarting from the other
     thrusts' solutions finds 168.75 h (the lowest minimum of t_min against the final longitude, notebook 05)."""
-    from ocpkit import orbit_study
+    from compendium.studies import orbit_transfer as orbit_study
 
     cached = orbit_study.read_cache("orbit_transfer_tmin")
     donors = cached[np.isclose(cached.thrust_N, 6.955217) | np.isclose(cached.thrust_N, 12.42003)]
@@ -197,7 +197,7 @@ def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(syste
 def test_horizon_branch_falls_as_the_final_time_grows(systems):
     """The slides' 5 N transfer with its longitude released, followed in tf: fuel never rises, and its rate of
     change is beta Tmax H(tf) (the continuation rejects steps that jump to another extremal)."""
-    from ocpkit import orbit_study
+    from compendium.studies import orbit_transfer as orbit_study
 
     energy = orbit_study.read_cache("orbit_transfer_energy")
     tmin = orbit_study.read_cache("orbit_transfer_tmin")

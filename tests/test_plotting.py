@@ -1,9 +1,9 @@
-"""House style and deterministic figure files (ocpkit.plotting)."""
+"""House style and deterministic figure files (compendium.plotting)."""
 
 import matplotlib.pyplot as plt
 import pytest
 
-from ocpkit import paths, plotting
+from compendium import paths, plotting
 
 
 def test_saved_figures_are_byte_for_byte_reproducible():

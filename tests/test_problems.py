@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from ocpkit.problems import load_problem_data, lunar_ascent, lunar_ascent_constants
+from compendium.problems import load_problem_data, lunar_ascent, lunar_ascent_constants
 
 
 def test_lunar_constants_follow_the_documented_reading():

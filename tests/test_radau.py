@@ -8,15 +8,16 @@ from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, OptimalControlProblem, Radau, SolverError, State
 from ocpkit.nodes import differentiation_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
-from ocpkit.problems import (
+
+from compendium.problems import (
     entry_landing,
     entry_landing_constants,
     flat_moon_ascent,
-    landing_summary,
     linear_tangent_solution,
     minimum_downrange_bound,
 )
-from ocpkit.problems.flat_moon import compare_costates, compare_with_exact
+from compendium.studies.entry_landing import landing_summary
+from compendium.studies.flat_moon import compare_costates, compare_with_exact
 
 S6 = math.sqrt(6.0)
 REFERENCE = {  # LGR points and weights on [-1, 1] (closed form for N = 3, tabulated for N = 4)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ocpkit import Control, OptimalControlProblem, SolverError, State
-from ocpkit.problems import double_integrator, double_integrator_solution, harmonic_oscillator
+from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
 
 

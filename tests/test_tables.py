@@ -1,4 +1,4 @@
-"""Markdown rendering of result tables (ocpkit.tables)."""
+"""Markdown rendering of result tables (compendium.tables)."""
 
 import pytest
 
@@ -8,7 +8,7 @@ def test_markdown_table_renders_numbers_and_gaps():
 
     import pandas as pd
 
-    from ocpkit.tables import markdown_table
+    from compendium.tables import markdown_table
 
     df = pd.DataFrame({"scheme": ["standard", "two_to_one"], "n": [20, 10], "diff": [math.nan, 0.0712]})
     text = markdown_table(df, {"diff": ".2f"})

@@ -5,7 +5,7 @@ from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
 from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "Control",

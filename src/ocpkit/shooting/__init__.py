@@ -4,11 +4,8 @@ detection and correction, variational Jacobians, and a shooting solver."""
 from .compiled import DETECTION_MODES, CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .shooting import JACOBIANS, SOLVERS, Shooting, ShootingResult, homotopy
-from .study import ALL_COMBINATIONS, COMBINATIONS, compare_methods
 
 __all__ = [
-    "ALL_COMBINATIONS",
-    "COMBINATIONS",
     "DETECTION_MODES",
     "JACOBIANS",
     "SOLVERS",
@@ -18,7 +15,6 @@ __all__ = [
     "Integration",
     "Shooting",
     "ShootingResult",
-    "compare_methods",
     "control_law",
     "homotopy",
 ]

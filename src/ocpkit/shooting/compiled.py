@@ -2,10 +2,11 @@
 
 CasADi generates C for the mode-wise flows, switching functions and Hamiltonian of a
 :class:`~ocpkit.shooting.hamiltonian.HamiltonianSystem`; ``dopri5.c`` (next to this
-module) integrates them. Both are compiled with the system's C compiler (``CC``,
-default ``gcc``) into one library, cached under ``build/cache/shooting`` by the hash of
-its sources, and called through ctypes: the whole integration, switching handling
-included, runs in C.
+module, shipped with the package) integrates them. Both are compiled with the system's
+C compiler (``CC``, default ``gcc``) into one library, cached by the hash of its sources
+in ``OCPKIT_CACHE_DIR`` or the user's cache folder (``$XDG_CACHE_HOME/ocpkit/shooting``,
+by default ``~/.cache/ocpkit/shooting``), and called through ctypes: the whole
+integration, switching handling included, runs in C.
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from ..paths import repo_root
 from .hamiltonian import HamiltonianSystem
 
 DETECTION_MODES = ("none", "detection", "correction")
@@ -33,9 +33,17 @@ CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99"]
 
 
 def cache_dir() -> Path:
-    """Where compiled libraries are kept: ``OCPKIT_CACHE_DIR`` or ``<repo>/build/cache/shooting``."""
+    """Where compiled libraries are kept: ``OCPKIT_CACHE_DIR``, else ``<user cache>/ocpkit/shooting``.
+
+    The user cache is ``$XDG_CACHE_HOME`` or ``~/.cache`` (the XDG convention, which
+    Linux and most Unix tools follow).
+    """
     env = os.environ.get("OCPKIT_CACHE_DIR")
-    path = Path(env) if env else repo_root() / "build" / "cache" / "shooting"
+    if env:
+        path = Path(env)
+    else:
+        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        path = Path(base) / "ocpkit" / "shooting"
     path.mkdir(parents=True, exist_ok=True)
     return path
 

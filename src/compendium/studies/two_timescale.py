@@ -6,9 +6,8 @@ from typing import Sequence
 
 import pandas as pd
 
-from .analysis import max_difference_pct
-from .problem import OptimalControlProblem
-from .transcription import HLGL, MultiRateHLGL
+from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
+from ocpkit.analysis import max_difference_pct
 
 TABLE_COLUMNS = [
     "scheme", "segments", "nlp_parameters", "defect_equations", "iterations",

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from .compiled import CompiledSystem
-from .hamiltonian import HamiltonianSystem
-from .shooting import Shooting
+from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting
 
 #: (detection, jacobian) pairs of Martinon & Gergaud's tables; no detection only with finite differences
 COMBINATIONS = [("none", "fd"), ("detection", "fd"), ("correction", "fd"), ("detection", "variational"),

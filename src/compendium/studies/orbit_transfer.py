@@ -32,9 +32,11 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from .errors import SolverError
-from .paths import data_dir, derived_dir
-from .problems.orbit_transfer import (
+from ocpkit import SolverError
+from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, ShootingResult, control_law
+
+from ..paths import data_dir, derived_dir
+from ..problems.orbit_transfer import (
     STATE_NAMES,
     equinoctial_to_cartesian,
     final_longitude,
@@ -43,7 +45,7 @@ from .problems.orbit_transfer import (
     orbit_transfer_direct,
     tangential_thrust_guess,
 )
-from .shooting import ALL_COMBINATIONS, CompiledSystem, HamiltonianSystem, Shooting, ShootingResult, control_law
+from .shooting_methods import ALL_COMBINATIONS
 
 COSTATES = [f"p_{n}" for n in STATE_NAMES]
 TOL = 1e-10  # integrator tolerance of the minimum-time and energy solves
@@ -173,8 +175,7 @@ def minimum_time_start(systems: TransferSystems, thrust_N: float = 60.0, nodes: 
     semi-latus rectum is reached; its costate estimates (Garg et al.) and final
     time start the indirect shooting. Returns ``(shooting_result, direct_solution)``.
     """
-    from .problem import Guess
-    from .transcription import Radau
+    from ocpkit import Guess, Radau
 
     tf0, states = tangential_thrust_guess(thrust_N)
     revs = (states(tf0)[5] - orbit_transfer_constants()["initial"]["L"]) / (2 * math.pi)

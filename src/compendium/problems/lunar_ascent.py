@@ -6,7 +6,7 @@ import math
 
 import casadi as ca
 
-from ..problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
 from ._data import load_problem_data
 
 
@@ -84,28 +84,3 @@ def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
         mayer=lambda x0, xf, t0, tf: tf,
         description="Desai & Conway lunar ascent, minimum time (Eqs. 8-11)",
     )
-
-
-def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None):
-    """Minimum time of the lunar ascent for each speed smoothing eps (HLGL, fixed mesh).
-
-    Returns a DataFrame with eps, tf, the change of tf from the smallest eps,
-    IPOPT iterations and the re-integration error.
-    """
-    import pandas as pd
-
-    from ..transcription import HLGL
-
-    rows = []
-    for eps in smoothings:
-        sol = HLGL(lunar_ascent(float(eps)), segments).solve(ipopt_options=ipopt_options)
-        rows.append({
-            "speed_smoothing": float(eps),
-            "tf": sol.tf,
-            "iterations": sol.iterations,
-            "max_reintegration_error": sol.reintegrate().max_error,
-        })
-    df = pd.DataFrame(rows)
-    ref = df.loc[df["speed_smoothing"].idxmin(), "tf"]
-    df.insert(2, "tf_minus_smallest_eps", df["tf"] - ref)
-    return df

@@ -1,15 +1,9 @@
-"""Test problems, each reading its constants from ``data/problems``."""
+"""The seeds' test problems, each reading its constants from ``data/problems``."""
 
 from ._data import load_problem_data
-from .entry_landing import (
-    entry_landing,
-    entry_landing_constants,
-    landing_summary,
-    minimum_downrange_bound,
-    physical_histories,
-)
+from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
-from .lunar_ascent import lunar_ascent, lunar_ascent_constants, smoothing_study
+from .lunar_ascent import lunar_ascent, lunar_ascent_constants
 from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
 from .orbit_transfer import (
     final_longitude,
@@ -30,13 +24,10 @@ __all__ = [
     "harmonic_oscillator",
     "entry_landing",
     "entry_landing_constants",
-    "landing_summary",
     "minimum_downrange_bound",
-    "physical_histories",
     "flat_moon_ascent",
     "linear_tangent_solution",
     "load_problem_data",
     "lunar_ascent",
     "lunar_ascent_constants",
-    "smoothing_study",
 ]

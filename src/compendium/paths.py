@@ -17,15 +17,15 @@ _PACKAGE_DIR = Path(__file__).resolve().parent
 def repo_root() -> Path:
     """The compendium's root folder (the one holding ``data/`` and ``notebooks/``).
 
-    ``OCPKIT_ROOT`` overrides the location found from the installed package
-    (``src/ocpkit`` lives two levels below the root in the editable install).
+    ``OCPKIT_ROOT`` overrides the location found from this package
+    (``src/compendium`` lives two levels below the root).
     """
     env = os.environ.get("OCPKIT_ROOT")
     root = Path(env).resolve() if env else _PACKAGE_DIR.parents[1]
     if not (root / "data").is_dir():
         raise FileNotFoundError(
             f"cannot find the compendium's data/ folder under {root}; "
-            "install ocpkit in editable mode from the repository (make setup) "
+            "use the repository's environment (make setup puts src/ on its path) "
             "or set OCPKIT_ROOT to the repository root"
         )
     return root
