@@ -55,7 +55,7 @@ def main() -> None:
             rows.append({"thrust_N": T, "solver": solver, "converged": best.converged, "norm_S": best.norm,
                          "norm_S_slides": sl.norm_S, "cpu_s": best.cpu_s, "cpu_s_slides": sl.cpu_s,
                          "n_S": best.n_shooting, "n_jac": best.n_jacobian, "fuel_kg": study.fuel_kg(best),
-                         "switchings": best.trajectory.switchings,
+                         "switchings": best.integration.switchings,
                          "goal_met": study.goal_met(best.converged, best.norm, best.cpu_s, sl)})
             print(f"{T:g} N, {solver}: |S| = {best.norm:.1e} (slides {sl.norm_S:.1e}), "
                   f"CPU {best.cpu_s:.2f} s (slides {sl.cpu_s:g} s)", flush=True)

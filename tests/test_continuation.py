@@ -1,9 +1,10 @@
-"""Pseudo-arclength continuation (ocpkit.shooting.continuation) on a fold with a closed form."""
+"""Continuation (ocpkit.shooting.continuation): pseudo-arclength on a fold with a closed form, natural-parameter steps."""
 
 import numpy as np
 import pytest
 
-from ocpkit.shooting.continuation import arclength
+from ocpkit import SolverError
+from ocpkit.shooting.continuation import GeometricSteps, Schedule, arclength, follow
 
 
 class Fold:
@@ -68,3 +69,42 @@ def test_targets_are_found_under_the_callers_values_in_log_mode():
     path = arclength(PositiveFold(), [np.sqrt(0.7)], "theta", 0.3, 2.0, targets=[0.35, 0.5], log=True, max_steps=60)
     assert path.best(0.35).z[0] ** 2 + 0.35 - 1 == pytest.approx(0.0, abs=1e-12)
     assert set(path.targets) == {0.35, 0.5}
+
+
+class _Result:
+    def __init__(self, z):
+        self.z = z
+
+
+def _near(v, z):  # converges only from within 0.3 of the value
+    if abs(v - z[0]) > 0.3:
+        raise SolverError("toy", "too far")
+    return _Result(np.array([v]))
+
+
+def test_follow_halves_a_failing_step_and_names_where_it_gives_up():
+    path = follow(_near, np.array([0.0]), 0.0, Schedule([1.0]))
+    assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0]
+    with pytest.raises(SolverError, match="failed at"):
+        follow(_near, np.array([0.0]), 0.0, Schedule([10.0], max_halvings=3))
+
+
+def test_geometric_steps_shrink_on_failure_grow_back_and_hit_every_target():
+    def near_in_ratio(v, z):  # converges only for a ratio above 0.75 to the last value
+        if v / z[0] < 0.75:
+            raise SolverError("toy", "too far")
+        return _Result(np.array([v]))
+
+    steps = GeometricSteps(0.05, targets=[0.5, 0.2], factor=0.6)  # 0.6 fails, 0.8 works
+    path = follow(near_in_ratio, np.array([1.0]), 1.0, steps)
+    values = [v for v, _ in path]
+    assert values[-1] == 0.05 and 0.5 in values and 0.2 in values
+    ratios = np.array(values[1:]) / np.array(values[:-1])
+    assert np.all(ratios >= 0.75) and np.all(ratios < 1)
+
+
+def test_several_predictors_and_a_choice():
+    path = follow(lambda v, z: _Result(np.array([v, z[0]])), np.array([0.0]), 0.0, Schedule([1.0]),
+                  predictor=lambda h, v: [h[-1][1][:1], h[-1][1][:1] + 0.1],
+                  choose=lambda rs: max(rs, key=lambda r: r.z[1]))
+    assert path[0][1].z[1] == pytest.approx(0.1)

@@ -97,7 +97,7 @@ def test_solution_interpolants_pass_through_the_nlp_parameters():
     # the Hermite interpolant's slope at the nodes is the dynamics there
     slope = sol.state_interpolant.derivative()(sol.state_times)
     u_nodes = sol.control(sol.state_times)
-    f = np.array([sol.problem.rhs(t, x, u) for t, x, u in zip(sol.state_times, sol.state_values, u_nodes)])
+    f = np.array([np.asarray(sol.problem.dynamics(x, u, t)).ravel() for t, x, u in zip(sol.state_times, sol.state_values, u_nodes)])
     assert np.allclose(slope, f, atol=1e-12)
     df = sol.to_dataframe(n=11)
     assert list(df.columns) == ["t", "X", "Y", "U", "V", "theta"] and len(df) == 11

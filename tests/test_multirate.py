@@ -6,7 +6,6 @@ import pytest
 from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, State
-from ocpkit.analysis import max_difference_pct
 from compendium.studies.two_timescale import compare_case
 from compendium.paper import paper_table
 from compendium.problems import lunar_ascent
@@ -48,7 +47,7 @@ def test_ratio_one_agrees_with_standard_to_discretisation_accuracy():
     one = MultiRateHLGL(pr, 20, ratio=1, fast=["U", "V"]).solve()
     assert one.nlp_parameters == std.nlp_parameters
     assert one.tf == pytest.approx(std.tf, abs=1e-9)
-    d = max_difference_pct(one, std)
+    d = one.difference(std)
     assert d["states"] < 1e-6 and d["controls"] < 1e-4
 
 
@@ -58,7 +57,7 @@ def test_fine_fast_interpolation_is_more_accurate_at_the_same_size():
     paper = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"]).solve()
     fine = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"], fast_interpolation="fine").solve()
     assert fine.nlp_parameters == paper.nlp_parameters
-    assert max_difference_pct(fine, ref)["controls"] < 0.1 * max_difference_pct(paper, ref)["controls"]
+    assert fine.difference(ref)["controls"] < 0.1 * paper.difference(ref)["controls"]
 
 
 def coupled_polynomial_problem(deg_x):

@@ -106,9 +106,9 @@ def test_minimum_time_shooting_at_strong_thrust(systems):
     result, direct = orbit_study.minimum_time_start(systems, 60.0)
     assert result.converged and result.norm < 1e-10
     assert result.tf <= direct.tf + 1e-9, "the indirect solution is at least as fast as the direct one"
-    y = result.trajectory.y
+    y = result.integration.y
     assert abs(y[7 + 5]) < 1e-9 and abs(y[7 + 6]) < 1e-9  # p_L(tf) = p_m(tf) = 0
-    H = result.trajectory.hamiltonian
+    H = result.integration.hamiltonian
     assert np.abs(H + 1).max() < 1e-6  # H = -1 along the whole transfer
 
 
@@ -130,8 +130,8 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
         r = s.solve(z, maxfev=300)
         assert r.norm < 1e-9
         assert orbit_study.fuel_kg(r) == pytest.approx(ref.objective_kg, abs=0.05)
-        assert r.trajectory.switchings == ref.switchings
-        assert r.trajectory.steps == pytest.approx(ref.steps, rel=0.03)
+        assert r.integration.switchings == ref.switchings
+        assert r.integration.steps == pytest.approx(ref.steps, rel=0.03)
         traj = s.integrate(r.z, record=True)
         assert np.abs(traj.hamiltonian).max() < 1e-6  # H(t) = 0 with a free final time
         assert abs(traj.y[5] - final_longitude(5.0)) < 1e-9
@@ -150,26 +150,6 @@ def test_shared_system_integrates_at_the_problems_thrust(systems):
     full = s.integrate(z)
     assert 1500.0 - full.y[6] > 100.0
     assert s.residual(z) == pytest.approx(s.residual(z, s.problem.parameter_values))
-
-
-def test_follow_halves_a_failing_step():
-    """The continuation routine bisects a step its solver cannot take, and names the value where it gives up."""
-    from ocpkit.errors import SolverError
-    from compendium.studies.orbit_transfer import follow
-
-    class Result:
-        def __init__(self, z):
-            self.z = z
-
-    def solve_at(v, z):  # converges only from within 0.3 of the value
-        if abs(v - z[0]) > 0.3:
-            raise SolverError("toy", "too far")
-        return Result(np.array([v]))
-
-    path = follow([1.0], solve_at, np.array([0.0]), start=0.0)
-    assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0]
-    with pytest.raises(SolverError, match="failed at"):
-        follow([10.0], solve_at, np.array([0.0]), start=0.0, max_halvings=3)
 
 
 def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(systems):

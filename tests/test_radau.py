@@ -100,7 +100,7 @@ def test_flat_moon_states_and_costates_against_closed_form(nodes, intervals):
     assert lam["max"] < 1e-8
     # the Hamiltonian of the estimates is -1 (free tf, Mayer cost tf) at every point
     x, lam_v = sol.state_values, sol.costate_values
-    f = np.array([sol.problem.rhs(t, xi, sol.control(t)) for t, xi in zip(sol.state_times, x)])
+    f = np.array([np.asarray(sol.problem.dynamics(xi, sol.control(t), t)).ravel() for t, xi in zip(sol.state_times, x)])
     assert np.abs((lam_v * f).sum(axis=1) + 1.0).max() < 1e-6
 
 
@@ -205,7 +205,7 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
 
         def rhs(t, y, a=a, b=b, tau=tau, u=u):
             theta = float(lagrange_matrix(tau, np.array([2 * (t - a) / (b - a) - 1]))[0] @ u)
-            return sol.problem.rhs(t, y, [theta])
+            return np.asarray(sol.problem.dynamics(y, [theta], t)).ravel()
 
         x = solve_ivp(rhs, (a, b), x, method="DOP853", rtol=1e-13, atol=1e-10).y[:, -1]
     err = np.abs(rei.states[-1] - x)

@@ -41,7 +41,7 @@ def test_control_law_minimises_the_hamiltonian(case):
     sysm = HamiltonianSystem(pr, law)
     x, p, u = ca.SX.sym("x", pr.nx), ca.SX.sym("p", pr.nx), ca.SX.sym("u", pr.nu)
     P = pr.parameter_values
-    H = ca.Function("H", [x, p, u], [pr.lagrange_p(x, u, 0, P) + ca.dot(p, pr.dynamics_p(x, u, 0, P))])
+    H = ca.Function("H", [x, p, u], [pr.L(x, u, 0, P) + ca.dot(p, pr.f(x, u, 0, P))])
     rng = np.random.default_rng(1)
     for _ in range(200):
         xs = np.array([0.3, -0.2, 1.2][: pr.nx]) + 0.1 * rng.normal(size=pr.nx)
@@ -81,7 +81,7 @@ def test_analytic_switching_times_with_correction(di_l1):
     r = di_l1.solve(guess)
     assert r.converged and r.norm < 1e-12
     assert np.allclose(r.p0, exact.p0, atol=1e-10)
-    assert np.allclose(r.trajectory.switching_times, [exact.t1, exact.t2], atol=1e-10)
+    assert np.allclose(r.integration.switching_times, [exact.t1, exact.t2], atol=1e-10)
     assert r.objective == pytest.approx(exact.fuel, abs=1e-10)
 
 
@@ -121,7 +121,7 @@ def test_energy_to_l1_homotopy_ends_at_the_l1_solution():
     exact = double_integrator_solution()
     assert np.allclose(path[-1].p0, exact.p0, atol=1e-9)
     assert fuels[-1] == pytest.approx(exact.fuel, abs=1e-10)
-    assert path[0].trajectory.switchings < path[-1].trajectory.switchings + 3
+    assert path[0].integration.switchings < path[-1].integration.switchings + 3
 
 
 def test_no_detection_rejects_about_half_the_steps(osc_system):

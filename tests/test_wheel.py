@@ -50,8 +50,8 @@ SCRIPT = textwrap.dedent(
     s = Shooting(fuel, control_law(fuel, "box"), detection="correction", jacobian="variational",
                  rtol=1e-12, atol=1e-12)
     r = s.solve(np.array([0.9, 1.5]))
-    print("shooting", r.objective, r.trajectory.switchings)
-    assert abs(r.objective - (3 - np.sqrt(5))) < 1e-9 and r.trajectory.switchings == 2
+    print("shooting", r.objective, r.integration.switchings)
+    assert abs(r.objective - (3 - np.sqrt(5))) < 1e-9 and r.integration.switchings == 2
     assert cache_dir().is_relative_to(here), cache_dir()
     assert list(cache_dir().glob("ocp_*.so")), "the compiled integrator is cached in the user cache"
     print("ok")

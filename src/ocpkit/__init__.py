@@ -3,6 +3,7 @@
 from .errors import SolverError
 from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
+from .trajectory import Trajectory
 from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
 
 __version__ = "0.2.0"
@@ -19,5 +20,6 @@ __all__ = [
     "Solution",
     "SolverError",
     "State",
+    "Trajectory",
     "Transcription",
 ]

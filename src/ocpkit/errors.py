@@ -6,17 +6,19 @@ from __future__ import annotations
 class SolverError(RuntimeError):
     """An NLP or shooting solve did not converge.
 
-    The message names the solver's own status string and the effort spent
+    The message names the solver's own status string, the effort spent
     (``iterations``, counted in ``unit``: IPOPT iterations, integration steps,
-    shooting-function evaluations); the attributes keep what is needed to
-    diagnose the failure, but no result is ever returned from it.
+    shooting-function evaluations) and what to do about it. ``result`` holds the
+    last iterate (a :class:`~ocpkit.Solution` or a shooting result) when there is
+    one: never a converged answer, but what a diagnosis needs.
     """
 
     def __init__(self, solver: str, status: str, iterations: int | None = None, detail: str = "",
-                 unit: str = "iterations"):
+                 unit: str = "iterations", result=None):
         self.solver = solver
         self.status = status
         self.iterations = iterations
+        self.result = result
         msg = f"{solver} failed with status {status!r}"
         if iterations is not None:
             msg += f" after {iterations} {unit}"

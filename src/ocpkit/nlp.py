@@ -26,7 +26,6 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sps
 
-from .errors import SolverError
 
 #: Instances per block above which the mapped evaluations use two threads.
 THREAD_THRESHOLD = 256
@@ -251,7 +250,7 @@ class SeparableNLP:
 
 @dataclass
 class NLPResult:
-    """Raw result of one IPOPT solve (scaled NLP variables)."""
+    """Raw result of one IPOPT solve (scaled NLP variables): the last iterate, whether or not it succeeded."""
 
     w: np.ndarray
     objective: float
@@ -260,11 +259,19 @@ class NLPResult:
     status: str
     iterations: int
     solve_s: float
+    success: bool
     stats: dict = field(repr=False, default_factory=dict)
 
 
+ACCEPTABLE = "Solved_To_Acceptable_Level"
+
+
 def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: bool = False) -> NLPResult:
-    """Run IPOPT; raise :class:`SolverError` naming its status unless it succeeded."""
+    """Run IPOPT and return its last iterate; ``success`` says whether IPOPT succeeded.
+
+    Success is ``Solve_Succeeded``, or ``Solved_To_Acceptable_Level`` with
+    ``allow_acceptable``, and a finite iterate.
+    """
     for name, arr in (("lower bounds", lbw), ("upper bounds", ubw)):
         if np.any(np.isnan(arr)):
             raise ValueError(f"NaN in NLP variable {name}")
@@ -279,12 +286,8 @@ def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: 
     stats = solver.stats()
     status = stats.get("return_status", "unknown")
     iters = int(stats.get("iter_count", -1))
-    ok = status == "Solve_Succeeded" or (allow_acceptable and status == "Solved_To_Acceptable_Level")
-    if not ok:
-        raise SolverError("IPOPT", status, iters)
     w = np.asarray(res["x"]).ravel()
-    if not np.all(np.isfinite(w)):
-        raise SolverError("IPOPT", status, iters, "solution contains NaN")
+    ok = (status == "Solve_Succeeded" or (allow_acceptable and status == ACCEPTABLE)) and bool(np.all(np.isfinite(w)))
     return NLPResult(
         w=w,
         objective=float(res["f"]),
@@ -293,5 +296,14 @@ def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: 
         status=status,
         iterations=iters,
         solve_s=elapsed,
+        success=ok,
         stats={k: v for k, v in stats.items() if isinstance(v, (bool, int, float, str))},
     )
+
+
+def failure_hint(status: str) -> str:
+    """What to do about a failed IPOPT status (for error messages)."""
+    if status == ACCEPTABLE:
+        return ("IPOPT stopped at its acceptable (looser) tolerances; pass allow_acceptable=True to accept this "
+                "solution, or tighten the problem's scaling")
+    return "the last iterate is attached to the error as .result; solve(raise_on_failure=False) returns it instead"

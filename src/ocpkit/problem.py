@@ -8,32 +8,42 @@
 
 This is the problem of Desai & Conway, Eqs. (1)-(5), without general path
 constraints. The definition is independent of any transcription: dynamics and
-costs are Python callables on CasADi symbols, turned here into CasADi
-Functions once.
+costs are Python callables on CasADi symbols, turned into CasADi Functions once
+(:class:`ProblemFunctions`, with the parameter vector ``P`` as their last input)
+and shared by every transcription and by the shooting engine. A problem is
+immutable; :meth:`OptimalControlProblem.replace` makes changed copies, and a
+change of parameter values alone reuses the functions.
+
+One argument order throughout: ``f(x, u, t)``, ``L(x, u, t)``,
+``phi(x0, xf, t0, tf)``, each with ``P`` last in the functions.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable, Mapping, Sequence, Union
 
 import casadi as ca
 import numpy as np
 
 Bound = Union[None, float, tuple[float, float]]
-"""A boundary condition: ``None`` (free), a value (fixed) or ``(lower, upper)``."""
+"""A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
 
-GuessSpec = Union[None, float, tuple[float, float]]
-"""A guess: ``None`` (derived from bounds), a constant, or ``(start, end)`` linear in time."""
+GuessSpec = Union[None, float, tuple[float, float], Callable]
+"""A guess: ``None`` (derived from bounds), a constant, ``(start, end)`` linear in time, or a function of time."""
 
 
 def _as_interval(spec: Bound, what: str) -> tuple[float, float]:
+    """``(lower, upper)`` of a boundary condition or bound pair; the one parser of :data:`Bound`."""
     if spec is None:
         return (-math.inf, math.inf)
-    if isinstance(spec, (tuple, list)):
+    if isinstance(spec, list):
+        raise TypeError(f"{what}: a list {spec!r} is ambiguous; give a value, or a (lower, upper) tuple for an interval")
+    if isinstance(spec, tuple):
         if len(spec) != 2:
-            raise ValueError(f"{what}: expected a value or a (lower, upper) pair, got {spec!r}")
+            raise ValueError(f"{what}: expected a value or a (lower, upper) tuple, got {spec!r}")
         lo, hi = float(spec[0]), float(spec[1])
     else:
         lo = hi = float(spec)
@@ -44,12 +54,49 @@ def _as_interval(spec: Bound, what: str) -> tuple[float, float]:
     return lo, hi
 
 
+def fixed_value(spec: Bound) -> float | None:
+    """The value of a fixed boundary condition, None for a free or interval one."""
+    lo, hi = _as_interval(spec, "boundary condition")
+    return lo if lo == hi else None
+
+
+def guess_function(spec: GuessSpec, what: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+    """The one parser of :data:`GuessSpec`: a function ``(s, t) -> values`` of normalised and physical time.
+
+    A constant is constant, ``(start, end)`` (a tuple or a two-element list) linear in
+    ``s`` in [0, 1], a callable is evaluated at ``t`` (and must return ``t``'s shape);
+    ``None`` gives None.
+    """
+    if spec is None:
+        return None
+    if callable(spec):
+        def from_callable(s, t):
+            val = np.asarray(spec(t), dtype=float)
+            if val.shape != np.shape(t):
+                raise ValueError(f"{what} returned shape {val.shape}, expected {np.shape(t)}")
+            return val
+        return from_callable
+    if isinstance(spec, (tuple, list)):
+        if len(spec) != 2:
+            raise ValueError(f"{what}: expected a value or (start, end), got {spec!r}")
+        a, b = float(spec[0]), float(spec[1])
+        return lambda s, t: a + (b - a) * np.asarray(s, dtype=float)
+    value = float(spec)
+    return lambda s, t: np.full(np.shape(s), value)
+
+
 @dataclass(frozen=True)
 class AffineScaling:
     """NLP variables ``(value - shift) / scale``, component by component."""
 
     shift: np.ndarray
     scale: np.ndarray
+
+    @classmethod
+    def of(cls, variables) -> "AffineScaling":
+        """The scaling of a sequence of :class:`Variable`."""
+        return cls(np.array([v.shift for v in variables], dtype=float),
+                   np.array([v.scale for v in variables], dtype=float))
 
     def subset(self, index) -> "AffineScaling":
         return AffineScaling(self.shift[index], self.scale[index])
@@ -94,17 +141,19 @@ class Variable:
             raise ValueError(f"scale of {self.name!r} must be positive and finite, got {self.scale}")
         if not math.isfinite(self.shift):
             raise ValueError(f"shift of {self.name!r} must be finite, got {self.shift}")
+        guess_function(self.guess, f"guess of {self.name!r}")  # validates
+
+    def _default_guess(self):
+        """Midpoint of the bounds (or the finite bound, or 0), as a guess function."""
+        return guess_function(_midpoint(self.lower, self.upper), self.name)
+
+    def guess_function(self):
+        """This variable's guess as a function ``(s, t) -> values``."""
+        return guess_function(self.guess, f"guess of {self.name!r}") or self._default_guess()
 
     def guess_at(self, s: np.ndarray) -> np.ndarray:
-        """The guess at normalised times ``s`` in [0, 1]."""
-        g = self.guess
-        if g is None:
-            g = _midpoint(self.lower, self.upper)
-        if isinstance(g, (tuple, list)):
-            if len(g) != 2:
-                raise ValueError(f"guess of {self.name!r}: expected a value or (start, end), got {g!r}")
-            return float(g[0]) + (float(g[1]) - float(g[0])) * np.asarray(s, dtype=float)
-        return np.full(np.shape(s), float(g))
+        """The guess at normalised times ``s`` in [0, 1] (not for callable guesses, which need physical times)."""
+        return self.guess_function()(np.asarray(s, dtype=float), None)
 
 
 def _midpoint(lo: float, hi: float) -> float:
@@ -139,22 +188,24 @@ class State(Variable):
         lo, hi = _as_interval(getattr(self, which), which)
         return max(lo, self.lower), min(hi, self.upper)
 
-    def guess_at(self, s: np.ndarray) -> np.ndarray:
-        if self.guess is not None:
-            return super().guess_at(s)
-        a = _fixed_value(self.initial)
-        b = _fixed_value(self.final)
+    @property
+    def fixed_initial(self) -> float | None:
+        """The initial value when it is fixed, else None."""
+        return fixed_value(self.initial)
+
+    @property
+    def fixed_final(self) -> float | None:
+        """The final value when it is fixed, else None."""
+        return fixed_value(self.final)
+
+    def _default_guess(self):
+        """Linear from the fixed initial to the fixed final value (either alone: constant), else the bounds."""
+        a, b = self.fixed_initial, self.fixed_final
         if a is None and b is None:
-            return super().guess_at(s)
+            return super()._default_guess()
         a = b if a is None else a
         b = a if b is None else b
-        return a + (b - a) * np.asarray(s, dtype=float)
-
-
-def _fixed_value(spec: Bound) -> float | None:
-    if spec is None or isinstance(spec, (tuple, list)):
-        return None
-    return float(spec)
+        return guess_function((a, b), self.name)
 
 
 @dataclass(frozen=True)
@@ -179,15 +230,74 @@ class FreeFinalTime:
             raise ValueError(f"final time scale must be positive and finite, got {self.scale}")
 
 
+@dataclass(frozen=True)
+class ProblemFunctions:
+    """A problem's CasADi functions, built once; the parameter vector ``P`` is the last input of each.
+
+    ``f(x, u, t, P)`` the dynamics, ``L(x, u, t, P)`` the running cost (None without
+    one), ``phi(x0, xf, t0, tf, P)`` the Mayer term (None without one); and, for the
+    indirect side, the Hamiltonian ``H = L + p' f`` (:attr:`hamiltonian`).
+    """
+
+    f: ca.Function
+    L: ca.Function | None
+    phi: ca.Function | None
+
+    @cached_property
+    def hamiltonian(self) -> "Hamiltonian":
+        return Hamiltonian.of(self)
+
+
+@dataclass(frozen=True)
+class Hamiltonian:
+    """``H(x, p, u, t, P) = L + p' f`` as symbols and expressions (Pontryagin's principle).
+
+    ``x, p, u, t, P`` are the SX symbols, ``f`` and ``L`` the dynamics and running
+    cost in them (``L`` is 0 without a running cost), ``H`` the Hamiltonian; the
+    costate equations are ``dp/dt = -dH/dx``.
+    """
+
+    x: ca.SX
+    p: ca.SX
+    u: ca.SX
+    t: ca.SX
+    P: ca.SX
+    f: ca.SX
+    L: ca.SX
+    H: ca.SX
+
+    @classmethod
+    def of(cls, functions: ProblemFunctions, x: ca.SX | None = None, p: ca.SX | None = None,
+           P: ca.SX | None = None) -> "Hamiltonian":
+        """The Hamiltonian of ``functions``, on new symbols or on given ``x, p, P`` (with new ``u, t``).
+
+        On given symbols it is a second expression graph of the same definition: the
+        shooting engine's flows use one beside the control law's, as they always have,
+        so that derivatives through the law's control keep their association order
+        (and the compendium's published numbers their last bits).
+        """
+        f_fun = functions.f
+        nx, nu, nP = f_fun.size1_in(0), f_fun.size1_in(1), f_fun.size1_in(3)
+        x = ca.SX.sym("x", nx) if x is None else x
+        p = ca.SX.sym("p", nx) if p is None else p
+        u = ca.SX.sym("u", nu)
+        P = ca.SX.sym("P", nP) if P is None else P
+        t = ca.SX.sym("t")
+        f = f_fun(x, u, t, P)
+        L = functions.L(x, u, t, P) if functions.L is not None else ca.SX(0)
+        return cls(x, p, u, t, P, f, L, L + ca.dot(p, f))
+
+
 class OptimalControlProblem:
-    """A single-phase optimal control problem (see the module docstring).
+    """A single-phase optimal control problem (see the module docstring). Immutable.
 
     Parameters
     ----------
     name : str
     states, controls : sequences of :class:`State` and :class:`Control`.
     dynamics : callable ``f(x, u, t)`` on CasADi column vectors returning dx/dt
-        (a CasADi expression or a list of ``len(states)`` expressions).
+        (a CasADi expression or a list of ``len(states)`` expressions; use CasADi's
+        functions, ``ca.cos``, ``ca.vertcat``: ``math`` functions and numpy arrays are rejected).
     t0 : float
         Initial time (fixed).
     tf : float or :class:`FreeFinalTime`
@@ -197,11 +307,13 @@ class OptimalControlProblem:
         The NLP minimises ``J / objective_scale``.
     parameters : mapping name -> value, optional
         Named constants that may change between solves without rebuilding the
-        problem's symbolic form (a homotopy parameter, a thrust level). When given,
+        problem's functions (a homotopy parameter, a thrust level). When given,
         ``dynamics``, ``lagrange`` and ``mayer`` receive one more argument: a dict
-        of CasADi symbols by name. ``dynamics``, ``lagrange`` and ``mayer`` below
-        have the values substituted; ``*_p`` versions take the parameter vector
-        as their last input.
+        of CasADi symbols by name.
+
+    The functions are :attr:`functions` (``f``, ``L``, ``phi`` with ``P`` last);
+    :meth:`dynamics`, :meth:`lagrange` and :meth:`mayer` evaluate them with this
+    problem's parameter values, on numbers or CasADi symbols.
     """
 
     def __init__(
@@ -218,15 +330,18 @@ class OptimalControlProblem:
         objective_scale: float = 1.0,
         description: str = "",
         parameters: Mapping[str, float] | None = None,
+        _functions: ProblemFunctions | None = None,
     ) -> None:
-        self._spec = dict(
+        spec = dict(
             name=name, states=states, controls=controls, dynamics=dynamics, t0=t0, tf=tf, mayer=mayer,
             lagrange=lagrange, objective_scale=objective_scale, description=description, parameters=parameters,
         )
-        self.name = name
-        self.description = description
-        self.states = tuple(states)
-        self.controls = tuple(controls)
+        set_ = object.__setattr__
+        set_(self, "_spec", spec)
+        set_(self, "name", name)
+        set_(self, "description", description)
+        set_(self, "states", tuple(states))
+        set_(self, "controls", tuple(controls))
         if not self.states:
             raise ValueError("a problem needs at least one state")
         for v, kind in [(s, State) for s in self.states] + [(c, Control) for c in self.controls]:
@@ -240,60 +355,42 @@ class OptimalControlProblem:
             raise ValueError("give a Mayer term, a Lagrange term, or both")
         if not (objective_scale > 0 and math.isfinite(objective_scale)):
             raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
-        self.objective_scale = float(objective_scale)
-        self.t0 = float(t0)
+        set_(self, "objective_scale", float(objective_scale))
+        if not (isinstance(t0, (int, float, np.floating)) and math.isfinite(t0)):
+            raise ValueError(f"t0 must be a finite number, got {t0!r}")
+        set_(self, "t0", float(t0))
         if isinstance(tf, FreeFinalTime):
             if tf.lower <= self.t0:
                 raise ValueError(f"final time lower bound {tf.lower} must exceed t0 = {self.t0}")
-            self.tf: float | FreeFinalTime = tf
+            set_(self, "tf", tf)
         else:
+            if not (isinstance(tf, (int, float, np.floating)) and math.isfinite(tf)):
+                raise ValueError(f"tf must be a finite number or a FreeFinalTime, got {tf!r}")
             if float(tf) <= self.t0:
                 raise ValueError(f"final time {tf} must exceed t0 = {self.t0}")
-            self.tf = float(tf)
+            set_(self, "tf", float(tf))
 
-        self.parameters = {} if parameters is None else {str(k): float(v) for k, v in parameters.items()}
-        for k in self.parameters:
+        values = {} if parameters is None else {str(k): float(v) for k, v in parameters.items()}
+        for k, v in values.items():
             if not k.isidentifier():
                 raise ValueError(f"parameter name must be an identifier, got {k!r}")
-        P = ca.SX.sym("P", len(self.parameters))
-        pdict = {k: P[i] for i, k in enumerate(self.parameters)}
-        extra = (pdict,) if parameters is not None else ()
-        pval = ca.DM(list(self.parameters.values())) if self.parameters else ca.DM(0, 1)
+            if not math.isfinite(v):
+                raise ValueError(f"parameter {k!r} must be finite, got {v}")
+        set_(self, "parameters", values)
+        if _functions is None:
+            _functions = _build_functions(self.nx, self.nu, values, dynamics, lagrange, mayer,
+                                          with_parameters=parameters is not None, state_names=self.state_names)
+        set_(self, "functions", _functions)
 
-        nx, nu = self.nx, self.nu
-        x = ca.SX.sym("x", nx)
-        u = ca.SX.sym("u", nu)
-        t = ca.SX.sym("t")
-        xdot = _column(dynamics(x, u, t, *extra), "dynamics")
-        if xdot.shape != (nx, 1):
-            raise ValueError(
-                f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {self.state_names}"
-            )
-        self.dynamics_p = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
-        self.dynamics = ca.Function("f", [x, u, t], [self.dynamics_p(x, u, t, pval)], ["x", "u", "t"], ["xdot"])
-        self.lagrange = self.lagrange_p = None
-        if lagrange is not None:
-            L = _column(lagrange(x, u, t, *extra), "lagrange")
-            if L.shape != (1, 1):
-                raise ValueError(f"lagrange must return a scalar, got shape {L.shape}")
-            self.lagrange_p = ca.Function("L_p", [x, u, t, P], [L], ["x", "u", "t", "P"], ["L"])
-            self.lagrange = ca.Function("L", [x, u, t], [self.lagrange_p(x, u, t, pval)], ["x", "u", "t"], ["L"])
-        self.mayer = self.mayer_p = None
-        if mayer is not None:
-            x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-            phi = _column(mayer(x0, xf, s0, sf, *extra), "mayer")
-            if phi.shape != (1, 1):
-                raise ValueError(f"mayer must return a scalar, got shape {phi.shape}")
-            self.mayer_p = ca.Function("phi_p", [x0, xf, s0, sf, P], [phi], ["x0", "xf", "t0", "tf", "P"], ["phi"])
-            self.mayer = ca.Function(
-                "phi", [x0, xf, s0, sf], [self.mayer_p(x0, xf, s0, sf, pval)], ["x0", "xf", "t0", "tf"], ["phi"]
-            )
+    def __setattr__(self, name, value):
+        raise AttributeError(f"an OptimalControlProblem is immutable; use replace({name}=...)")
 
     def replace(self, **changes) -> "OptimalControlProblem":
         """A copy with some constructor arguments changed, e.g. ``parameters={"lam": 0.5}``.
 
-        Parameter values given are merged into the current ones; an unknown
-        parameter name is an error.
+        Parameter values given are merged into the current ones (an unknown name is
+        an error); when only parameter values, the name or the description change,
+        the copy shares this problem's CasADi functions.
         """
         spec = dict(self._spec)
         unknown = sorted(set(changes) - set(spec))
@@ -306,11 +403,60 @@ class OptimalControlProblem:
                 raise KeyError(f"unknown parameters {bad}; {self.name!r} has {sorted(self.parameters)}")
             changes["parameters"] = {**self.parameters, **new}
         spec.update(changes)
-        return OptimalControlProblem(**spec)
+        shared = set(changes) <= {"parameters", "name", "description"} and (
+            changes.get("parameters") is not None or "parameters" not in changes)
+        return OptimalControlProblem(**spec, _functions=self.functions if shared else None)
+
+    # -- the functions, at this problem's parameter values --------------------------------------
+    @property
+    def f(self) -> ca.Function:
+        return self.functions.f
+
+    @property
+    def L(self) -> ca.Function | None:
+        return self.functions.L
+
+    @property
+    def phi(self) -> ca.Function | None:
+        return self.functions.phi
+
+    def parameter_vector(self, values=None) -> np.ndarray:
+        """The parameter vector ``P``: this problem's values, or ``values`` checked against them.
+
+        ``values`` may be a vector (in the order of :attr:`parameters`) or a mapping of
+        some names to values (the others keep this problem's).
+        """
+        if values is None:
+            return np.array(list(self.parameters.values()), dtype=float)
+        if isinstance(values, Mapping):
+            bad = sorted(set(values) - set(self.parameters))
+            if bad:
+                raise KeyError(f"unknown parameters {bad}; {self.name!r} has {sorted(self.parameters)}")
+            return np.array([float(values.get(k, v)) for k, v in self.parameters.items()], dtype=float)
+        P = np.array(values, dtype=float).ravel()
+        if P.shape != (len(self.parameters),):
+            raise ValueError(f"expected {len(self.parameters)} parameters {list(self.parameters)}, got {P.shape}")
+        return P
 
     @property
     def parameter_values(self) -> np.ndarray:
-        return np.array(list(self.parameters.values()), dtype=float)
+        return self.parameter_vector()
+
+    @cached_property
+    def _P(self) -> ca.DM:
+        return ca.DM(self.parameter_vector()) if self.parameters else ca.DM(0, 1)
+
+    def dynamics(self, x, u, t):
+        """``f(x, u, t)`` with this problem's parameters (numbers give a DM, CasADi symbols an expression)."""
+        return self.functions.f(x, u, t, self._P)
+
+    def lagrange(self, x, u, t):
+        """``L(x, u, t)`` with this problem's parameters; 0 without a running cost."""
+        return self.functions.L(x, u, t, self._P) if self.functions.L is not None else ca.DM(0)
+
+    def mayer(self, x0, xf, t0, tf):
+        """``phi(x0, xf, t0, tf)`` with this problem's parameters; 0 without a Mayer term."""
+        return self.functions.phi(x0, xf, t0, tf, self._P) if self.functions.phi is not None else ca.DM(0)
 
     # -- descriptors -----------------------------------------------------------------
     @property
@@ -338,20 +484,20 @@ class OptimalControlProblem:
         return self.tf.guess if isinstance(self.tf, FreeFinalTime) else self.tf
 
     @property
-    def state_scale(self) -> np.ndarray:
-        return np.array([s.scale for s in self.states])
-
-    @property
-    def control_scale(self) -> np.ndarray:
-        return np.array([c.scale for c in self.controls])
-
-    @property
     def state_scaling(self) -> AffineScaling:
-        return AffineScaling(np.array([s.shift for s in self.states]), self.state_scale)
+        return AffineScaling.of(self.states)
 
     @property
     def control_scaling(self) -> AffineScaling:
-        return AffineScaling(np.array([c.shift for c in self.controls]), self.control_scale)
+        return AffineScaling.of(self.controls)
+
+    @property
+    def state_scale(self) -> np.ndarray:
+        return self.state_scaling.scale
+
+    @property
+    def control_scale(self) -> np.ndarray:
+        return self.control_scaling.scale
 
     def state_index(self, name: str) -> int:
         try:
@@ -366,35 +512,50 @@ class OptimalControlProblem:
             f"controls={self.control_names}, tf={tf})"
         )
 
-    # -- numerical helpers -----------------------------------------------------------
-    def rhs(self, t: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Evaluate f(x, u, t) numerically (for re-integration and checks)."""
-        return np.asarray(self.dynamics(x, u, t)).ravel()
 
-    def guess_functions(self, tf: float):
-        """Default guess as functions of time over [t0, tf] (from each variable's ``guess``)."""
-        t0 = self.t0
-
-        def states(t):
-            s = (np.asarray(t, dtype=float) - t0) / (tf - t0)
-            return np.stack([v.guess_at(s) for v in self.states], axis=-1)
-
-        def controls(t):
-            s = (np.asarray(t, dtype=float) - t0) / (tf - t0)
-            if not self.controls:
-                return np.zeros(np.shape(s) + (0,))
-            return np.stack([v.guess_at(s) for v in self.controls], axis=-1)
-
-        return states, controls
+def _build_functions(nx: int, nu: int, values: dict, dynamics, lagrange, mayer, *, with_parameters: bool,
+                     state_names) -> ProblemFunctions:
+    """The problem's CasADi functions from the user's callables (called once, on symbols)."""
+    P = ca.SX.sym("P", len(values))
+    extra = ({k: P[i] for i, k in enumerate(values)},) if with_parameters else ()
+    x = ca.SX.sym("x", nx)
+    u = ca.SX.sym("u", nu)
+    t = ca.SX.sym("t")
+    xdot = _column(dynamics(x, u, t, *extra), "dynamics")
+    if xdot.shape != (nx, 1):
+        raise ValueError(f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {list(state_names)}")
+    f = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
+    L = phi = None
+    if lagrange is not None:
+        expr = _column(lagrange(x, u, t, *extra), "lagrange")
+        if expr.shape != (1, 1):
+            raise ValueError(f"lagrange must return a scalar, got shape {expr.shape}")
+        L = ca.Function("L_p", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["L"])
+    if mayer is not None:
+        x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+        expr = _column(mayer(x0, xf, s0, sf, *extra), "mayer")
+        if expr.shape != (1, 1):
+            raise ValueError(f"mayer must return a scalar, got shape {expr.shape}")
+        phi = ca.Function("phi_p", [x0, xf, s0, sf, P], [expr], ["x0", "xf", "t0", "tf", "P"], ["phi"])
+    return ProblemFunctions(f, L, phi)
 
 
 def _column(expr, what: str) -> ca.SX:
+    if isinstance(expr, np.ndarray):
+        raise TypeError(f"{what} returned a numpy array: return CasADi expressions (ca.vertcat(...)) or a list of them; "
+                        "numpy turns CasADi symbols into NaN")
     if isinstance(expr, (list, tuple)):
         expr = ca.vertcat(*expr)
-    if isinstance(expr, (int, float, np.ndarray, ca.DM)):
+    if isinstance(expr, (int, float, ca.DM)):
         expr = ca.SX(ca.DM(expr))
     if not isinstance(expr, ca.SX):
         raise TypeError(f"{what} must return CasADi SX expressions, got {type(expr).__name__}")
+    for k in range(expr.numel()):
+        e = expr[k]
+        if e.is_constant() and math.isnan(float(e)):
+            raise ValueError(
+                f"{what} returned NaN in entry {k}: a math or numpy function (math.cos, np.sqrt) applied to a CasADi "
+                "symbol gives NaN; use CasADi's (ca.cos, ca.sqrt)")
     return expr
 
 
@@ -402,9 +563,9 @@ def _column(expr, what: str) -> ca.SX:
 class Guess:
     """An initial guess for a transcription.
 
-    ``states`` and ``controls`` map names to a callable of time, a constant, or a
-    ``(start, end)`` pair (linear in time); names left out use the problem's
-    default guess. ``tf`` defaults to the problem's guess.
+    ``states`` and ``controls`` map names to a :data:`GuessSpec` (a function of time,
+    a constant, or a ``(start, end)`` tuple linear in time); names left out use each
+    variable's own guess. ``tf`` defaults to the problem's guess.
     """
 
     tf: float | None = None
@@ -412,41 +573,26 @@ class Guess:
     controls: Mapping[str, object] = field(default_factory=dict)
 
     def functions(self, problem: OptimalControlProblem):
+        """``(tf, states(t), controls(t))``: the guessed final time and the guess as functions of time."""
         tf = problem.tf_guess if self.tf is None else float(self.tf)
-        if tf <= problem.t0:
-            raise ValueError(f"guess tf = {tf} must exceed t0 = {problem.t0}")
+        if not (math.isfinite(tf) and tf > problem.t0):
+            raise ValueError(f"guess tf = {tf} must be finite and exceed t0 = {problem.t0}")
         for key, names in (("states", problem.state_names), ("controls", problem.control_names)):
             unknown = sorted(set(getattr(self, key)) - set(names))
             if unknown:
                 raise KeyError(f"guess names unknown {key} {unknown}; {key} are {names}")
-        xs_default, us_default = problem.guess_functions(tf)
 
-        def build(spec_map, variables, default):
+        def build(spec_map, variables):
+            parts = [guess_function(spec_map[v.name], f"guess for {v.name!r}") if v.name in spec_map
+                     else v.guess_function() for v in variables]
+
             def fun(t):
                 t = np.asarray(t, dtype=float)
-                out = np.array(default(t), dtype=float)
                 s = (t - problem.t0) / (tf - problem.t0)
-                for j, v in enumerate(variables):
-                    if v.name not in spec_map:
-                        continue
-                    spec = spec_map[v.name]
-                    if callable(spec):
-                        val = np.asarray(spec(t), dtype=float)
-                        if val.shape != t.shape:
-                            raise ValueError(
-                                f"guess for {v.name!r} returned shape {val.shape}, expected {t.shape}"
-                            )
-                    elif isinstance(spec, (tuple, list)):
-                        val = float(spec[0]) + (float(spec[1]) - float(spec[0])) * s
-                    else:
-                        val = np.full(t.shape, float(spec))
-                    out[..., j] = val
-                return out
+                if not parts:
+                    return np.zeros(t.shape + (0,))
+                return np.stack([np.broadcast_to(g(s, t), t.shape) for g in parts], axis=-1)
 
             return fun
 
-        return (
-            tf,
-            build(self.states, problem.states, xs_default),
-            build(self.controls, problem.controls, us_default),
-        )
+        return tf, build(self.states, problem.states), build(self.controls, problem.controls)

@@ -18,9 +18,10 @@ the second reading. The chain of solves:
 4. The L1 (fuel) shooting from the energy costates with every switching treatment,
    Jacobian and solver: the slides' experiment. No L1 run starts from an L1 answer.
 
-The continuations in the final longitude, the thrust (energy problem) and the final time
-(horizon study) are :func:`follow` (discrete steps, halved on failure); the minimum-time
-continuation compares several predictors at each step and keeps its own loop.
+Every continuation here (the thrust, the final longitude, the final time) is
+:func:`ocpkit.shooting.follow` with a step rule (:class:`~ocpkit.shooting.Schedule` of
+given values halved on failure, or :class:`~ocpkit.shooting.GeometricSteps` for the
+minimum time) and the predictors of this problem (tf x Tmax nearly constant).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import pandas as pd
 
 from ocpkit import SolverError
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, ShootingResult, control_law
+from ocpkit.shooting.continuation import GeometricSteps, Schedule, follow, geometric_midpoint
 
 from ..paths import data_dir, derived_dir
 from ..problems.orbit_transfer import (
@@ -93,46 +95,7 @@ class TransferSystems:
                         interior_check=interior_check)
 
 
-# -- one continuation routine ------------------------------------------------------------------
-
-
-def follow(values: Sequence[float], solve_at: Callable, z0, *, predict: Callable | None = None,
-           midpoint: Callable = lambda a, b: 0.5 * (a + b), start: float | None = None, max_halvings: int = 6,
-           log=None) -> list[tuple[float, ShootingResult]]:
-    """Discrete continuation: solve at each of ``values`` in turn, warm-started from the last solution.
-
-    ``solve_at(value, z_guess)`` returns a converged :class:`ShootingResult` or raises
-    :class:`SolverError`; ``predict(value_from, value_to, z)`` turns the last solution
-    into the next guess (default: unchanged). ``start`` is the value at which ``z0``
-    solves the problem. A failed step is halved (``midpoint``) at most ``max_halvings``
-    times before the continuation gives up with a :class:`SolverError` naming the value.
-    Returns ``[(value, result), ...]`` for every value solved, the inserted ones included.
-    """
-    predict = predict or (lambda a, b, z: z)
-    z = np.asarray(z0, dtype=float)
-    current = start
-    out = []
-    t0 = time.perf_counter()
-    for target in values:
-        pending = [float(target)]
-        while pending:
-            v = pending[-1]
-            guess = z if current is None else predict(current, v, z)
-            try:
-                result = solve_at(v, guess)
-            except SolverError as exc:
-                if current is None or len(pending) > max_halvings:
-                    raise SolverError("continuation", f"failed at {v:.6g}", len(out),
-                                      f"after {len(pending) - 1} halvings of the step; last error: {exc}",
-                                      unit="points solved") from exc
-                pending.append(midpoint(current, v))
-                continue
-            pending.pop()
-            z, current = result.z, v
-            out.append((v, result))
-            if log:
-                log(v, result, time.perf_counter() - t0)
-    return out
+# -- continuations (ocpkit.shooting.follow) ------------------------------------------------------
 
 
 def solve_robustly(shooting: Shooting, z, *, solvers=("hybr", "newton"), maxfev: int = 200, **options):
@@ -159,10 +122,6 @@ def thrust_schedule(start: float, targets, factor: float = 0.8) -> list[float]:
         out.append(Tn)
         T = Tn
     return out
-
-
-def geometric_midpoint(a: float, b: float) -> float:
-    return math.sqrt(a * b)
 
 
 # -- 1. minimum time at a strong thrust ------------------------------------------------------
@@ -194,23 +153,17 @@ def minimum_time_continuation(systems: TransferSystems, start, start_thrust: flo
                               factor: float = 0.8, slowest: float = 0.995, log=print) -> pd.DataFrame:
     """t_min along a decreasing thrust schedule down to ``min(targets)``.
 
-    Each step tries two predictors (the last solution with tf scaled by the thrust
-    ratio, and a log-log secant through the last two solutions) and keeps the
-    converged solution with the smallest tf; a failed step shrinks the thrust
-    ratio towards 1. Returns one row per solved thrust: thrust, t_min, costates,
-    |S|, and whether it is a target.
+    :func:`~ocpkit.shooting.continuation.follow` with :class:`GeometricSteps` (the
+    thrust ratio ``factor``, shrunk on failure, grown back on success, through every
+    target). Each step tries two predictors (the last solution with tf scaled by the
+    thrust ratio, and a log-log secant through the last two solutions) and keeps the
+    converged solution with the smallest tf. Returns one row per solved thrust:
+    thrust, t_min, costates, |S|, and whether it is a target.
     """
     targets = sorted({float(t) for t in targets}, reverse=True)
-    T, z = float(start_thrust), np.asarray(start, dtype=float)
-    history = [(T, z)]
-    rows = [_tmin_row(T, z, np.nan, T in targets)]
-    lowest = targets[-1]
-    t0 = time.perf_counter()
-    while T > lowest * (1 + 1e-12):
-        Tn = max(T * factor, lowest)
-        for tgt in targets:
-            if Tn < tgt < T:
-                Tn = tgt
+
+    def predictor(history, Tn):
+        T, z = history[-1]
         guesses = [np.concatenate([z[:-1], [z[-1] * T / Tn]])]
         if len(history) >= 2:
             (T1, z1), (T2, z2) = history[-2], history[-1]
@@ -218,28 +171,21 @@ def minimum_time_continuation(systems: TransferSystems, start, start_thrust: flo
             g = z2 + a * (z2 - z1)
             g[-1] = z2[-1] * (z2[-1] / z1[-1]) ** a
             guesses.append(g)
-        shooting = systems.shooting("time", Tn)
-        best = None
-        for g in guesses:
-            try:
-                r = shooting.solve(g, maxfev=150)
-            except SolverError:
-                continue
-            if best is None or r.tf < best.tf:
-                best = r
-        if best is None:
-            factor = 1 - (1 - factor) / 2
-            if factor > slowest:
-                raise SolverError("minimum-time continuation", f"stalled at {T:.6g} N", len(rows),
-                                  unit="thrusts solved")
-            continue
-        T, z = Tn, best.z
-        history.append((T, z))
-        rows.append(_tmin_row(T, z, best.norm, any(abs(T - t) < 1e-12 for t in targets)))
-        factor = max(0.7, min(0.8, 1 - (1 - factor) * 1.5))
+        return guesses
+
+    def solve_at(T, z):
+        return systems.shooting("time", T).solve(z, maxfev=150)
+
+    def report(T, r, elapsed):
         if log:
-            log(f"{T:8.4f} N: t_min = {z[-1]:10.4f} h, t_min * Tmax = {T * z[-1]:6.1f} N h, |S| = {best.norm:.1e}, "
-                f"{time.perf_counter() - t0:5.1f} s")
+            log(f"{T:8.4f} N: t_min = {r.tf:10.4f} h, t_min * Tmax = {T * r.tf:6.1f} N h, |S| = {r.norm:.1e}, "
+                f"{elapsed:5.1f} s")
+
+    steps = GeometricSteps(targets[-1], targets=targets, factor=factor, slowest=slowest)
+    path = follow(solve_at, start, float(start_thrust), steps, predictor=predictor,
+                  choose=lambda results: min(results, key=lambda r: r.tf), log=report)
+    rows = [_tmin_row(float(start_thrust), np.asarray(start, dtype=float), np.nan, float(start_thrust) in targets)]
+    rows += [_tmin_row(T, r.z, r.norm, any(abs(T - t) < 1e-12 for t in targets)) for T, r in path]
     return pd.DataFrame(rows)
 
 
@@ -286,7 +232,7 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
                               unit="starts")
         for key, (r, count) in sorted(minima.items()):
             found.append({"thrust_N": T, "tmin_h": r.tf, "tmin_x_thrust_Nh": r.tf * T,
-                          "final_longitude_rad": float(r.trajectory.y[5]), "starts": count,
+                          "final_longitude_rad": float(r.integration.y[5]), "starts": count,
                           "continuation": bool(abs(r.tf - table.at[i, "continuation_tmin_h"]) < 1e-6 * r.tf),
                           "best": key == round(best.tf, 4)})
         for name, value in _tmin_row(T, best.z, best.norm, True).items():
@@ -314,13 +260,13 @@ def minimum_time_versus_longitude(systems: TransferSystems, thrust_N: float, z_t
 
     def solve_at(Lf, z):
         r = systems.shooting("time", thrust_N, final="longitude", longitude=Lf).solve(z, maxfev=100)
-        rows.append({"dL_rad": Lf - L0, "tmin_h": r.tf, "p_L_tf": float(r.trajectory.y[7 + 5])})
+        rows.append({"dL_rad": Lf - L0, "tmin_h": r.tf, "p_L_tf": float(r.integration.y[7 + 5])})
         return r
 
     for end in (Lstar - below, Lstar + above):
         n = max(1, int(round(abs(end - Lstar) / step)))
         try:
-            follow(list(np.linspace(Lstar, end, n + 1)[1:]), solve_at, z_time, start=Lstar, max_halvings=2)
+            follow(solve_at, z_time, Lstar, Schedule(np.linspace(Lstar, end, n + 1)[1:], max_halvings=2))
         except SolverError:
             pass  # the edge of the feasible longitudes, or a fold: the curve stops there
     return pd.DataFrame(rows).sort_values("dL_rad").drop_duplicates("dL_rad").reset_index(drop=True)
@@ -378,9 +324,9 @@ def energy_time_continuation(systems: TransferSystems, start, schedule, *, log=N
                                         [math.log(b) for _, b in schedule])))
         return solve_robustly(systems.shooting("energy", T, final="time", tf=tf), z)
 
-    steps = follow([T for T, _ in schedule[1:]], solve_at, start, start=schedule[0][0],
-                   midpoint=geometric_midpoint, log=log)
-    return {T: r for T, r in steps if T in tf_of}
+    path = follow(solve_at, start, schedule[0][0],
+                  Schedule([T for T, _ in schedule[1:]], midpoint=geometric_midpoint), log=log)
+    return {T: r for T, r in path if T in tf_of}
 
 
 def energy_longitude_start(systems: TransferSystems, thrust_N: float, energy_time: ShootingResult, *,
@@ -390,7 +336,7 @@ def energy_longitude_start(systems: TransferSystems, thrust_N: float, energy_tim
     From a fixed-time energy solution, whose final longitude is L_a: released to a
     free tf at Lf = L_a, then followed in Lf to the target ``Lf(Tmax, multiplier)``.
     """
-    L_a = float(energy_time.trajectory.y[5])
+    L_a = float(energy_time.integration.y[5])
     target = final_longitude(thrust_N, multiplier)
     z0 = np.concatenate([energy_time.z, [energy_time.tf]])
 
@@ -398,7 +344,7 @@ def energy_longitude_start(systems: TransferSystems, thrust_N: float, energy_tim
         return solve_robustly(systems.shooting("energy", thrust_N, final="longitude", longitude=Lf), z)
 
     first = solve_at(L_a, z0)
-    path = follow(list(np.linspace(L_a, target, steps + 1)[1:]), solve_at, first.z, start=L_a, log=log)
+    path = follow(solve_at, first.z, L_a, Schedule(np.linspace(L_a, target, steps + 1)[1:]), log=log)
     return path[-1][1]
 
 
@@ -414,13 +360,15 @@ def energy_longitude_continuation(systems: TransferSystems, start, start_thrust:
         s = systems.shooting("energy", T, final="longitude", longitude=final_longitude(T, multiplier))
         return solve_robustly(s, z)
 
-    def predict(Ta, Tb, z):
-        return np.concatenate([z[:-1], [z[-1] * Ta / Tb]])
+    def predictor(history, Tb):
+        Ta, z = history[-1]
+        return np.concatenate([z[:-1], [z[-1] * Ta / Tb]])  # tf x Tmax nearly constant
 
-    steps = follow(thrust_schedule(start_thrust, targets, factor), solve_at, start, start=start_thrust,
-                   predict=predict, midpoint=geometric_midpoint, log=log)
+    path = follow(solve_at, start, start_thrust,
+                  Schedule(thrust_schedule(start_thrust, targets, factor), midpoint=geometric_midpoint),
+                  predictor=predictor, log=log)
     wanted = {float(t) for t in targets}
-    return {T: r for T, r in steps if any(abs(T - t) < 1e-12 for t in wanted)}
+    return {T: r for T, r in path if any(abs(T - t) < 1e-12 for t in wanted)}
 
 
 def calibrate_multiplier(systems: TransferSystems, thrust_N: float, z_energy, multipliers, *,
@@ -441,18 +389,18 @@ def calibrate_multiplier(systems: TransferSystems, thrust_N: float, z_energy, mu
 
         Lf = final_longitude(thrust_N, c)
         n = max(1, int(math.ceil(abs(Lf - L_start) / 2.0)))  # steps of about 2 rad
-        z = follow(list(np.linspace(L_start, Lf, n + 1)[1:]), solve_at, z_energy, start=L_start)[-1][1].z
+        z = follow(solve_at, z_energy, L_start, Schedule(np.linspace(L_start, Lf, n + 1)[1:]))[-1][1].z
         s = systems.shooting("fuel", thrust_N, final="longitude", longitude=Lf, tol=rtol)
         r = solve_robustly(s, z, maxfev=300)
         rows.append({"multiplier": c, "thrust_N": thrust_N, "Lf_minus_L0_rad": Lf - orbit_transfer_constants()[
-            "initial"]["L"], "tf_h": r.tf, "fuel_kg": fuel_kg(r), "switchings": r.trajectory.switchings,
-            "steps": r.trajectory.steps, "norm_S": r.norm})
+            "initial"]["L"], "tf_h": r.tf, "fuel_kg": fuel_kg(r), "switchings": r.integration.switchings,
+            "steps": r.integration.steps, "norm_S": r.norm})
     return pd.DataFrame(rows)
 
 
 def fuel_kg(result) -> float:
     """Propellant used (kg) by a transfer: initial minus final mass."""
-    return orbit_transfer_constants()["initial"]["m"] - float(result.trajectory.y[6])
+    return orbit_transfer_constants()["initial"]["m"] - float(result.integration.y[6])
 
 
 # -- 4. the L1 experiment ------------------------------------------------------------------------
@@ -474,7 +422,7 @@ def l1_runs(systems: TransferSystems, thrust_N: float, z_energy, *, final: str |
             r = s.solve(z_energy, solver=solver, maxfev=maxfev, raise_on_failure=False)
             results[(solver, detection, jacobian)] = r
             rows.append({"thrust_N": thrust_N, "solver": solver, **r.summary(), "fuel_kg": fuel_kg(r),
-                         "tf_h": r.tf, "interior_switchings": r.trajectory.interior_switchings})
+                         "tf_h": r.tf, "interior_switchings": r.integration.interior_switchings})
     return pd.DataFrame(rows), results
 
 
@@ -498,9 +446,9 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
     kg_per_cost = c["beta"] * c["newton_to_kg_Mm_h2"] * float(thrust_N)
 
     def record(b, r):
-        H = float(r.trajectory.hamiltonian[-1])
+        H = float(r.integration.hamiltonian[-1])
         row = {"branch": b, "tf_h": r.tf, "tf_over_tmin": r.tf / tmin, "fuel_kg": fuel_kg(r),
-               "switchings": r.trajectory.switchings, "H_tf": H, "dfuel_dtf_kg_h": kg_per_cost * H,
+               "switchings": r.integration.switchings, "H_tf": H, "dfuel_dtf_kg_h": kg_per_cost * H,
                "norm_S": r.norm}
         rows.append(row)
         return row
@@ -521,10 +469,10 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
 
             def solve_at(tf, z, b=b, last=last):
                 r = solve_robustly(systems.shooting("fuel", thrust_N, final="time", tf=tf, tol=rtol), z)
-                J, slope = fuel_kg(r), kg_per_cost * float(r.trajectory.hamiltonian[-1])
+                J, slope = fuel_kg(r), kg_per_cost * float(r.integration.hamiltonian[-1])
                 predicted = 0.5 * (slope + last["dfuel_dtf_kg_h"]) * (tf - last["tf_h"])
                 jump = abs(J - last["fuel_kg"] - predicted) > 0.002 + 0.01 * abs(predicted)
-                if jump or abs(r.trajectory.switchings - last["switchings"]) > 2:
+                if jump or abs(r.integration.switchings - last["switchings"]) > 2:
                     raise SolverError("horizon continuation", "the shooting jumped to another extremal", 1,
                                       f"at tf = {tf:.4g} h: fuel {J:.4f} kg from {last['fuel_kg']:.4f} kg, "
                                       f"expected a change of {predicted:.4f} kg")
@@ -532,7 +480,7 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
                 return r
 
             try:
-                follow(list(np.linspace(tf0, end, n + 1)[1:]), solve_at, first.z, start=tf0, max_halvings=4)
+                follow(solve_at, first.z, tf0, Schedule(np.linspace(tf0, end, n + 1)[1:], max_halvings=4))
             except SolverError:
                 pass  # the branch ends here (a fold, a new arc, or a jump): what was solved stands
         if log:
@@ -625,7 +573,7 @@ def minimum_times(systems: TransferSystems, thrusts, *, recompute: bool = False,
 
 
 def _energy_row(reading, T, r):
-    return {"reading": reading, "thrust_N": T, "tf_h": r.tf, "Lf_rad": float(r.trajectory.y[5]),
+    return {"reading": reading, "thrust_N": T, "tf_h": r.tf, "Lf_rad": float(r.integration.y[5]),
             "energy_fuel_kg": fuel_kg(r), **dict(zip(COSTATES, r.z[:7])), "norm_S": r.norm}
 
 

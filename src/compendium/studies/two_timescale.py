@@ -7,7 +7,6 @@ from typing import Sequence
 import pandas as pd
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
-from ocpkit.analysis import max_difference_pct
 
 TABLE_COLUMNS = [
     "scheme", "segments", "nlp_parameters", "defect_equations", "iterations",
@@ -44,12 +43,12 @@ def compare_case(
 
     Returns ``(table, standard, two_timescale)``: a two-row DataFrame with
     :data:`TABLE_COLUMNS` (differences of the two-timescale solution from the
-    standard one, :func:`ocpkit.analysis.max_difference_pct`) and both solutions.
+    standard one, :meth:`ocpkit.trajectory.Trajectory.difference`) and both solutions.
     """
     standard = HLGL(problem, coarse_segments * ratio).solve(ipopt_options=ipopt_options)
     mr = MultiRateHLGL(problem, coarse_segments, ratio=ratio, fast=fast, fast_interpolation=fast_interpolation)
     two = mr.solve(ipopt_options=ipopt_options)
-    diff = max_difference_pct(two, standard, n)
+    diff = two.difference(standard, n)
     rows = [
         _row("standard", str(coarse_segments * ratio), standard, None),
         _row(scheme, f"{coarse_segments}/{coarse_segments * ratio}", two, diff),
@@ -100,8 +99,8 @@ def ratio_study(
             problem, coarse_segments, int(M), fast, "two_timescale",
             fast_interpolation=fast_interpolation, ipopt_options=ipopt_options, n=n,
         )
-        err = max_difference_pct(two, reference, n)
-        err_std = max_difference_pct(standard, reference, n)
+        err = two.difference(reference, n)
+        err_std = standard.difference(reference, n)
         rows.append({
             "fast_interpolation": fast_interpolation,
             "coarse_segments": coarse_segments,

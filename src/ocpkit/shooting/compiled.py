@@ -24,8 +24,8 @@ import casadi as ca
 import numpy as np
 
 from .hamiltonian import HamiltonianSystem
+from .strategies import DETECTION_MODES
 
-DETECTION_MODES = ("none", "detection", "correction")
 _STATUS = {0: "ok", 1: "maximum number of steps reached", 2: "step size too small", 3: "non-finite values",
            4: "out of memory", 5: "switching root not found"}
 _SOURCE = Path(__file__).with_name("dopri5.c")
@@ -129,9 +129,7 @@ class Integration:
 
         ``parameters``: default, those this trajectory was integrated with.
         """
-        if parameters is None:
-            parameters = self.parameters if self.parameters is not None else system.problem.parameter_values
-        P = np.asarray(parameters, dtype=float)
+        P = system.problem.parameter_vector(self.parameters if parameters is None else parameters)
         return np.array([np.asarray(system.control(y, system.mode_at(y, P), P)).ravel() for y in self.states])
 
     @property
@@ -194,9 +192,7 @@ class CompiledSystem:
         y0 = np.asarray(y0, dtype=float).ravel()
         if y0.size != n:
             raise ValueError(f"y0 must have {n} entries (states and costates), got {y0.size}")
-        P = sysm.problem.parameter_values if parameters is None else np.asarray(parameters, dtype=float).ravel()
-        if P.size != len(sysm.problem.parameters):
-            raise ValueError(f"expected {len(sysm.problem.parameters)} parameters, got {P.size}")
+        P = sysm.problem.parameter_vector(parameters)
         nvar = 0
         Y0 = y0
         if Psi0 is not None:

@@ -1,8 +1,14 @@
-"""Pseudo-arclength continuation of shooting solutions in a problem parameter.
+"""Continuation of shooting solutions in a problem parameter: natural-parameter and pseudo-arclength.
 
-Plain parameter continuation (solve at the next parameter value from the last
-solution) stalls where the path of extremals folds back in the parameter, as the
-minimum-time orbit transfer does when the thrust decreases. Here the unknown
+:func:`follow` is natural-parameter continuation: solve at the next parameter value
+from a prediction built on the solutions so far, with the step chosen by a small step
+rule (:class:`Schedule`: given values, halved on failure; :class:`GeometricSteps`: a
+ratio that shrinks on failure and grows back on success) and one or several
+predictors. Every discrete continuation of the compendium and :func:`homotopy` use it.
+
+It stalls where the path of extremals folds back in the parameter, as the
+minimum-time orbit transfer does when the thrust decreases; :func:`arclength`
+follows the path through folds instead. There the unknown
 ``X = (z, theta)``, with ``theta`` the parameter (or its logarithm), follows the
 curve ``S(z, theta) = 0`` by arclength (Allgower & Georg, *Numerical Continuation
 Methods*, Ch. 2):
@@ -21,12 +27,152 @@ smallest tf).
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass, field
+from typing import Callable, Sequence
 
 import numpy as np
 
 from ..errors import SolverError
 from .shooting import Shooting, ShootingResult
+
+
+# -- natural-parameter continuation -------------------------------------------------------------
+
+
+class Schedule:
+    """Step rule: the given ``values`` in turn; a failed step is halved (``midpoint``) at most ``max_halvings`` times."""
+
+    def __init__(self, values: Sequence[float], *, midpoint: Callable = lambda a, b: 0.5 * (a + b),
+                 max_halvings: int = 6):
+        self._values = [float(v) for v in values]
+        self._next = 0
+        self._pending: list[float] = []
+        self.midpoint, self.max_halvings = midpoint, max_halvings
+
+    def propose(self, current):
+        if not self._pending:
+            if self._next >= len(self._values):
+                return None
+            self._pending.append(self._values[self._next])
+            self._next += 1
+        return self._pending[-1]
+
+    def reject(self, current, value, error, solved: int):
+        if current is None or len(self._pending) > self.max_halvings:
+            raise SolverError("continuation", f"failed at {value:.6g}", solved,
+                              f"after {len(self._pending) - 1} halvings of the step; last error: {error}",
+                              unit="points solved") from error
+        self._pending.append(self.midpoint(current, value))
+
+    def accept(self, value):
+        self._pending.pop()
+
+
+def geometric_midpoint(a: float, b: float) -> float:
+    return math.sqrt(a * b)
+
+
+class GeometricSteps:
+    """Step rule: from the current value towards ``stop`` by the ratio ``factor``, through every target.
+
+    The next value is ``max(current factor, stop)`` (``min`` when increasing), moved
+    back to the nearest target it would skip. A failure shrinks the ratio halfway to
+    one (and gives up beyond ``slowest``); a success grows it back
+    (``1 - (1 - factor) grow``, within ``[floor, cap]``). ``factor < 1`` decreases.
+    """
+
+    def __init__(self, stop: float, *, targets=(), factor: float = 0.8, slowest: float = 0.995,
+                 floor: float = 0.7, cap: float = 0.8, grow: float = 1.5):
+        if not 0 < factor < 1:
+            raise ValueError(f"factor must lie in (0, 1), got {factor}")
+        self.stop, self.factor, self.slowest, self.floor, self.cap, self.grow = stop, factor, slowest, floor, cap, grow
+        self.targets = sorted({float(t) for t in targets}, reverse=True)
+
+    def propose(self, current):
+        if current <= self.stop * (1 + 1e-12):
+            return None
+        value = max(current * self.factor, self.stop)
+        for target in self.targets:
+            if value < target < current:
+                value = target
+        return value
+
+    def reject(self, current, value, error, solved: int):
+        self.factor = 1 - (1 - self.factor) / 2
+        if self.factor > self.slowest:
+            raise SolverError("continuation", f"stalled at {current:.6g}", solved,
+                              f"the step ratio passed {self.slowest}; last error: {error}",
+                              unit="points solved") from error
+
+    def accept(self, value):
+        self.factor = max(self.floor, min(self.cap, 1 - (1 - self.factor) * self.grow))
+
+
+def follow(solve_at: Callable, z0, start: float | None, steps, *, predictor: Callable | None = None,
+           choose: Callable | None = None, log: Callable | None = None) -> list[tuple[float, ShootingResult]]:
+    """Natural-parameter continuation from ``z0`` (a solution at ``start``, or just a start when ``start`` is None).
+
+    ``steps`` proposes the parameter values (:class:`Schedule`, :class:`GeometricSteps`);
+    ``predictor(history, value)`` turns the solutions so far, ``history = [(value, z),
+    ...]``, into a guess or a list of guesses (default: the last solution);
+    ``solve_at(value, guess)`` returns a converged :class:`ShootingResult` or raises
+    :class:`SolverError`. With several guesses, every one is solved and ``choose``
+    picks among the results (default: the first). A step where every guess fails goes
+    back to ``steps`` (which shortens it or gives up with a :class:`SolverError`).
+    Returns ``[(value, result), ...]`` for every value solved, in order.
+    """
+    history = [(start, np.asarray(z0, dtype=float))]
+    predictor = predictor or (lambda h, v: h[-1][1])
+    choose = choose or (lambda results: results[0])
+    out = []
+    t0 = time.perf_counter()
+    while True:
+        current = history[-1][0]
+        value = steps.propose(current)
+        if value is None:
+            return out
+        guesses = predictor(history, value)
+        guesses = guesses if isinstance(guesses, list) else [guesses]
+        results, error = [], None
+        for g in guesses:
+            try:
+                results.append(solve_at(value, g))
+            except SolverError as exc:
+                error = exc
+        if not results:
+            steps.reject(current, value, error, len(out))
+            continue
+        result = choose(results)
+        steps.accept(value)
+        history.append((value, result.z))
+        out.append((value, result))
+        if log:
+            log(value, result, time.perf_counter() - t0)
+
+
+def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", final: Shooting | None = None,
+             **solve_options) -> list[ShootingResult]:
+    """Continuation on a cost parameter: solve for each value of ``lambdas`` in turn, each warm-starting the next.
+
+    ``regularized`` solves the problems with ``parameter`` in ``lambdas``; ``final``
+    (typically the bang-bang law at the end value) solves once more from the last
+    solution. Returns every solve's result; a solve that fails raises :class:`~ocpkit.SolverError`.
+    """
+    problem = regularized.problem
+    if parameter not in problem.parameters:
+        raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
+    solve_options = {**solve_options, "raise_on_failure": True}
+
+    def solve_at(lam, z):
+        return regularized.solve(z, problem.parameter_vector({parameter: lam}), **solve_options)
+
+    results = [r for _, r in follow(solve_at, z0, None, Schedule(lambdas, max_halvings=0))]
+    if final is not None:
+        results.append(final.solve(results[-1].z, final.problem.parameter_values, **solve_options))
+    return results
+
 
 
 @dataclass

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..problem import OptimalControlProblem
+from ..problem import Hamiltonian, OptimalControlProblem
 
 CONTROL_SETS = ("box", "ball")
 
@@ -58,9 +58,8 @@ class ControlLaw:
     regularized: bool
     control_set: str
     description: str = ""
-    _x: ca.SX = field(default=None, repr=False)
-    _p: ca.SX = field(default=None, repr=False)
-    _P: ca.SX = field(default=None, repr=False)
+    hamiltonian: Hamiltonian | None = field(default=None, repr=False)
+    """The problem's Hamiltonian; the law's expressions are in its symbols ``x, p, P``."""
 
     @property
     def group_sizes(self) -> list[int]:
@@ -140,19 +139,15 @@ def control_law(problem: OptimalControlProblem, control_set: str = "box", *, reg
     """
     if control_set not in CONTROL_SETS:
         raise ValueError(f"control_set must be one of {CONTROL_SETS}, got {control_set!r}")
-    if problem.lagrange_p is None:
+    if problem.L is None:
         raise ValueError("the control law needs a Lagrange cost (an L1 or regularised control cost)")
-    nx, nu = problem.nx, problem.nu
+    nu = problem.nu
     if nu == 0:
         raise ValueError("the problem has no controls")
-    x, p, u = ca.SX.sym("x", nx), ca.SX.sym("p", nx), ca.SX.sym("u", nu)
-    P = ca.SX.sym("P", len(problem.parameters))
-    t = ca.SX.sym("t")
-    f = problem.dynamics_p(x, u, t, P)
-    L = problem.lagrange_p(x, u, t, P)
-    if ca.depends_on(ca.vertcat(f, L), t):
+    ham = problem.functions.hamiltonian
+    u, H = ham.u, ham.H
+    if ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t):
         raise ValueError("indirect shooting here needs an autonomous problem (no explicit time dependence)")
-    H = L + ca.dot(p, f)
     _, psi, w, b = _extract(H, u, nu)
     groups = []
     if control_set == "box":
@@ -184,14 +179,14 @@ def control_law(problem: OptimalControlProblem, control_set: str = "box", *, reg
             branches = [ca.DM.zeros(nu), radius * direction]
         groups.append(SwitchingGroup(q, thresholds, [ca.SX(br) for br in branches], tuple(range(nu))))
         description = f"ball |u| <= {radius}, {'saturated linear' if regularized else 'bang-off-bang'}"
-    law = ControlLaw(groups, nu, regularized, control_set, description, x, p, P)
+    law = ControlLaw(groups, nu, regularized, control_set, description, ham)
     _check_form(problem, law, H, u, psi, w, b)
     return law
 
 
 def _check_form(problem, law, H, u, psi, w, b, samples: int = 20, tol: float = 1e-8) -> None:
     """H must equal H0 + psi.u + w|u| + b|u|^2 (b = 0 unless regularised); raise ValueError otherwise."""
-    x, p, P = law._x, law._p, law._P
+    x, p, P = law.hamiltonian.x, law.hamiltonian.p, law.hamiltonian.P
     nu = law.nu
     if law.control_set == "box":
         model = sum(psi[i] * u[i] + w[i] * ca.fabs(u[i]) + b[i] * u[i] ** 2 for i in range(nu))
@@ -246,13 +241,12 @@ class HamiltonianSystem:
         nx = problem.nx
         self.nx, self.n = nx, 2 * nx + 1
         self.n_variational = nx if n_variational is None else int(n_variational)
-        x, p, P = law._x, law._p, law._P
+        law_ham = law.hamiltonian  # the flows are those of the Hamiltonian the law minimises
+        if (law_ham.x.numel(), law_ham.P.numel()) != (nx, len(problem.parameters)):
+            raise ValueError("the control law was derived for a problem of other dimensions")
+        ham = Hamiltonian.of(problem.functions, law_ham.x, law_ham.p, law_ham.P)
+        x, p, u, P, f, L, H = ham.x, ham.p, ham.u, ham.P, ham.f, ham.L, ham.H
         J = ca.SX.sym("J")
-        u = ca.SX.sym("u", law.nu)
-        t = ca.SX.sym("t")
-        f = problem.dynamics_p(x, u, t, P)
-        L = problem.lagrange_p(x, u, t, P)
-        H = L + ca.dot(p, f)
         dHdx = ca.gradient(H, x)
         y = ca.vertcat(x, p, J)
         mode = ca.SX.sym("mode")

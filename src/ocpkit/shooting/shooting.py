@@ -26,20 +26,27 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-from scipy.optimize import root
 
 from ..errors import SolverError
 from ..problem import FreeFinalTime, OptimalControlProblem
-from .compiled import DETECTION_MODES, CompiledSystem, Integration
+from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem
-
-JACOBIANS = ("fd", "variational")
-SOLVERS = ("hybr", "newton")
+from .strategies import DETECTION_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
+from .trajectory import ShootingTrajectory
 
 
 @dataclass
 class ShootingResult:
-    """A shooting run: unknowns, residual, effort and the final trajectory's statistics."""
+    """A shooting run: unknowns, residual, effort, the final integration and its trajectory.
+
+    ``z`` the unknowns (``p0`` the initial costates, ``tf`` the final time),
+    ``residual`` and ``norm`` S(z) and |S|, ``converged`` whether ``norm <= stol``,
+    ``message`` the solver's own, ``n_shooting`` / ``n_jacobian`` / ``n_integrations``
+    the effort, ``cpu_s`` the process time of the solve, ``objective`` the cost of the
+    final trajectory, ``parameters`` the problem parameters, ``integration`` the
+    recorded final integration (steps, switchings, the Hamiltonian along it) and
+    :attr:`trajectory` the state, control and costates as functions of time.
+    """
 
     z: np.ndarray
     p0: np.ndarray
@@ -56,10 +63,18 @@ class ShootingResult:
     detection: str
     jacobian: str
     parameters: np.ndarray
-    trajectory: Integration = field(repr=False)
+    integration: Integration = field(repr=False)
+    system: HamiltonianSystem = field(repr=False, default=None)
+
+    @property
+    def trajectory(self) -> ShootingTrajectory:
+        """The solution as functions of time (state, control, costates; re-integration, differences)."""
+        if "_trajectory" not in self.__dict__:
+            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system)
+        return self.__dict__["_trajectory"]
 
     def summary(self) -> dict:
-        tr = self.trajectory
+        tr = self.integration
         return {
             "detection": self.detection, "jacobian": self.jacobian, "objective": self.objective,
             "norm_S": self.norm, "converged": self.converged, "n_S": self.n_shooting, "n_jac": self.n_jacobian,
@@ -96,12 +111,12 @@ class Shooting:
                  fd_step: float | None = None):
         if detection not in DETECTION_MODES:
             raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
-        if jacobian not in JACOBIANS:
-            raise ValueError(f"jacobian must be one of {JACOBIANS}, got {jacobian!r}")
+        self._jacobian = jacobian_strategy(jacobian)
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
         self.problem, self.law = problem, law
-        self.detection, self.jacobian = detection, jacobian
+        self.detection = detection
+        self.jacobian = jacobian if isinstance(jacobian, str) else getattr(jacobian, "name", type(jacobian).__name__)
         self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
         self.interior_check = bool(interior_check)
         noise = max(rtol, np.finfo(float).eps) if detection == "none" else np.finfo(float).eps
@@ -109,17 +124,13 @@ class Shooting:
         if not (self.fd_step > 0 and np.isfinite(self.fd_step)):
             raise ValueError(f"fd_step must be positive, got {fd_step!r}")
         nx = problem.nx
-        x0 = []
         for s in problem.states:
-            if s.initial is None or isinstance(s.initial, (tuple, list)):
-                raise ValueError(f"shooting needs a fixed initial value for state {s.name!r}")
-            x0.append(float(s.initial))
-        self.x0 = np.array(x0)
-        self.fixed_final = []
-        for i, s in enumerate(problem.states):
-            if isinstance(s.final, (tuple, list)):
+            if s.fixed_initial is None:
+                raise ValueError(f"shooting needs a fixed initial value for state {s.name!r}, got {s.initial!r}")
+            if s.final is not None and s.fixed_final is None:
                 raise ValueError(f"shooting supports fixed or free final states, not the interval of {s.name!r}")
-            self.fixed_final.append(s.final is not None)
+        self.x0 = np.array([s.fixed_initial for s in problem.states])
+        self.fixed_final = [s.fixed_final is not None for s in problem.states]
         self.free_tf = isinstance(problem.tf, FreeFinalTime)
         self.nz = nx + int(self.free_tf)
         self.compiled = system if system is not None else CompiledSystem(HamiltonianSystem(problem, law))
@@ -132,11 +143,11 @@ class Shooting:
         mode = ca.SX.sym("mode")
         P = ca.SX.sym("P", len(problem.parameters))
         xf, pf = yf[:nx], yf[nx:2 * nx]
-        phi = problem.mayer_p(ca.DM(self.x0), xf, problem.t0, tf, P) if problem.mayer_p is not None else ca.SX(0)
+        phi = problem.phi(ca.DM(self.x0), xf, problem.t0, tf, P) if problem.phi is not None else ca.SX(0)
         dphi = ca.gradient(phi, xf)
         rows = []
         for i, s in enumerate(problem.states):
-            rows.append(xf[i] - float(s.final) if self.fixed_final[i] else pf[i] - dphi[i])
+            rows.append(xf[i] - s.fixed_final if self.fixed_final[i] else pf[i] - dphi[i])
         if self.free_tf:
             rows.append(sysm.hamiltonian(yf, mode, P) + ca.gradient(phi, tf))
         S = ca.vertcat(*rows)
@@ -177,11 +188,7 @@ class Shooting:
         return res
 
     def _params(self, parameters):
-        P = self.problem.parameter_values if parameters is None else np.array(parameters, dtype=float)
-        if P.shape != (len(self.problem.parameters),):
-            raise ValueError(f"expected {len(self.problem.parameters)} parameters {list(self.problem.parameters)}, "
-                             f"got {P.shape}")
-        return P
+        return self.problem.parameter_vector(parameters)
 
     def residual(self, z, parameters=None, integration: Integration | None = None) -> np.ndarray:
         """S(z)."""
@@ -191,44 +198,32 @@ class Shooting:
         mode = self.compiled.system.mode_at(res.y, P)
         return np.asarray(self._S(res.y, tf, mode, P)[0]).ravel()
 
-    def jacobian_matrix(self, z, parameters=None, method: str | None = None,
+    def residual_and_derivatives(self, z, P, integration: Integration, variational: bool = True):
+        """``(S(z), dS/dz)`` from an integration that carried the variational columns ``Psi = dy/dz``."""
+        _, tf = self._split(z)
+        sysm = self.compiled.system
+        mode = sysm.mode_at(integration.y, P)
+        S, dSdy, dSdtf = (np.asarray(v) for v in self._S(integration.y, tf, mode, P))
+        J = dSdy @ integration.Psi
+        if self.free_tf:
+            ydot = np.asarray(sysm.flow(integration.y, mode, P)).ravel()
+            J = np.hstack([J, (dSdy @ ydot + dSdtf.ravel())[:, None]])
+        return S.ravel(), J
+
+    def jacobian_matrix(self, z, parameters=None, method=None,
                         S0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """``(S(z), dS/dz)`` by ``method`` (default: this run's): variational, forward or central differences.
+        """``(S(z), dS/dz)`` by ``method`` (a name in :data:`~ocpkit.shooting.strategies.JACOBIANS` or a
+        strategy object; default: this run's).
 
         ``S0``: S(z) when already known, spared by the finite differences.
         """
-        method = method or self.jacobian
+        strategy = self._jacobian if method is None else jacobian_strategy(method)
         P = self._params(parameters)
         z = np.asarray(z, dtype=float).ravel()
-        if method == "variational":
-            res = self.integrate(z, P, variational=True)
-            _, tf = self._split(z)
-            sysm = self.compiled.system
-            mode = sysm.mode_at(res.y, P)
-            S, dSdy, dSdtf = (np.asarray(v) for v in self._S(res.y, tf, mode, P))
-            J = dSdy @ res.Psi
-            if self.free_tf:
-                ydot = np.asarray(sysm.flow(res.y, mode, P)).ravel()
-                J = np.hstack([J, (dSdy @ ydot + dSdtf.ravel())[:, None]])
-            return S.ravel(), J
-        S0 = self.residual(z, P) if S0 is None else np.asarray(S0, dtype=float)
-        J = np.empty((S0.size, z.size))
-        for j in range(z.size):
-            h = self.fd_step * max(abs(z[j]), 1.0)
-            zp = z.copy()
-            zp[j] += h
-            if method == "fd":
-                J[:, j] = (self.residual(zp, P) - S0) / h
-            elif method == "central":
-                zm = z.copy()
-                zm[j] -= h
-                J[:, j] = (self.residual(zp, P) - self.residual(zm, P)) / (2 * h)
-            else:
-                raise ValueError(f"unknown Jacobian method {method!r}")
-        return S0, J
+        return strategy(self, z, P, S0)
 
     # -- solve ------------------------------------------------------------------------------------
-    def solve(self, z0, parameters=None, *, solver: str = "hybr", stol: float = 1e-8, xtol: float = 1e-14,
+    def solve(self, z0, parameters=None, *, solver="hybr", stol: float = 1e-8, xtol: float = 1e-14,
               maxfev: int = 400, factor: float = 100.0, raise_on_failure: bool = True,
               record: bool = True) -> ShootingResult:
         """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with |S| and counts) on failure.
@@ -238,16 +233,16 @@ class Shooting:
         succeed at one of 1e-3). With ``raise_on_failure=False`` a non-converged run
         is returned with ``converged=False`` (for tables that report failures, as the
         source does). ``solver``: ``"hybr"`` (MINPACK; ``factor`` is its initial
-        trust-region bound ``factor * |diag * z0|``, ``xtol`` its step tolerance) or
+        trust-region bound ``factor * |diag * z0|``, ``xtol`` its step tolerance),
         ``"newton"`` (damped Newton; a Jacobian every iteration, until |S| stops
-        decreasing below ``stol`` or ``maxfev`` evaluations). With the variational
+        decreasing below ``stol`` or ``maxfev`` evaluations), or a root-solver object
+        (:mod:`ocpkit.shooting.strategies`). With the variational
         Jacobian the first notes only which detection mode places the switchings;
         with ``detection="none"`` the variational equations carry no jump terms.
         """
         if not stol > 0:
             raise ValueError(f"stol must be positive, got {stol}")
-        if solver not in SOLVERS:
-            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+        method = MinpackHybrid(xtol=xtol, factor=factor) if solver == "hybr" else solver_strategy(solver)
         P = self._params(parameters)
         z0 = np.asarray(z0, dtype=float).ravel()
         if z0.size != self.nz:
@@ -289,11 +284,7 @@ class Shooting:
 
         t = time.process_time()
         try:
-            if solver == "hybr":
-                sol = root(fun, z0, jac=jac, method="hybr", options={"xtol": xtol, "maxfev": maxfev, "factor": factor})
-                z, message = sol.x, " ".join(sol.message.split())
-            else:
-                z, message = self._newton(z0, fun, jac, stol, maxfev)
+            z, message = method(fun, jac, z0, stol=stol, maxfev=maxfev)
         except SolverError as exc:
             if raise_on_failure:
                 raise
@@ -304,96 +295,28 @@ class Shooting:
         S = self.residual(z, P, final)
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
-        if not ok and raise_on_failure:
-            name = "MINPACK hybrid" if solver == "hybr" else "damped Newton"
-            raise SolverError(f"shooting ({name})", message, counts["S"],
-                              f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
-                              f"{counts['jac']} Jacobian evaluations", unit="shooting-function evaluations")
         p0, tf = self._split(z)
-        return ShootingResult(
+        result = ShootingResult(
             z=z, p0=p0, tf=tf, residual=S, norm=norm, converged=ok, message=message,
             n_shooting=counts["S"], n_jacobian=counts["jac"], n_integrations=counts["integrations"],
             cpu_s=cpu, objective=self._objective(final, tf, P), detection=self.detection,
-            jacobian=self.jacobian, parameters=P, trajectory=final,
+            jacobian=self.jacobian, parameters=P, integration=final, system=self.compiled.system,
         )
-
-    @staticmethod
-    def _newton(z0, fun, jac, stol: float, maxfev: int):
-        """Damped Newton: least-squares Newton step, halved until |S|^2 decreases (Armijo, c = 1e-4).
-
-        Stops at the first |S| <= 1e-15, when no step length down to 2^-14 decreases |S|
-        (the integrator's noise floor, or a failure far from a solution), when |S| is
-        below ``stol`` and the last step gained less than a factor 10, or after
-        ``maxfev`` shooting-function evaluations. Returns the best point seen.
-        """
-        z = np.asarray(z0, dtype=float)
-        J = jac(z)
-        S = fun(z)
-        best = (np.linalg.norm(S), z)
-        evaluations = 1
-        message = "maximum number of evaluations reached"
-        while evaluations < maxfev:
-            norm = np.linalg.norm(S)
-            if norm <= 1e-15:
-                message = "residual at machine precision"
-                break
-            try:
-                step = np.linalg.lstsq(J, -S, rcond=None)[0]
-            except np.linalg.LinAlgError:
-                message = "the Newton step could not be computed"
-                break
-            a, accepted = 1.0, False
-            while a >= 2.0 ** -14 and evaluations < maxfev:
-                trial = z + a * step
-                St = fun(trial)
-                evaluations += 1
-                if np.linalg.norm(St) ** 2 <= (1 - 1e-4 * a) * norm**2:
-                    accepted = True
-                    break
-                a *= 0.5
-            if not accepted:
-                message = "no step length decreases |S| (noise floor or stagnation)"
-                break
-            z = trial
-            J = jac(z)
-            S = fun(z)
-            new = np.linalg.norm(S)
-            if new < best[0]:
-                best = (new, z)
-            if new <= stol and new > 0.1 * norm:
-                message = "converged: |S| below stol and no longer decreasing quadratically"
-                break
-        return best[1], message
+        if not ok and raise_on_failure:
+            name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(getattr(method, "name", ""),
+                                                                             type(method).__name__)
+            raise SolverError(f"shooting ({name})", message, counts["S"],
+                              f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
+                              f"{counts['jac']} Jacobian evaluations; the last iterate is the error's .result, "
+                              "solve(raise_on_failure=False) returns it", unit="shooting-function evaluations",
+                              result=result)
+        return result
 
     def _objective(self, res: Integration, tf: float, P) -> float:
         """Running cost (integrated along the trajectory) plus the Mayer term."""
         nx = self.problem.nx
         J = float(res.y[2 * nx])
-        if self.problem.mayer_p is not None:
-            J += float(self.problem.mayer_p(self.x0, res.y[:nx], self.problem.t0, tf, P))
+        if self.problem.phi is not None:
+            J += float(self.problem.phi(self.x0, res.y[:nx], self.problem.t0, tf, P))
         return J
 
-
-def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", final: Shooting | None = None,
-             **solve_options) -> list[ShootingResult]:
-    """Continuation on a cost parameter: solve for each value of ``lambdas`` in turn, each warm-starting the next.
-
-    ``regularized`` solves the problems with ``parameter`` in ``lambdas``; ``final``
-    (typically the bang-bang law at the end value) solves once more from the last
-    solution. Returns every solve's result; a solve that fails raises :class:`~ocpkit.SolverError`.
-    """
-    problem = regularized.problem
-    if parameter not in problem.parameters:
-        raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
-    solve_options = {**solve_options, "raise_on_failure": True}
-    names = list(problem.parameters)
-    results, z = [], np.asarray(z0, dtype=float)
-    P = problem.parameter_values.copy()
-    for lam in lambdas:
-        P[names.index(parameter)] = lam
-        results.append(regularized.solve(z, P.copy(), **solve_options))
-        z = results[-1].z
-    if final is not None:
-        Pf = final.problem.parameter_values.copy()
-        results.append(final.solve(z, Pf, **solve_options))
-    return results

@@ -9,66 +9,30 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
+from ..errors import SolverError
+from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
-
-
-def mesh_fractions(segments: int | None, mesh) -> np.ndarray:
-    """Segment lengths as fractions of [t0, tf] from a count or explicit fractions."""
-    if mesh is not None:
-        frac = np.asarray(mesh, dtype=float).ravel()
-        if frac.size < 1 or np.any(~np.isfinite(frac)) or np.any(frac <= 0):
-            raise ValueError("mesh fractions must be positive and finite")
-        if segments is not None and segments != frac.size:
-            raise ValueError(f"segments={segments} disagrees with a mesh of {frac.size} fractions")
-        return frac / frac.sum()
-    if segments is None:
-        raise ValueError("give the number of segments or the mesh fractions")
-    if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)):
-        raise TypeError(f"segments must be an integer, got {segments!r}")
-    if segments < 1:
-        raise ValueError(f"segments must be at least 1, got {segments}")
-    return np.full(int(segments), 1.0 / segments)
-
-
-def segment_starts(fractions: np.ndarray) -> np.ndarray:
-    """Normalised start times (0..1) of segments with lengths ``fractions``."""
-    return np.concatenate([[0.0], np.cumsum(fractions)[:-1]])
-
-
-def segment_point_fractions(starts: np.ndarray, fractions: np.ndarray, local) -> np.ndarray:
-    """Normalised times (0..1) of points at ``local`` positions in [0, 1) of every segment, then the end (1).
-
-    Points are ordered segment by segment, as in the NLP layouts: consecutive
-    segments share their boundary point, so ``local`` excludes 1.
-    """
-    local = np.asarray(local, dtype=float)
-    s = (starts[:, None] + fractions[:, None] * local[None, :]).ravel()
-    return np.concatenate([s, [1.0]])
+from .mesh import Mesh, final_time
 
 
 def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_nodes, len(states)) of states on a node set, with the boundary conditions at both ends."""
-    lb = np.empty((n_nodes, len(states)))
-    ub = np.empty((n_nodes, len(states)))
-    for j, s in enumerate(states):
-        def nlp(v, s=s):
-            return (v - s.shift) / s.scale
-
-        lb[:, j], ub[:, j] = nlp(s.lower), nlp(s.upper)
-        lo, hi = s.boundary_interval("initial")
-        lb[0, j], ub[0, j] = nlp(lo), nlp(hi)
-        lo, hi = s.boundary_interval("final")
-        lb[-1, j], ub[-1, j] = max(lb[-1, j], nlp(lo)), min(ub[-1, j], nlp(hi))
-    return lb, ub
+    sc = AffineScaling.of(states)
+    lo = np.tile([s.lower for s in states], (n_nodes, 1)).reshape(n_nodes, len(states))
+    hi = np.tile([s.upper for s in states], (n_nodes, 1)).reshape(n_nodes, len(states))
+    lo[0], hi[0] = np.array([s.boundary_interval("initial") for s in states]).reshape(len(states), 2).T
+    lf, hf = np.array([s.boundary_interval("final") for s in states]).reshape(len(states), 2).T
+    lo[-1], hi[-1] = np.maximum(lo[-1], lf), np.minimum(hi[-1], hf)
+    return sc.to_nlp(lo), sc.to_nlp(hi)
 
 
 def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_points, len(controls)) of controls at their parameter points."""
-    lb = np.tile([(c.lower - c.shift) / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
-    ub = np.tile([(c.upper - c.shift) / c.scale for c in controls], (n_points, 1)).reshape(n_points, len(controls))
-    return lb, ub
+    sc = AffineScaling.of(controls)
+    lo = np.tile([c.lower for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    hi = np.tile([c.upper for c in controls], (n_points, 1)).reshape(n_points, len(controls))
+    return sc.to_nlp(lo), sc.to_nlp(hi)
 
 
 @dataclass(frozen=True)
@@ -92,7 +56,7 @@ class VariableGroup:
 
     @property
     def scaling(self) -> AffineScaling:
-        return AffineScaling(np.array([v.shift for v in self.variables]), np.array([v.scale for v in self.variables]))
+        return AffineScaling.of(self.variables)
 
 
 class Transcription(ABC):
@@ -194,9 +158,9 @@ class Transcription(ABC):
         return tuple(out)
 
     # -- helpers for subclasses ------------------------------------------------------------
-    def _times(self, tf: float, fractions: np.ndarray) -> np.ndarray:
-        """Physical times of normalised times ``fractions`` in [0, 1]."""
-        return self.problem.t0 + (tf - self.problem.t0) * np.asarray(fractions)
+    def _times(self, tf: float, s: np.ndarray) -> np.ndarray:
+        """Physical times of normalised times ``s`` in [0, 1]."""
+        return Mesh.times(self.problem, tf, s)
 
     def _stack_bounds(self, parts) -> tuple[np.ndarray, np.ndarray]:
         """Concatenate ``(lower, upper)`` arrays in layout order and append the final-time bounds."""
@@ -215,7 +179,7 @@ class Transcription(ABC):
         free = pr.free_final_time
         z = ca.SX.sym("z", 2 * nx + int(free))
         p = ca.SX.sym("p", int(not free))
-        tf = z[-1] * pr.tf.scale if free else p[0]
+        tf = final_time(pr, z, p, 0)
         xs = pr.state_scaling
         phi = pr.mayer(xs.from_nlp(z[:nx]), xs.from_nlp(z[nx:2 * nx]), pr.t0, tf)
         var = np.concatenate([first, last] + ([[tf_index]] if free else []))
@@ -278,8 +242,9 @@ class Transcription(ABC):
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 
-    def solve(self, guess=None, *, ipopt_options: dict | None = None, allow_acceptable: bool = False) -> Solution:
-        """Solve with IPOPT from ``guess``; raise :class:`~ocpkit.SolverError` on failure.
+    def solve(self, guess=None, *, ipopt_options: dict | None = None, allow_acceptable: bool = False,
+              raise_on_failure: bool = True) -> Solution:
+        """Solve with IPOPT from ``guess``.
 
         Parameters
         ----------
@@ -288,12 +253,27 @@ class Transcription(ABC):
             Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
         allow_acceptable : bool
             Accept IPOPT's ``Solved_To_Acceptable_Level`` as success.
+        raise_on_failure : bool
+            True (default): a failed solve raises :class:`~ocpkit.SolverError` naming IPOPT's
+            status, with the last iterate as ``error.result``. False: the last iterate is
+            returned as a :class:`Solution` with ``converged=False``.
         """
         solver = self.solver(ipopt_options)
         lbw, ubw = self._bounds()
         lbg, ubg = self._constraint_bounds()
         w0 = self.initial_point(guess)
         result = solve_nlp(solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
+        solution = None
+        if np.all(np.isfinite(result.w)):
+            solution = self._solution(result)
+        if result.success:
+            return solution
+        if raise_on_failure or solution is None:
+            detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
+            raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
+        return solution
+
+    def _solution(self, result: NLPResult) -> Solution:
         fields = self._package(result)
         return Solution(
             problem=self.problem,
@@ -307,5 +287,6 @@ class Transcription(ABC):
             build_s=self.build_s,
             solve_s=result.solve_s,
             raw={"w": result.w, "lam_g": result.lam_g, "lam_w": result.lam_w, "stats": result.stats},
+            converged=result.success,
             **fields,
         )

@@ -27,7 +27,8 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions, segment_point_fractions, segment_starts
+from .base import Transcription, VariableGroup
+from .mesh import Mesh, segment_clock
 
 
 def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
@@ -99,9 +100,8 @@ class HLGL(Transcription):
 
     def __init__(self, problem: OptimalControlProblem, segments: int | None = None, *, mesh=None):
         super().__init__(problem)
-        self.fractions = mesh_fractions(segments, mesh)
-        self.segments = self.fractions.size
-        self.starts = segment_starts(self.fractions)
+        self.mesh = Mesh.from_spec(segments, mesh)
+        self.segments = self.mesh.n
 
     # -- sizes and layout --------------------------------------------------------------
     @property
@@ -127,11 +127,11 @@ class HLGL(Transcription):
 
     def state_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2n+1 state nodes."""
-        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_STATE_NODES[:2])
+        return self.mesh.points(nodes.HLGL_STATE_NODES[:2])
 
     def control_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 4n+1 control points."""
-        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_CONTROL_NODES[:4])
+        return self.mesh.points(nodes.HLGL_CONTROL_NODES[:4])
 
     # -- NLP blocks ----------------------------------------------------------------------
     def _segment_symbols(self):
@@ -144,10 +144,8 @@ class HLGL(Transcription):
         xs, us = pr.state_scaling, pr.control_scaling
         x = [xs.from_nlp(z[j * nx:(j + 1) * nx]) for j in range(3)]
         u = [us.from_nlp(z[3 * nx + j * nu:3 * nx + (j + 1) * nu]) for j in range(5)]
-        tf = z[-1] * pr.tf.scale if free else p[2]
-        T = tf - pr.t0
-        h = T * p[1]
-        t = [pr.t0 + T * p[0] + h * s for s in nodes.HLGL_CONTROL_NODES]
+        t_begin, _, h = segment_clock(pr, z, p)
+        t = [t_begin + h * s for s in nodes.HLGL_CONTROL_NODES]
         return z, p, x, u, t, h
 
     def _segment_tables(self):
@@ -159,11 +157,7 @@ class HLGL(Transcription):
         rows += [Ui[:, 4 * k + j] for j in range(5)]
         if pr.free_final_time:
             rows.append(np.full((1, n), tfi))
-        variables = np.vstack(rows)
-        params = [self.starts, self.fractions]
-        if not pr.free_final_time:
-            params.append(np.full(n, pr.tf))
-        return variables, np.vstack(params)
+        return np.vstack(rows), self.mesh.parameters(pr)
 
     def _blocks(self) -> list[Block]:
         pr = self.problem
@@ -178,13 +172,13 @@ class HLGL(Transcription):
         rows = np.arange(2 * nx * n).reshape(n, 2 * nx).T
         blocks = [Block("defects", defects, variables, params, rows)]
 
-        if pr.lagrange is not None:
+        if pr.L is not None:
             xs = [x[0], x_a, x[1], x_b, x[2]]
             quad = h * sum(w * pr.lagrange(xj, uj, tj) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
             fun = ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
 
-        if pr.mayer is not None:
+        if pr.phi is not None:
             (Xi, _), tfi = self._index_tables()
             blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], tfi))
         return blocks
@@ -209,8 +203,8 @@ class HLGL(Transcription):
         t_x = self._times(tf, self.state_node_fractions())
         t_u = self._times(tf, self.control_point_fractions())
         U_nodes = U[0::2] if pr.nu else np.zeros((self.n_state_nodes, 0))
-        F = np.asarray(pr.dynamics.map(self.n_state_nodes)(X.T, U_nodes.T, t_x[None, :])).T
-        breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
+        F = np.asarray(pr.f.map(self.n_state_nodes)(X.T, U_nodes.T, t_x[None, :], pr.parameter_vector())).T
+        breaks = self._times(tf, self.mesh.breaks)
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
         Useg = segment_points(U, self.segments)

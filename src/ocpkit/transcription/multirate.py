@@ -36,7 +36,8 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions, segment_point_fractions, segment_starts
+from .base import Transcription, VariableGroup
+from .mesh import Mesh, segment_clock
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
@@ -121,9 +122,8 @@ class MultiRateHLGL(Transcription):
         self.ratio = int(ratio)
         self.fast_interpolation = fast_interpolation
         self.slow, self.fast = state_partition(problem, slow, fast)
-        self.fractions = mesh_fractions(segments, mesh)
-        self.segments = self.fractions.size
-        self.starts = segment_starts(self.fractions)
+        self.mesh = Mesh.from_spec(segments, mesh)
+        self.segments = self.mesh.n
 
     # -- sizes and layout -------------------------------------------------------------
     @property
@@ -156,15 +156,15 @@ class MultiRateHLGL(Transcription):
 
     def coarse_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2N+1 coarse (slow-state) nodes."""
-        return segment_point_fractions(self.starts, self.fractions, nodes.HLGL_STATE_NODES[:2])
+        return self.mesh.points(nodes.HLGL_STATE_NODES[:2])
 
     def fine_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2MN+1 fine (fast-state) nodes."""
-        return segment_point_fractions(self.starts, self.fractions, np.arange(2 * self.ratio) / (2 * self.ratio))
+        return self.mesh.points(np.arange(2 * self.ratio) / (2 * self.ratio))
 
     def control_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 4N+1 control points."""
-        return segment_point_fractions(self.starts, self.fractions, nodes.EQUISPACED_CONTROL_NODES[:4])
+        return self.mesh.points(nodes.EQUISPACED_CONTROL_NODES[:4])
 
     def _indices(self):
         """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
@@ -198,10 +198,7 @@ class MultiRateHLGL(Transcription):
         Z = [zsc.from_nlp(w[off + k * nzf: off + (k + 1) * nzf]) for k in range(2 * M + 1)]
         off += (2 * M + 1) * nzf
         U = [pr.control_scaling.from_nlp(w[off + k * nu: off + (k + 1) * nu]) for k in range(5)]
-        tf = w[-1] * pr.tf.scale if free else p[2]
-        T = tf - pr.t0
-        h = T * p[1]
-        t_start = pr.t0 + T * p[0]
+        t_start, _, h = segment_clock(pr, w, p)
 
         def u_at(s):
             L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s]))[0]
@@ -271,7 +268,7 @@ class MultiRateHLGL(Transcription):
                 defects += [c1 / sz, c2 / sz]
 
         quad = None
-        if pr.lagrange is not None:
+        if pr.L is not None:
             pts = [(0.0, X[0], zc[0]), (sa, xa, za), (0.5, X[1], zc[1]), (sb, xb, zb), (1.0, X[2], zc[2])]
             quad = h * sum(
                 wq * pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s)
@@ -289,8 +286,7 @@ class MultiRateHLGL(Transcription):
         rows += [U[:, 4 * k + j] for j in range(5)]
         if pr.free_final_time:
             rows.append(np.full((1, N), tfi))
-        params = [self.starts, self.fractions] + ([] if pr.free_final_time else [np.full(N, pr.tf)])
-        return np.vstack(rows), np.vstack(params)
+        return np.vstack(rows), self.mesh.parameters(pr)
 
     def _blocks(self) -> list[Block]:
         pr = self.problem
@@ -302,7 +298,7 @@ class MultiRateHLGL(Transcription):
         if quad is not None:
             fun = ca.Function("mr_lagrange", [w, p], [quad / pr.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
-        if pr.mayer is not None:
+        if pr.phi is not None:
             X, Z, _, tfi = self._indices()
             first = np.empty(pr.nx, dtype=np.int64)
             last = np.empty(pr.nx, dtype=np.int64)
@@ -336,16 +332,14 @@ class MultiRateHLGL(Transcription):
         t_c = self._times(tf, self.coarse_node_fractions())
         t_f = self._times(tf, self.fine_node_fractions())
         t_u = self._times(tf, self.control_point_fractions())
-        breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
+        breaks = self._times(tf, self.mesh.breaks)
         h = np.diff(breaks)
 
         ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, N))
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, ucoef))
 
-        f_map = pr.dynamics.map
-
         def rhs(times, full):
-            return np.asarray(f_map(times.size)(full.T, controls(times).T, times[None, :])).T
+            return np.asarray(pr.f.map(times.size)(full.T, controls(times).T, times[None, :], pr.parameter_vector())).T
 
         # slow states: coarse Hermite with slopes from the full state at the coarse nodes
         full_c = np.empty((t_c.size, pr.nx))

@@ -29,7 +29,8 @@ import numpy as np
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup, mesh_fractions, segment_starts
+from .base import Transcription, VariableGroup
+from .mesh import Mesh, segment_clock
 
 
 class PiecewiseBarycentric:
@@ -85,14 +86,13 @@ class Radau(Transcription):
         super().__init__(problem)
         if intervals is None and mesh is None:
             intervals = 1
-        self.fractions = mesh_fractions(intervals, mesh)
-        self.intervals = self.fractions.size
+        self.mesh = Mesh.from_spec(intervals, mesh, what="intervals")
+        self.intervals = self.mesh.n
         counts = [nodes] * self.intervals if np.ndim(nodes) == 0 else list(nodes)
         if len(counts) != self.intervals:
             raise ValueError(f"{len(counts)} node counts given for {self.intervals} intervals")
         self.tau = [lgr_nodes(n) for n in counts]  # validates each count
         self.counts = np.array(counts, dtype=np.int64)
-        self.starts = segment_starts(self.fractions)
         self.offsets = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
 
     # -- sizes and layout ---------------------------------------------------------------
@@ -120,7 +120,7 @@ class Radau(Transcription):
 
     def state_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the state points: every collocation point, then the final time."""
-        s = [a + f * (tau + 1) / 2 for a, f, tau in zip(self.starts, self.fractions, self.tau)]
+        s = [a + f * (tau + 1) / 2 for a, f, tau in zip(self.mesh.starts, self.mesh.fractions, self.tau)]
         return np.concatenate(s + [[1.0]])
 
     def collocation_fractions(self) -> np.ndarray:
@@ -156,26 +156,22 @@ class Radau(Transcription):
         z = ca.SX.sym("z", nx + nu + int(free))
         p = ca.SX.sym("p", 2 + int(not free))  # normalised time, interval fraction, (tf)
         x, u = xs.from_nlp(z[:nx]), us.from_nlp(z[nx:nx + nu])
-        tf = z[-1] * pr.tf.scale if free else p[2]
-        T = tf - pr.t0
-        t = pr.t0 + T * p[0]
-        half = T * p[1] / 2
+        t, _, h = segment_clock(pr, z, p)
+        half = h / 2
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t) / ca.DM(xs.scale)])
         var = np.vstack([X[:, :-1], U] + ([np.full((1, self.n_collocation), tfi)] if free else []))
-        frac = np.repeat(self.fractions, self.counts)
-        params = [self.collocation_fractions(), frac] + ([] if free else [np.full(self.n_collocation, pr.tf)])
-        params = np.vstack(params)
+        frac = np.repeat(self.mesh.fractions, self.counts)
+        params = self.mesh.parameters(pr, self.collocation_fractions(), frac)
         blocks.append(Block("lgr_dynamics", dyn, var, params, rows_all))
 
-        if pr.lagrange is not None:
-            q = ca.SX.sym("q", 3 + int(not free))
-            tfq = z[-1] * pr.tf.scale if free else q[3]
-            Tq = tfq - pr.t0
-            L = q[2] * Tq * q[1] / 2 * pr.lagrange(x, u, pr.t0 + Tq * q[0])
+        if pr.L is not None:
+            # parameters [s, fraction, (tf), weight]
+            q = ca.SX.sym("q", params.shape[0] + 1)
+            tq, Tq, _ = segment_clock(pr, z, q)
+            L = q[-1] * Tq * q[1] / 2 * pr.lagrange(x, u, tq)
             fun = ca.Function("lgr_lagrange", [z, q], [L / pr.objective_scale])
-            qpar = np.vstack(params[:2].tolist() + [self._collocation_weights()] + params[2:].tolist())
-            blocks.append(Block("lagrange", fun, var, qpar))
-        if pr.mayer is not None:
+            blocks.append(Block("lagrange", fun, var, np.vstack([params, self._collocation_weights()])))
+        if pr.phi is not None:
             blocks.append(self._mayer_block(X[:, 0], X[:, -1], tfi))
         return blocks
 
@@ -211,7 +207,7 @@ class Radau(Transcription):
     def _package(self, result: NLPResult) -> dict:
         pr = self.problem
         X, U, tf = self.unpack(result.w)
-        breaks = self._times(tf, np.concatenate([self.starts, [1.0]]))
+        breaks = self._times(tf, self.mesh.breaks)
         x_pieces, u_pieces = [], []
         for o, n, tau in zip(self.offsets, self.counts, self.tau):
             x_pieces.append((np.append(tau, 1.0), X[o:o + n + 1]))

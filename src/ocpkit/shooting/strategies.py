@@ -1,0 +1,171 @@
+"""The choices of a shooting method as small objects, with registries of the names notebooks use.
+
+* switching treatment (:data:`DETECTION_MODES`): how the integrator meets a switching
+  (``"none"``, ``"detection"``, ``"correction"``; implemented in ``dopri5.c``);
+* Jacobian of the shooting function (:data:`JACOBIANS`): :class:`FiniteDifferences`
+  (``"fd"``, ``"central"``) or :class:`Variational` (``"variational"``);
+* root solver (:data:`SOLVERS`): :class:`MinpackHybrid` (``"hybr"``) or
+  :class:`DampedNewton` (``"newton"``).
+
+A :class:`~ocpkit.shooting.Shooting` takes either a name or an object; a new
+strategy is a small class with the same method.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DETECTION_MODES = ("none", "detection", "correction")
+
+
+# -- Jacobians of S(z) -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FiniteDifferences:
+    """Forward (or ``central``) differences with the relative step ``step``, default the shooting's ``fd_step``.
+
+    The step for unknown ``j`` is ``step max(|z_j|, 1)``.
+    """
+
+    central: bool = False
+    step: float | None = None
+
+    name = "fd"
+
+    def __call__(self, shooting, z, P, S0=None):
+        step = shooting.fd_step if self.step is None else self.step
+        S0 = shooting.residual(z, P) if S0 is None else np.asarray(S0, dtype=float)
+        J = np.empty((S0.size, z.size))
+        for j in range(z.size):
+            h = step * max(abs(z[j]), 1.0)
+            zp = z.copy()
+            zp[j] += h
+            if self.central:
+                zm = z.copy()
+                zm[j] -= h
+                J[:, j] = (shooting.residual(zp, P) - shooting.residual(zm, P)) / (2 * h)
+            else:
+                J[:, j] = (shooting.residual(zp, P) - S0) / h
+        return S0, J
+
+
+@dataclass(frozen=True)
+class Variational:
+    """dS/dz from the variational equations integrated alongside the flow (with their jump at each switching).
+
+    ``dS/dz = dS/dy Psi(tf)`` and, for a free final time, the column
+    ``dS/dy dy/dt(tf) + dS/dtf``.
+    """
+
+    name = "variational"
+
+    def __call__(self, shooting, z, P, S0=None):
+        res = shooting.integrate(z, P, variational=True)
+        return shooting.residual_and_derivatives(z, P, res, variational=True)
+
+
+JACOBIANS = {"fd": FiniteDifferences(), "central": FiniteDifferences(central=True), "variational": Variational()}
+
+
+def jacobian_strategy(spec):
+    """A Jacobian strategy from its name in :data:`JACOBIANS` or an object."""
+    if isinstance(spec, str):
+        if spec not in JACOBIANS:
+            raise ValueError(f"jacobian must be one of {tuple(JACOBIANS)}, got {spec!r}")
+        return JACOBIANS[spec]
+    if not callable(spec):
+        raise TypeError(f"a Jacobian strategy must be callable (shooting, z, P, S0) -> (S, J), got {spec!r}")
+    return spec
+
+
+# -- root solvers ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MinpackHybrid:
+    """MINPACK's hybrid Powell method (``scipy.optimize.root(method="hybr")``; the slides' solver).
+
+    ``factor``: the initial trust-region bound ``factor |diag z0|``; ``xtol``: the relative step tolerance.
+    """
+
+    xtol: float = 1e-14
+    factor: float = 100.0
+
+    name = "hybr"
+
+    def __call__(self, fun, jac, z0, *, stol: float, maxfev: int):
+        from scipy.optimize import root
+
+        sol = root(fun, z0, jac=jac, method="hybr", options={"xtol": self.xtol, "maxfev": maxfev,
+                                                              "factor": self.factor})
+        return sol.x, " ".join(sol.message.split())
+
+
+@dataclass(frozen=True)
+class DampedNewton:
+    """Least-squares Newton steps, halved until |S|^2 decreases (Armijo, c = 1e-4).
+
+    Stops at the first |S| <= 1e-15, when no step length down to 2^-14 decreases |S|
+    (the integrator's noise floor, or a failure far from a solution), when |S| is
+    below ``stol`` and the last step gained less than a factor 10, or after
+    ``maxfev`` shooting-function evaluations. Returns the best point seen.
+    """
+
+    name = "newton"
+
+    def __call__(self, fun, jac, z0, *, stol: float, maxfev: int):
+        z = np.asarray(z0, dtype=float)
+        J = jac(z)
+        S = fun(z)
+        best = (np.linalg.norm(S), z)
+        evaluations = 1
+        message = "maximum number of evaluations reached"
+        while evaluations < maxfev:
+            norm = np.linalg.norm(S)
+            if norm <= 1e-15:
+                message = "residual at machine precision"
+                break
+            try:
+                step = np.linalg.lstsq(J, -S, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                message = "the Newton step could not be computed"
+                break
+            a, accepted = 1.0, False
+            while a >= 2.0 ** -14 and evaluations < maxfev:
+                trial = z + a * step
+                St = fun(trial)
+                evaluations += 1
+                if np.linalg.norm(St) ** 2 <= (1 - 1e-4 * a) * norm**2:
+                    accepted = True
+                    break
+                a *= 0.5
+            if not accepted:
+                message = "no step length decreases |S| (noise floor or stagnation)"
+                break
+            z = trial
+            J = jac(z)
+            S = fun(z)
+            new = np.linalg.norm(S)
+            if new < best[0]:
+                best = (new, z)
+            if new <= stol and new > 0.1 * norm:
+                message = "converged: |S| below stol and no longer decreasing quadratically"
+                break
+        return best[1], message
+
+
+SOLVERS = {"hybr": MinpackHybrid(), "newton": DampedNewton()}
+
+
+def solver_strategy(spec):
+    """A root solver from its name in :data:`SOLVERS` or an object."""
+    if isinstance(spec, str):
+        if spec not in SOLVERS:
+            raise ValueError(f"solver must be one of {tuple(SOLVERS)}, got {spec!r}")
+        return SOLVERS[spec]
+    if not callable(spec):
+        raise TypeError(f"a root solver must be callable (fun, jac, z0, *, stol, maxfev) -> (z, message), got {spec!r}")
+    return spec

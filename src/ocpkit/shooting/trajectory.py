@@ -1,0 +1,101 @@
+"""The trajectory of a shooting solution as functions of time (a :class:`~ocpkit.trajectory.Trajectory`).
+
+The compiled integrator records ``y = (x, p, J)`` at the end of every accepted step
+and at every switching, so each interval between two records lies in one mode of the
+control law. Between records the state and costate are the cubic Hermite
+interpolant of ``y`` and of the mode's flow ``dy/dt`` at both ends (fourth-order
+accurate in the step); the control is the law's branch of that mode, evaluated on
+the interpolated state and costate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..trajectory import Trajectory
+from .compiled import Integration
+from .hamiltonian import HamiltonianSystem
+
+
+class ShootingTrajectory(Trajectory):
+    """State, control and costate of a recorded integration (``record=True``) of a Hamiltonian system."""
+
+    def __init__(self, integration: Integration, system: HamiltonianSystem):
+        if integration.states.shape[0] < 2:
+            raise ValueError("a shooting trajectory needs a recorded integration (record=True)")
+        if integration.truncated:
+            raise ValueError("the recorded integration stops before tf (its history hit its capacity)")
+        self.problem = system.problem
+        self.system = system
+        self.integration = integration
+        P = system.problem.parameter_vector(integration.parameters)
+        self._P = P
+        t = integration.step_times
+        keep = np.concatenate([[True], np.diff(t) > 0])  # a switching at tf repeats the last time
+        self._t, Y = t[keep], integration.states[keep]
+        self.t0, self.tf = float(self._t[0]), float(self._t[-1])
+        n = self.problem.nx
+        # the mode of each interval, from the switching functions at its midpoint
+        mid = 0.5 * (Y[1:] + Y[:-1])
+        self._modes = self._modes_at(mid)
+        flow = system.flow
+        d0 = np.empty_like(Y[:-1])
+        d1 = np.empty_like(Y[:-1])
+        for m in np.unique(self._modes):
+            sel = np.flatnonzero(self._modes == m)
+            f = flow.map(sel.size)
+            d0[sel] = np.asarray(f(Y[sel].T, m, P)).T
+            d1[sel] = np.asarray(f(Y[sel + 1].T, m, P)).T
+        self._Y, self._D0, self._D1 = Y, d0, d1
+        self._n = n
+        self.breakpoints = np.concatenate([[self.t0], integration.switching_times[
+            (integration.switching_times > self.t0) & (integration.switching_times < self.tf)], [self.tf]])
+
+    def _modes_at(self, Y) -> np.ndarray:
+        law = self.system.law
+        g = np.asarray(self.system.switching.map(Y.shape[0])(Y.T, self._P)).T
+        modes = np.zeros(Y.shape[0], dtype=int)
+        stride, k = 1, 0
+        for size in law.group_sizes:
+            modes += stride * (g[:, k:k + size] > 0).sum(axis=1)
+            stride *= size + 1
+            k += size
+        return modes
+
+    def _locate(self, t):
+        t = np.asarray(t, dtype=float)
+        flat = t.ravel()
+        i = np.clip(np.searchsorted(self._t, flat, side="right") - 1, 0, self._t.size - 2)
+        h = self._t[i + 1] - self._t[i]
+        s = (flat - self._t[i]) / h
+        return t.shape, i, s, h
+
+    def _y(self, t) -> np.ndarray:
+        shape, i, s, h = self._locate(t)
+        s = s[:, None]
+        h = h[:, None]
+        h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+        h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+        y = h00 * self._Y[i] + h10 * h * self._D0[i] + h01 * self._Y[i + 1] + h11 * h * self._D1[i]
+        return y.reshape(shape + (y.shape[-1],)), i
+
+    def _state(self, t):
+        return self._y(t)[0][..., :self._n]
+
+    @property
+    def has_costates(self) -> bool:
+        return True
+
+    def _costate(self, t):
+        return self._y(t)[0][..., self._n:2 * self._n]
+
+    def _control(self, t):
+        y, i = self._y(t)
+        shape = y.shape[:-1]
+        Y = y.reshape(-1, y.shape[-1])
+        modes = self._modes[i]
+        out = np.empty((Y.shape[0], self.system.law.nu))
+        for m in np.unique(modes):
+            sel = np.flatnonzero(modes == m)
+            out[sel] = np.asarray(self.system.control.map(sel.size)(Y[sel].T, m, self._P)).T
+        return out.reshape(shape + (out.shape[-1],))

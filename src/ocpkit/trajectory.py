@@ -1,0 +1,201 @@
+"""One trajectory type for direct and indirect results.
+
+A :class:`Trajectory` is a problem's state, control and (where the method gives
+them) costates as functions of time on ``[t0, tf]``, with the times where the
+control may jump (``breakpoints``: segment ends of a transcription, switching
+times of a shooting). Every trajectory can be sampled into a DataFrame, re-integrated
+(the dynamics flown with its control, from its initial state, by an independent
+integrator) and compared with another trajectory of the same problem.
+
+:class:`~ocpkit.solution.Solution` (direct transcriptions) and
+:class:`~ocpkit.shooting.trajectory.ShootingTrajectory` (indirect shooting) implement it.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Reintegration:
+    """The control re-integrated with an adaptive integrator (scipy DOP853).
+
+    ``error[k, j]`` is the integrated state minus the trajectory's state at ``t[k]``.
+    """
+
+    t: np.ndarray
+    states: np.ndarray
+    error: np.ndarray
+    state_names: list[str]
+    scale: np.ndarray
+    rtol: float
+    atol: float
+    n_rhs: int
+
+    @property
+    def max_error_by_state(self) -> dict[str, float]:
+        """Largest absolute error of each state, in its own units."""
+        return dict(zip(self.state_names, np.abs(self.error).max(axis=0).tolist()))
+
+    @property
+    def max_error(self) -> float:
+        """Largest absolute error over all states, in units of each state's scale."""
+        return float((np.abs(self.error) / self.scale).max())
+
+
+class Trajectory(ABC):
+    """State, control and costates of a problem as functions of time (see the module docstring).
+
+    Subclasses provide ``problem``, ``t0``, ``tf``, ``breakpoints`` (increasing, from t0 to
+    tf inclusive) and the evaluators :meth:`_state`, :meth:`_control` (and
+    :meth:`_costate` where available).
+    """
+
+    problem: object
+    t0: float
+    tf: float
+    breakpoints: np.ndarray
+
+    # -- to be provided --------------------------------------------------------------------
+    @abstractmethod
+    def _state(self, t: np.ndarray) -> np.ndarray: ...
+
+    @abstractmethod
+    def _control(self, t: np.ndarray) -> np.ndarray: ...
+
+    def _costate(self, t: np.ndarray) -> np.ndarray:
+        raise ValueError(f"{type(self).__name__} provides no costates")
+
+    @property
+    def has_costates(self) -> bool:
+        return False
+
+    def _raw_control(self, t: np.ndarray) -> np.ndarray:
+        """The control as the method represents it (a transcription's polynomial, overshoots included)."""
+        return self._control(t)
+
+    def initial_state(self) -> np.ndarray:
+        """x(t0), where re-integration starts."""
+        return np.asarray(self.state(np.array(self.t0)), dtype=float).ravel()
+
+    # -- evaluation ---------------------------------------------------------------------------
+    def state(self, t) -> np.ndarray:
+        """States at times ``t`` (shape ``t.shape + (nx,)``)."""
+        return self._state(self._check_times(t))
+
+    def control(self, t) -> np.ndarray:
+        """Controls at times ``t`` (shape ``t.shape + (nu,)``), within the control bounds."""
+        return self._control(self._check_times(t))
+
+    def costate(self, t) -> np.ndarray:
+        """Costates at times ``t`` (shape ``t.shape + (nx,)``), where the method gives them."""
+        return self._costate(self._check_times(t))
+
+    def _check_times(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        span = self.tf - self.t0
+        if np.any(t < self.t0 - 1e-12 * span) or np.any(t > self.tf + 1e-12 * span):
+            raise ValueError(f"times must lie in [t0, tf] = [{self.t0}, {self.tf}]")
+        return np.clip(t, self.t0, self.tf)
+
+    def time_grid(self, n: int = 401) -> np.ndarray:
+        if n < 2:
+            raise ValueError("a time grid needs at least 2 points")
+        return np.linspace(self.t0, self.tf, n)
+
+    def to_dataframe(self, t=None, n: int = 401, costates: bool = False):
+        """Time histories on ``t`` (default: ``n`` equally spaced points) as a DataFrame.
+
+        Columns ``t``, the states, the controls and, with ``costates=True``, ``lambda_<state>``.
+        """
+        import pandas as pd
+
+        t = self.time_grid(n) if t is None else np.asarray(t, dtype=float)
+        data = {"t": t}
+        data.update(dict(zip(self.problem.state_names, self.state(t).T)))
+        data.update(dict(zip(self.problem.control_names, self.control(t).T)))
+        if costates:
+            data.update({f"lambda_{k}": v for k, v in zip(self.problem.state_names, self.costate(t).T)})
+        return pd.DataFrame(data)
+
+    # -- verification -----------------------------------------------------------------------
+    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001,
+                    controls: str = "bounded") -> Reintegration:
+        """Integrate dx/dt = f(x, u(t), t) from x(t0) with DOP853 and compare with :meth:`state`.
+
+        ``controls="bounded"`` (default) flies the admissible control :meth:`control`:
+        how far the flown trajectory lands from this one. ``"interpolant"`` uses the
+        method's own representation, overshoots included: how consistent the
+        discretisation is. The integration restarts at every breakpoint, so that no
+        step straddles a jump or kink of the control. ``atol`` is scaled by each
+        state's scale.
+        """
+        from scipy.integrate import solve_ivp
+
+        if rtol <= 0 or atol <= 0:
+            raise ValueError("tolerances must be positive")
+        if controls not in ("bounded", "interpolant"):
+            raise ValueError(f"controls must be 'bounded' or 'interpolant', got {controls!r}")
+        control = self.control if controls == "bounded" else self._raw_control
+        problem = self.problem
+        scale = problem.state_scale
+        bp = np.asarray(self.breakpoints, dtype=float)
+        t_eval = np.union1d(self.time_grid(n), bp)
+        out = np.empty((t_eval.size, problem.nx))
+        x = self.initial_state()
+        n_rhs = 0
+        for a, b in zip(bp[:-1], bp[1:]):
+            # the control of this interval up to its end (piecewise controls may jump at b)
+            b_left = np.nextafter(b, a)
+
+            def rhs(t, y, b_left=b_left):
+                return np.asarray(problem.dynamics(y, control(np.array(min(t, b_left))), t)).ravel()
+
+            mask = (t_eval >= a) & (t_eval <= b)
+            sol = solve_ivp(rhs, (a, b), x, method="DOP853", rtol=rtol, atol=atol * scale, dense_output=True)
+            if sol.status != 0:
+                raise RuntimeError(f"re-integration failed on [{a}, {b}]: {sol.message}")
+            n_rhs += sol.nfev
+            out[mask] = sol.sol(t_eval[mask]).T
+            x = sol.y[:, -1]
+        err = out - self.state(t_eval)
+        return Reintegration(
+            t=t_eval, states=out, error=err, state_names=problem.state_names,
+            scale=scale, rtol=rtol, atol=atol, n_rhs=n_rhs,
+        )
+
+    def difference(self, other: "Trajectory", n: int = 2001) -> dict:
+        """Largest difference of each variable from ``other``, in percent of ``other``'s magnitude.
+
+        For each state and control ``v``: ``100 max_k |v(s_k) - v_other(s_k)| / max_k |v_other(s_k)|``
+        over ``n`` points ``s_k`` equally spaced in normalised time ``s = (t - t0) / (tf - t0)``
+        (each trajectory on its own final time, so that a final-time difference does
+        not pose as a state difference). Also ``"states"`` and ``"controls"``: the
+        largest over each group, and ``"tf"``: the final-time difference in percent of
+        ``other``'s duration.
+        """
+        if n < 2:
+            raise ValueError("n must be at least 2")
+        pa, pb = self.problem, other.problem
+        if pa.state_names != pb.state_names or pa.control_names != pb.control_names:
+            raise ValueError("trajectories of problems with different variables cannot be compared")
+        s = np.linspace(0.0, 1.0, n)
+
+        def at(tr):
+            t = tr.t0 + s * (tr.tf - tr.t0)
+            return tr.state(t), tr.control(t)
+
+        xa, ua = at(self)
+        xb, ub = at(other)
+        out = {}
+        for names, a, b in ((pa.state_names, xa, xb), (pa.control_names, ua, ub)):
+            for j, name in enumerate(names):
+                scale = np.abs(b[:, j]).max()
+                out[name] = float(100 * np.abs(a[:, j] - b[:, j]).max() / scale) if scale > 0 else float("nan")
+        out["states"] = max(out[k] for k in pa.state_names)
+        out["controls"] = max((out[k] for k in pa.control_names), default=float("nan"))
+        out["tf"] = float(100 * abs(self.tf - other.tf) / abs(other.tf - other.t0))
+        return out

@@ -1,0 +1,98 @@
+"""The mesh of a transcription: segments of [t0, tf], their points, and the map to physical time.
+
+Every scheme lays its points on segments given as fractions of ``tf - t0``; with a free
+final time the map from normalised time ``s`` in [0, 1] to physical time
+``t0 + (tf - t0) s`` involves the NLP variable ``tf``. This module is the one place
+that map is written, numerically (:meth:`Mesh.times`) and symbolically
+(:func:`segment_clock`, :func:`final_time`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Segments of ``[t0, tf]`` as fractions of its length (positive, summing to one)."""
+
+    fractions: np.ndarray
+
+    @classmethod
+    def from_spec(cls, count: int | None, fractions=None, *, what: str = "segments") -> "Mesh":
+        """``count`` equal segments, or the given ``fractions`` (normalised to sum to one).
+
+        ``what`` names the count in errors (``segments``, ``intervals``).
+        """
+        if fractions is not None:
+            frac = np.asarray(fractions, dtype=float).ravel()
+            if frac.size < 1 or np.any(~np.isfinite(frac)) or np.any(frac <= 0):
+                raise ValueError("mesh fractions must be positive and finite")
+            if count is not None and count != frac.size:
+                raise ValueError(f"{what}={count} disagrees with a mesh of {frac.size} fractions")
+            return cls(frac / frac.sum())
+        if count is None:
+            raise ValueError(f"give the number of {what} or the mesh fractions")
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)):
+            raise TypeError(f"{what} must be an integer, got {count!r}")
+        if count < 1:
+            raise ValueError(f"{what} must be at least 1, got {count}")
+        return cls(np.full(int(count), 1.0 / count))
+
+    @property
+    def n(self) -> int:
+        return self.fractions.size
+
+    @property
+    def starts(self) -> np.ndarray:
+        """Normalised start times (0..1) of the segments."""
+        return np.concatenate([[0.0], np.cumsum(self.fractions)[:-1]])
+
+    @property
+    def breaks(self) -> np.ndarray:
+        """Normalised segment boundaries, 0 ... 1 (n + 1 values)."""
+        return np.concatenate([self.starts, [1.0]])
+
+    def points(self, local) -> np.ndarray:
+        """Normalised times (0..1) of points at ``local`` positions in [0, 1) of every segment, then the end (1).
+
+        Points are ordered segment by segment; consecutive segments share their
+        boundary point, so ``local`` excludes 1.
+        """
+        local = np.asarray(local, dtype=float)
+        s = (self.starts[:, None] + self.fractions[:, None] * local[None, :]).ravel()
+        return np.concatenate([s, [1.0]])
+
+    @staticmethod
+    def times(problem, tf: float, s) -> np.ndarray:
+        """Physical times of normalised times ``s`` for a final time ``tf``."""
+        return problem.t0 + (tf - problem.t0) * np.asarray(s)
+
+    def parameters(self, problem, s=None, fractions=None) -> np.ndarray:
+        """The parameter rows of segment (or point) functions: ``[s, fraction, (tf if fixed)]``.
+
+        Default: each segment's start and length; give ``s`` and ``fractions`` for
+        other points (a point's normalised time and its segment's fraction).
+        """
+        s = self.starts if s is None else np.asarray(s, dtype=float)
+        fractions = self.fractions if fractions is None else np.asarray(fractions, dtype=float)
+        rows = [s, fractions]
+        if not problem.free_final_time:
+            rows.append(np.full(s.size, problem.tf))
+        return np.vstack(rows)
+
+
+def final_time(problem, z, p, index: int):
+    """The symbolic final time of a block: the last (scaled) NLP variable of ``z`` when it is free, else ``p[index]``."""
+    return z[-1] * problem.tf.scale if problem.free_final_time else p[index]
+
+
+def segment_clock(problem, z, p):
+    """``(t_begin, T, h)`` of a block whose parameters are ``[s, fraction, (tf)]`` (:meth:`Mesh.parameters`).
+
+    ``T = tf - t0``, ``t_begin = t0 + T s`` and ``h = T fraction``.
+    """
+    T = final_time(problem, z, p, 2) - problem.t0
+    return problem.t0 + T * p[0], T, T * p[1]
