@@ -49,14 +49,15 @@ class Reintegration:
 class Trajectory(ABC):
     """State, control and costates of a problem as functions of time (see the module docstring).
 
-    Subclasses provide ``problem``, ``t0``, ``tf``, ``breakpoints`` (increasing, from t0 to
-    tf inclusive) and the evaluators :meth:`_state`, :meth:`_control` (and
+    Subclasses provide ``problem``, ``t0``, ``tf``, ``objective`` (the cost as the method
+    computed it), ``breakpoints`` (increasing, from t0 to tf inclusive) and the evaluators :meth:`_state`, :meth:`_control` (and
     :meth:`_costate` where available).
     """
 
     problem: object
     t0: float
     tf: float
+    objective: float
     breakpoints: np.ndarray
 
     # -- to be provided --------------------------------------------------------------------

@@ -70,7 +70,7 @@ class ShootingResult:
     def trajectory(self) -> ShootingTrajectory:
         """The solution as functions of time (state, control, costates; re-integration, differences)."""
         if "_trajectory" not in self.__dict__:
-            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system)
+            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system, self.objective)
         return self.__dict__["_trajectory"]
 
     def summary(self) -> dict:

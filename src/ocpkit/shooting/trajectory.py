@@ -18,9 +18,12 @@ from .hamiltonian import HamiltonianSystem
 
 
 class ShootingTrajectory(Trajectory):
-    """State, control and costate of a recorded integration (``record=True``) of a Hamiltonian system."""
+    """State, control and costate of a recorded integration (``record=True``) of a Hamiltonian system.
 
-    def __init__(self, integration: Integration, system: HamiltonianSystem):
+    ``objective``: the cost of the trajectory (the shooting result's, running cost plus Mayer term).
+    """
+
+    def __init__(self, integration: Integration, system: HamiltonianSystem, objective: float = float("nan")):
         if integration.states.shape[0] < 2:
             raise ValueError("a shooting trajectory needs a recorded integration (record=True)")
         if integration.truncated:
@@ -28,6 +31,7 @@ class ShootingTrajectory(Trajectory):
         self.problem = system.problem
         self.system = system
         self.integration = integration
+        self.objective = float(objective)
         P = system.problem.parameter_vector(integration.parameters)
         self._P = P
         t = integration.step_times
