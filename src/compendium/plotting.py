@@ -57,3 +57,22 @@ def save_figure(fig: plt.Figure, name: str, formats: Sequence[str] = ("png", "pd
         fig.savefig(path, format=fmt, metadata=meta)
         out.append(path)
     return out
+
+
+def time_histories(t, data, columns: Sequence[str], labels: Sequence[str], ylabel: str, title: str,
+                   xlabel: str = "t (non-dimensional)", markers=None) -> plt.Figure:
+    """Time histories of ``data[column]`` against ``t`` (one line each), with optional markers.
+
+    ``markers``: ``(times, values)``, values indexable by column (the NLP's parameters).
+    """
+    fig, ax = plt.subplots()
+    for col, lab in zip(columns, labels):
+        (line,) = ax.plot(t, data[col], label=lab)
+        if markers is not None:
+            ax.plot(markers[0], markers[1][col], ".", color=line.get_color(), ms=4)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    if len(columns) > 1:
+        ax.legend()
+    return fig

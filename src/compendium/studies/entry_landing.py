@@ -40,3 +40,31 @@ def landing_summary(solution) -> dict:
         "fuel_kg": (c["m_initial"] - mf) * c["m0_kg"],
         "final_downrange_m": float(xf[solution.problem.state_index("s")]) * c["R0_m"],
     }
+
+
+class EntryLandingSolves:
+    """Radau solves of the entry landing, each mesh and set of problem options solved once.
+
+    ``defaults`` are the problem options of the notebook (aerodynamic model, downrange,
+    thrust-angle rate); :meth:`solve` overrides them per call.
+    """
+
+    def __init__(self, **defaults):
+        self.defaults = defaults
+        self._cache = {}
+
+    def solve(self, nodes: int, intervals: int, **options):
+        from ocpkit import Radau
+
+        from ..problems.entry_landing import entry_landing
+
+        key = (nodes, intervals, tuple(sorted({**self.defaults, **options}.items())))
+        if key not in self._cache:
+            self._cache[key] = Radau(entry_landing(**dict(key[2])), nodes, intervals).solve()
+        return self._cache[key]
+
+
+def position_error_m(solution, controls: str = "bounded") -> float:
+    """Largest position error (m) of the re-integrated landing (radius or downrange)."""
+    e = solution.reintegrate(controls=controls).max_error_by_state
+    return max(e["r"], e["s"]) * entry_landing_constants()["R0_m"]

@@ -131,3 +131,71 @@ def segments_study(
         [ratio_study(problem, int(n), [ratio], fast, reference, **kwargs) for n in coarse_segments],
         ignore_index=True,
     )
+
+
+#: display formats of the side-by-side tables
+SIDE_BY_SIDE_FORMATS = {"max_state_diff_pct paper": ".2g", "max_state_diff_pct ours": ".2g",
+                        "max_control_diff_pct paper": ".2g", "max_control_diff_pct ours": ".2g"}
+
+
+def paper_case(problem: OptimalControlProblem, name: str, coarse_segments: int, ratio: int, fast: Sequence[str],
+               scheme: str, *, fast_interpolation: str = "coarse", ipopt_options: dict | None = None,
+               n: int = 2001):
+    """One of Desai & Conway's tables (``name``: ``"table1"``, ``"table2"``), computed and written.
+
+    Writes ``data/derived/<name>.csv`` (our rows) and ``<name>.md`` (paper beside ours).
+    Returns ``(rows, side_by_side, standard, two_timescale)``.
+    """
+    from ..paper import paper_source, paper_table
+    from ..paths import derived_dir
+    from ..tables import markdown_table
+
+    rows, standard, two = compare_case(problem, coarse_segments, ratio, fast, scheme,
+                                       fast_interpolation=fast_interpolation, ipopt_options=ipopt_options, n=n)
+    rows.to_csv(derived_dir() / f"{name}.csv", index=False, float_format="%.6g")
+    both = side_by_side(paper_table(name), rows)
+    source = paper_source(name).splitlines()
+    header = f"<!-- written by notebooks/02_two_timescale.ipynb -->\n\nPaper values: {source[0]} {source[1]}\n\n"
+    (derived_dir() / f"{name}.md").write_text(header + markdown_table(both, SIDE_BY_SIDE_FORMATS) + "\n")
+    return rows, both, standard, two
+
+
+def verdict_lines(rows: pd.DataFrame, paper: pd.DataFrame) -> list[str]:
+    """Sizes and maximum differences of our rows against the paper's, one line each."""
+    paper, ours = paper.set_index("scheme"), rows.set_index("scheme")
+    scheme = ours.index[1]
+    lines = []
+    for col in ("nlp_parameters", "defect_equations"):
+        lines.append(f"{col}: standard {ours.loc['standard', col]} (paper {paper.loc['standard', col]}), "
+                     f"{scheme} {ours.loc[scheme, col]} (paper {paper.loc[scheme, col]})")
+    for col in ("max_state_diff_pct", "max_control_diff_pct"):
+        v, bound = ours.loc[scheme, col], paper.loc[scheme, col]
+        lines.append(f"{col}: {v:.1g} % (paper {bound} %), at or below the paper: {v <= bound}")
+    return lines
+
+
+def overlay_figure(problem: OptimalControlProblem, standard, two, title: str, n: int = 2001):
+    """Standard and two-timescale histories overlaid (left) and their difference (right), in normalised time."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    s = np.linspace(0, 1, n)
+    ts, tt = s * standard.tf, s * two.tf
+    xs, xt = standard.state(ts), two.state(tt)
+    us, ut = standard.control(ts), two.control(tt)
+    names = problem.state_names + problem.control_names
+    fig, axes = plt.subplots(len(names), 2, figsize=(8.5, 9.5), sharex=True, layout="constrained")
+    for j, var in enumerate(names):
+        a, b = (xs[:, j], xt[:, j]) if j < problem.nx else (us[:, 0], ut[:, 0])
+        axes[j, 0].plot(ts, a, label="standard")
+        axes[j, 0].plot(tt, b, "--", label="two-timescale")
+        axes[j, 0].set_ylabel(var if var != "theta" else r"$\theta$ (rad)")
+        axes[j, 1].plot(ts, 100 * (b - a) / np.abs(a).max(), color="C1")
+        axes[j, 1].set_ylabel("diff. (% of max)")
+    axes[0, 0].legend()
+    axes[0, 0].set_title("histories")
+    axes[0, 1].set_title("two-timescale minus standard")
+    for ax in axes[-1]:
+        ax.set_xlabel("t (non-dimensional)")
+    fig.suptitle(title)
+    return fig
