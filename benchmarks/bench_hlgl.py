@@ -15,6 +15,7 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import HLGL
+
 from compendium.paths import build_dir
 from compendium.problems import lunar_ascent
 

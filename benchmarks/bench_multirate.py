@@ -13,6 +13,7 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import HLGL, MultiRateHLGL
+
 from compendium.paths import build_dir
 from compendium.problems import lunar_ascent
 
@@ -29,8 +30,11 @@ def main() -> None:
         ("standard", "40", lambda: HLGL(pr, 40)),
         ("four_to_one (V fast)", "10/40", lambda: MultiRateHLGL(pr, 10, ratio=4, fast=["V"])),
         ("standard", f"{4 * args.large}", lambda: HLGL(pr, 4 * args.large)),
-        ("four_to_one (V fast)", f"{args.large}/{4 * args.large}",
-         lambda: MultiRateHLGL(pr, args.large, ratio=4, fast=["V"])),
+        (
+            "four_to_one (V fast)",
+            f"{args.large}/{4 * args.large}",
+            lambda: MultiRateHLGL(pr, args.large, ratio=4, fast=["V"]),
+        ),
     ]
     best_of(cases[0][2], opts, 1)  # warm-up
     rows = []
@@ -38,8 +42,16 @@ def main() -> None:
         row = {"scheme": scheme, "segments": segments, **best_of(make, opts, args.repeat)}
         rows.append(row)
         print(f"{scheme:24s} {segments:>10s}: end to end {row['end_to_end_s']:.3f} s", flush=True)
-    cols = ["scheme", "segments", "nlp_parameters", "defect_equations",
-            "build_s", "solve_s", "end_to_end_s", "iterations"]
+    cols = [
+        "scheme",
+        "segments",
+        "nlp_parameters",
+        "defect_equations",
+        "build_s",
+        "solve_s",
+        "end_to_end_s",
+        "iterations",
+    ]
     report(rows, cols, args.output, f"Standard vs two-timescale HLGL, lunar ascent, best of {args.repeat}")
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import Radau
+
 from compendium.paths import build_dir
 from compendium.problems import entry_landing
 
@@ -27,8 +28,12 @@ def main() -> None:
     best_of(lambda: Radau(problem, 10, 2), opts, 1)  # warm-up
     rows = []
     for n, k, target in MESHES:
-        row = {"nodes": n, "intervals": k, **best_of(lambda n=n, k=k: Radau(problem, n, k), opts, args.repeat),
-               "target_s": target}
+        row = {
+            "nodes": n,
+            "intervals": k,
+            **best_of(lambda n=n, k=k: Radau(problem, n, k), opts, args.repeat),
+            "target_s": target,
+        }
         rows.append(row)
         print(f"{n:4d} nodes x {k:3d} intervals: end to end {row['end_to_end_s']:.3f} s", flush=True)
     cols = ["nodes", "intervals", "nlp_parameters", "build_s", "solve_s", "end_to_end_s", "iterations", "target_s"]

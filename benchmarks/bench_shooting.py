@@ -23,14 +23,21 @@ import time
 import numpy as np
 import pandas as pd
 
+from ocpkit.shooting import CompiledSystem, HamiltonianSystem, control_law
+
 from compendium.paths import build_dir
 from compendium.problems import orbit_transfer
 from compendium.problems.orbit_transfer import STATE_NAMES, orbit_transfer_constants
-from ocpkit.shooting import CompiledSystem, HamiltonianSystem, control_law
 from compendium.tables import markdown_table
 
-A = [[], [0.2], [3 / 40, 9 / 40], [44 / 45, -56 / 15, 32 / 9], [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729],
-     [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]]
+A = [
+    [],
+    [0.2],
+    [3 / 40, 9 / 40],
+    [44 / 45, -56 / 15, 32 / 9],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
+]
 B = [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]
 
 
@@ -69,29 +76,51 @@ def main() -> None:
             best, res = float("inf"), None
             for _ in range(args.repeat):
                 t = time.perf_counter()
-                res = compiled.integrate(y0, 0.0, args.hours, detection=detection, record=False,
-                                         Psi0=Psi0 if variational else None)
+                res = compiled.integrate(
+                    y0, 0.0, args.hours, detection=detection, record=False, Psi0=Psi0 if variational else None
+                )
                 best = min(best, time.perf_counter() - t)
-            rows.append({"implementation": "compiled C", "detection": detection,
-                         "variational_columns": system.n_variational if variational else 0,
-                         "steps": res.steps, "switchings": res.switchings, "rhs_evaluations": res.rhs_evaluations,
-                         "wall_s": best, "us_per_step": 1e6 * best / res.steps})
+            rows.append(
+                {
+                    "implementation": "compiled C",
+                    "detection": detection,
+                    "variational_columns": system.n_variational if variational else 0,
+                    "steps": res.steps,
+                    "switchings": res.switchings,
+                    "rhs_evaluations": res.rhs_evaluations,
+                    "wall_s": best,
+                    "us_per_step": 1e6 * best / res.steps,
+                }
+            )
     n_py = 300
     t = time.perf_counter()
     python_steps(system.flow, y0, 0.05, n_py, P)
     wall = time.perf_counter() - t
-    rows.append({"implementation": "Python loop, CasADi call per stage", "detection": "-", "variational_columns": 0,
-                 "steps": n_py, "switchings": 0, "rhs_evaluations": 6 * n_py, "wall_s": wall,
-                 "us_per_step": 1e6 * wall / n_py})
+    rows.append(
+        {
+            "implementation": "Python loop, CasADi call per stage",
+            "detection": "-",
+            "variational_columns": 0,
+            "steps": n_py,
+            "switchings": 0,
+            "rhs_evaluations": 6 * n_py,
+            "wall_s": wall,
+            "us_per_step": 1e6 * wall / n_py,
+        }
+    )
     df = pd.DataFrame(rows)
     os.makedirs(os.path.dirname(args.output), exist_ok=True)
     df.to_csv(args.output, index=False)
-    print(f"orbit transfer Hamiltonian system (n = {system.n}), {args.hours} h, best of {args.repeat}; "
-          f"codegen and compilation {build:.2f} s (cached afterwards)\n")
+    print(
+        f"orbit transfer Hamiltonian system (n = {system.n}), {args.hours} h, best of {args.repeat}; "
+        f"codegen and compilation {build:.2f} s (cached afterwards)\n"
+    )
     print(markdown_table(df, {"wall_s": ".4f", "us_per_step": ".2f"}))
     compiled_plain = df[(df.implementation == "compiled C") & (df.variational_columns == 0)].us_per_step.max()
-    print(f"\nper step, the Python loop (no error control, no switching logic) costs "
-          f"{df.us_per_step.iloc[-1] / compiled_plain:.0f} times the compiled integrator")
+    print(
+        f"\nper step, the Python loop (no error control, no switching logic) costs "
+        f"{df.us_per_step.iloc[-1] / compiled_plain:.0f} times the compiled integrator"
+    )
     print(f"written {args.output}")
 
 

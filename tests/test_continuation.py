@@ -31,8 +31,9 @@ class Fold:
 
 
 def test_arclength_follows_the_path_around_the_fold():
-    path = arclength(Fold(), [np.sqrt(0.5)], "theta", 0.5, 2.0, targets=[0.75], log=False, h0=0.05, hmax=0.1,
-                     max_steps=40)
+    path = arclength(
+        Fold(), [np.sqrt(0.5)], "theta", 0.5, 2.0, targets=[0.75], log=False, h0=0.05, hmax=0.1, max_steps=40
+    )
     theta = np.array(path.values)
     z = np.array([v[0] for v in path.z])
     assert np.abs(z**2 + theta - 1).max() < 1e-9, "every point on the curve"
@@ -104,7 +105,12 @@ def test_geometric_steps_shrink_on_failure_grow_back_and_hit_every_target():
 
 
 def test_several_predictors_and_a_choice():
-    path = follow(lambda v, z: _Result(np.array([v, z[0]])), np.array([0.0]), 0.0, Schedule([1.0]),
-                  predictor=lambda h, v: [h[-1][1][:1], h[-1][1][:1] + 0.1],
-                  choose=lambda rs: max(rs, key=lambda r: r.z[1]))
+    path = follow(
+        lambda v, z: _Result(np.array([v, z[0]])),
+        np.array([0.0]),
+        0.0,
+        Schedule([1.0]),
+        predictor=lambda h, v: [h[-1][1][:1], h[-1][1][:1] + 0.1],
+        choose=lambda rs: max(rs, key=lambda r: r.z[1]),
+    )
     assert path[0][1].z[1] == pytest.approx(0.1)

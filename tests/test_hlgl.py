@@ -6,6 +6,7 @@ import pytest
 from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, Control, FreeFinalTime, Guess, OptimalControlProblem, Radau, SolverError, State
+
 from compendium.paper import paper_table
 from compendium.problems import flat_moon_ascent, linear_tangent_solution, lunar_ascent
 from compendium.studies.flat_moon import compare_with_exact
@@ -73,7 +74,11 @@ def test_exact_solution_satisfies_its_ode():
     ex = linear_tangent_solution()
     r = solve_ivp(
         lambda t, x: [x[2], x[3], ex.a * np.cos(ex.theta(t)), ex.a * np.sin(ex.theta(t)) - ex.g],
-        (0, ex.tf), [0, 0, 0, 0], method="DOP853", rtol=1e-12, atol=1e-9,
+        (0, ex.tf),
+        [0, 0, 0, 0],
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-9,
     )
     assert np.abs(r.y[:, -1] - ex.state(ex.tf)).max() < 1e-6
     assert ex.state(ex.tf)[1:] == pytest.approx([185.2e3, 1627.0, 0.0], abs=1e-6)
@@ -97,7 +102,12 @@ def test_solution_interpolants_pass_through_the_nlp_parameters():
     # the Hermite interpolant's slope at the nodes is the dynamics there
     slope = sol.state_interpolant.derivative()(sol.state_times)
     u_nodes = sol.control(sol.state_times)
-    f = np.array([np.asarray(sol.problem.dynamics(x, u, t)).ravel() for t, x, u in zip(sol.state_times, sol.state_values, u_nodes)])
+    f = np.array(
+        [
+            np.asarray(sol.problem.dynamics(x, u, t)).ravel()
+            for t, x, u in zip(sol.state_times, sol.state_values, u_nodes)
+        ]
+    )
     assert np.allclose(slope, f, atol=1e-12)
     df = sol.to_dataframe(n=11)
     assert list(df.columns) == ["t", "X", "Y", "U", "V", "theta"] and len(df) == 11
@@ -137,8 +147,9 @@ def test_wrong_shapes_get_clear_errors():
     with pytest.raises(KeyError, match="unknown states"):
         tr.solve(Guess(states={"Z": (0, 1)}))
     with pytest.raises(ValueError, match=r"dynamics returned shape \(3, 1\)"):
-        OptimalControlProblem("p", [State("a"), State("b")], [], lambda x, u, t: ca.vertcat(1, 2, 3),
-                              tf=1.0, lagrange=lambda x, u, t: 1)
+        OptimalControlProblem(
+            "p", [State("a"), State("b")], [], lambda x, u, t: ca.vertcat(1, 2, 3), tf=1.0, lagrange=lambda x, u, t: 1
+        )
 
 
 def test_impossible_bounds_get_clear_errors():

@@ -6,9 +6,10 @@ import pytest
 from _problems import min_energy_double_integrator
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, State
-from compendium.studies.two_timescale import compare_case
+
 from compendium.paper import paper_table
 from compendium.problems import lunar_ascent
+from compendium.studies.two_timescale import compare_case
 
 CASES = {  # paper table -> (scheme row, fast states, ratio)
     "table1": ("two_to_one", ["U", "V"], 2),
@@ -69,8 +70,9 @@ def coupled_polynomial_problem(deg_x):
     def dyn(x, u, t):
         return ca.vertcat(sum(a * t**k for k, a in enumerate(dc[::-1])) if dc.size else 0, x[0])
 
-    pr = OptimalControlProblem("coupled", [State("x"), State("z")], [], dyn, t0=0.2, tf=1.5,
-                               mayer=lambda a, b, s, t: b[1])
+    pr = OptimalControlProblem(
+        "coupled", [State("x"), State("z")], [], dyn, t0=0.2, tf=1.5, mayer=lambda a, b, s, t: b[1]
+    )
     zc = np.polyint(c)
     return pr, c, zc
 

@@ -6,6 +6,7 @@ import pytest
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, Radau
 from ocpkit.nlp import Block, SeparableNLP
+
 from compendium.problems import entry_landing, flat_moon_ascent, lunar_ascent
 
 
@@ -17,7 +18,11 @@ def reference_derivatives(nlp, w, lam_f, lam_g):
 
 def with_lagrange(pr):
     return OptimalControlProblem(
-        "with_lagrange", pr.states, pr.controls, lambda x, u, t: pr.dynamics(x, u, t), tf=pr.tf,
+        "with_lagrange",
+        pr.states,
+        pr.controls,
+        lambda x, u, t: pr.dynamics(x, u, t),
+        tf=pr.tf,
         mayer=lambda x0, xf, t0, tf: tf**2 + xf[0] * x0[1],
         lagrange=lambda x, u, t: x[2] ** 2 * u[0] ** 2 + ca.sin(x[0] * t),
     )

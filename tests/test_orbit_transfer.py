@@ -35,8 +35,17 @@ def test_equinoctial_dynamics_match_cartesian_two_body_with_local_thrust():
     rng = np.random.default_rng(7)
     Tmax = pr.parameters["Tmax"]
     for _ in range(25):
-        xs = np.array([rng.uniform(8, 45), rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.3, 0.3),
-                       rng.uniform(-0.3, 0.3), rng.uniform(-10, 10), rng.uniform(800, 1500)])
+        xs = np.array(
+            [
+                rng.uniform(8, 45),
+                rng.uniform(-0.6, 0.6),
+                rng.uniform(-0.6, 0.6),
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-10, 10),
+                rng.uniform(800, 1500),
+            ]
+        )
         us = rng.uniform(-1, 1, 3)
         us /= max(1.0, np.linalg.norm(us))
         state, deriv = (np.asarray(v).ravel() for v in f(xs, us))
@@ -118,8 +127,8 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
     Slides 11-12 (detection): 134.49 kg, 22 switchings, 604 steps (data/paper/switching_detection.csv); the free
     final time makes H vanish along the whole transfer.
     """
-    from compendium.studies import orbit_transfer as orbit_study
     from compendium.paper import paper_table
+    from compendium.studies import orbit_transfer as orbit_study
 
     energy = orbit_study.read_cache("orbit_transfer_energy")
     z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
@@ -137,7 +146,10 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
         assert abs(traj.y[5] - final_longitude(5.0)) < 1e-9
         u = np.linalg.norm(traj.controls(s.compiled.system), axis=1)
         assert np.all(np.isclose(u, 0.0) | np.isclose(u, 1.0)), "bang-bang: |u| in {0, 1}"
-    assert orbit_study.fuel_kg(r) < energy[(energy.reading == "longitude") & (energy.thrust_N == 5.0)].energy_fuel_kg.iloc[0]
+    assert (
+        orbit_study.fuel_kg(r)
+        < energy[(energy.reading == "longitude") & (energy.thrust_N == 5.0)].energy_fuel_kg.iloc[0]
+    )
 
 
 def test_shared_system_integrates_at_the_problems_thrust(systems):
@@ -183,8 +195,7 @@ def test_horizon_branch_falls_as_the_final_time_grows(systems):
     tmin = orbit_study.read_cache("orbit_transfer_tmin")
     tmin5 = float(tmin[np.isclose(tmin.thrust_N, 5.0)].tmin_h.iloc[0])
     sol = systems.shooting("fuel", 5.0, tol=1e-8).solve(orbit_study.energy_start_vector(energy, "longitude", 5.0))
-    released = orbit_study.solve_robustly(systems.shooting("fuel", 5.0, final="time", tf=sol.tf, tol=1e-8),
-                                          sol.z[:-1])
+    released = orbit_study.solve_robustly(systems.shooting("fuel", 5.0, final="time", tf=sol.tf, tol=1e-8), sol.z[:-1])
     assert orbit_study.fuel_kg(released) < orbit_study.fuel_kg(sol)  # a free longitude costs no more fuel
     lo, hi = (sol.tf - 4.0) / tmin5, (sol.tf + 4.0) / tmin5
     branch = orbit_study.horizon_branches(systems, 5.0, [(sol.tf, released.z)], tmin5, lo=lo, hi=hi, step=0.005)

@@ -12,9 +12,14 @@ from ocpkit.problem import fixed_value, guess_function
 
 def rest_to_rest(dynamics=None, **kw):
     return OptimalControlProblem(
-        "rest_to_rest", [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
-        [Control("u", -1.0, 1.0)], dynamics or (lambda x, u, t: ca.vertcat(x[1], u[0])),
-        tf=FreeFinalTime(0.5, 5.0, 1.0), mayer=lambda x0, xf, t0, tf: tf, **kw)
+        "rest_to_rest",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        dynamics or (lambda x, u, t: ca.vertcat(x[1], u[0])),
+        tf=FreeFinalTime(0.5, 5.0, 1.0),
+        mayer=lambda x0, xf, t0, tf: tf,
+        **kw,
+    )
 
 
 def test_functions_are_built_once_and_shared_by_parameter_copies():
@@ -24,8 +29,15 @@ def test_functions_are_built_once_and_shared_by_parameter_copies():
         calls.append(1)
         return ca.vertcat(x[1], P["k"] * u[0])
 
-    pr = OptimalControlProblem("k", [State("x", initial=0.0), State("v", initial=0.0)], [Control("u", -1, 1)],
-                               dynamics, tf=1.0, lagrange=lambda x, u, t, P: u[0] ** 2, parameters={"k": 2.0})
+    pr = OptimalControlProblem(
+        "k",
+        [State("x", initial=0.0), State("v", initial=0.0)],
+        [Control("u", -1, 1)],
+        dynamics,
+        tf=1.0,
+        lagrange=lambda x, u, t, P: u[0] ** 2,
+        parameters={"k": 2.0},
+    )
     other = pr.replace(parameters={"k": 3.0})
     assert len(calls) == 1, "the dynamics callable runs once; a parameter copy reuses the functions"
     assert other.functions is pr.functions
@@ -42,10 +54,13 @@ def test_problem_is_immutable():
         pr.tf = 3.0
 
 
-@pytest.mark.parametrize("dynamics, message", [
-    (lambda x, u, t: ca.vertcat(x[1], math.cos(u[0])), "math or numpy function"),
-    (lambda x, u, t: np.array([x[1], u[0]]), "numpy array"),
-])
+@pytest.mark.parametrize(
+    "dynamics, message",
+    [
+        (lambda x, u, t: ca.vertcat(x[1], math.cos(u[0])), "math or numpy function"),
+        (lambda x, u, t: np.array([x[1], u[0]]), "numpy array"),
+    ],
+)
 def test_dynamics_that_would_be_nan_are_rejected(dynamics, message):
     with pytest.raises((TypeError, ValueError), match=message):
         rest_to_rest(dynamics)
@@ -54,11 +69,24 @@ def test_dynamics_that_would_be_nan_are_rejected(dynamics, message):
 @pytest.mark.parametrize("tf", [float("nan"), float("inf")])
 def test_non_finite_times_are_rejected(tf):
     with pytest.raises(ValueError, match="tf must be a finite number"):
-        OptimalControlProblem("t", [State("x", initial=0.0)], [Control("u", -1, 1)], lambda x, u, t: u,
-                              tf=tf, mayer=lambda x0, xf, t0, t1: xf[0])
+        OptimalControlProblem(
+            "t",
+            [State("x", initial=0.0)],
+            [Control("u", -1, 1)],
+            lambda x, u, t: u,
+            tf=tf,
+            mayer=lambda x0, xf, t0, t1: xf[0],
+        )
     with pytest.raises(ValueError, match="t0 must be a finite number"):
-        OptimalControlProblem("t", [State("x", initial=0.0)], [Control("u", -1, 1)], lambda x, u, t: u,
-                              t0=float("nan"), tf=1.0, mayer=lambda x0, xf, t0, t1: xf[0])
+        OptimalControlProblem(
+            "t",
+            [State("x", initial=0.0)],
+            [Control("u", -1, 1)],
+            lambda x, u, t: u,
+            t0=float("nan"),
+            tf=1.0,
+            mayer=lambda x0, xf, t0, t1: xf[0],
+        )
 
 
 def test_a_list_boundary_condition_is_ambiguous():

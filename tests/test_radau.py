@@ -22,8 +22,10 @@ from compendium.studies.flat_moon import compare_costates, compare_with_exact
 S6 = math.sqrt(6.0)
 REFERENCE = {  # LGR points and weights on [-1, 1] (closed form for N = 3, tabulated for N = 4)
     3: ([-1.0, (1 - S6) / 5, (1 + S6) / 5], [2 / 9, (16 + S6) / 18, (16 - S6) / 18]),
-    4: ([-1.0, -0.575318923521694, 0.181066271118531, 0.822824080974592],
-        [0.125, 0.657688639960120, 0.776386937686344, 0.440924422353536]),
+    4: (
+        [-1.0, -0.575318923521694, 0.181066271118531, 0.822824080974592],
+        [0.125, 0.657688639960120, 0.776386937686344, 0.440924422353536],
+    ),
 }
 
 
@@ -64,8 +66,9 @@ def polynomial_problem(coeffs, t0=0.3, tf=1.7):
     def dynamics(x, u, t):
         return sum(c * t**k for k, c in enumerate(dp[::-1]))
 
-    return OptimalControlProblem("poly", [State("x", shift=0.5, scale=2.0)], [], dynamics, t0=t0, tf=tf,
-                                 mayer=lambda x0, xf, a, b: xf[0])
+    return OptimalControlProblem(
+        "poly", [State("x", shift=0.5, scale=2.0)], [], dynamics, t0=t0, tf=tf, mayer=lambda x0, xf, a, b: xf[0]
+    )
 
 
 @pytest.mark.parametrize("mesh", [([6], None), ([4, 4, 4], [0.2, 0.5, 0.3])])
@@ -118,7 +121,11 @@ def test_affine_scaling_does_not_change_the_solution():
     shifted = OptimalControlProblem(
         "shifted",
         [State("x1", initial=0.0, final=1.0, shift=0.5, scale=0.25), State("x2", initial=0.0, final=0.0, scale=3.0)],
-        base.controls, lambda x, u, t: base.dynamics(x, u, t), tf=1.0, lagrange=lambda x, u, t: u[0] ** 2)
+        base.controls,
+        lambda x, u, t: base.dynamics(x, u, t),
+        tf=1.0,
+        lagrange=lambda x, u, t: u[0] ** 2,
+    )
     for make in (lambda p: Radau(p, 5, 2), lambda p: HLGL(p, 3)):
         a, b = make(base).solve(), make(shifted).solve()
         assert a.objective == pytest.approx(b.objective, abs=1e-10)
@@ -159,24 +166,30 @@ def test_rate_limit_is_imposed():
     assert np.degrees(np.abs(r).max()) / c["time_unit_s"] <= rate * (1 + 1e-9)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"aero_model": "newtonian"}, "aero_model"),
-    ({"downrange_m": -5.0}, "downrange_m"),
-    ({"thrust_angle_rate_deg_s": 0.0}, "thrust_angle_rate"),
-    ({"objective": "min_time"}, "objective"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"aero_model": "newtonian"}, "aero_model"),
+        ({"downrange_m": -5.0}, "downrange_m"),
+        ({"thrust_angle_rate_deg_s": 0.0}, "thrust_angle_rate"),
+        ({"objective": "min_time"}, "objective"),
+    ],
+)
 def test_bad_entry_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):
         entry_landing(**kwargs)
 
 
-@pytest.mark.parametrize("nodes, intervals, exc, match", [
-    (1, 1, ValueError, "at least 2"),
-    (0, 3, ValueError, "at least 2"),
-    (2.5, 1, TypeError, "integer"),
-    ([5, 5], 3, ValueError, "2 node counts given for 3 intervals"),
-    (5, 0, ValueError, "at least 1"),
-])
+@pytest.mark.parametrize(
+    "nodes, intervals, exc, match",
+    [
+        (1, 1, ValueError, "at least 2"),
+        (0, 3, ValueError, "at least 2"),
+        (2.5, 1, TypeError, "integer"),
+        ([5, 5], 3, ValueError, "2 node counts given for 3 intervals"),
+        (5, 0, ValueError, "at least 1"),
+    ],
+)
 def test_bad_radau_parameters(nodes, intervals, exc, match):
     with pytest.raises(exc, match=match):
         Radau(flat_moon_ascent(), nodes, intervals)
@@ -201,7 +214,7 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
     bp = sol.breakpoints
     for i, (a, b) in enumerate(zip(bp[:-1], bp[1:])):
         tau = tr.tau[i]
-        u = sol.control_values[tr.offsets[i]:tr.offsets[i] + tr.counts[i], 0]
+        u = sol.control_values[tr.offsets[i] : tr.offsets[i] + tr.counts[i], 0]
 
         def rhs(t, y, a=a, b=b, tau=tau, u=u):
             theta = float(lagrange_matrix(tau, np.array([2 * (t - a) / (b - a) - 1]))[0] @ u)

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from ocpkit import Control, OptimalControlProblem, SolverError, State
-from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
+
+from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
 
 
 @pytest.fixture(scope="module")
@@ -23,10 +24,12 @@ def osc_system():
 
 def ball_problem(lam):
     return OptimalControlProblem(
-        "ball", [State("a", initial=0.0, final=1.0), State("b", initial=0.0, final=0.0), State("m", initial=1.0)],
+        "ball",
+        [State("a", initial=0.0, final=1.0), State("b", initial=0.0, final=0.0), State("m", initial=1.0)],
         [Control("u1", -1, 1), Control("u2", -1, 1)],
         lambda x, u, t, P: ca.vertcat(u[0] / x[2], u[1] / x[2] + x[0], -0.1 * ca.norm_2(u)),
-        tf=2.0, lagrange=lambda x, u, t, P: P["lam"] * ca.norm_2(u) + (1 - P["lam"]) * ca.sumsqr(u),
+        tf=2.0,
+        lagrange=lambda x, u, t, P: P["lam"] * ca.norm_2(u) + (1 - P["lam"]) * ca.sumsqr(u),
         parameters={"lam": lam},
     )
 
@@ -58,8 +61,14 @@ def test_control_law_minimises_the_hamiltonian(case):
 
 
 def test_hamiltonian_of_the_wrong_form_is_rejected():
-    pr = OptimalControlProblem("quartic", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
-                               lambda x, u, t: u[0], tf=1.0, lagrange=lambda x, u, t: u[0] ** 4)
+    pr = OptimalControlProblem(
+        "quartic",
+        [State("x", initial=0.0, final=1.0)],
+        [Control("u", -1, 1)],
+        lambda x, u, t: u[0],
+        tf=1.0,
+        lagrange=lambda x, u, t: u[0] ** 4,
+    )
     with pytest.raises(ValueError, match="not of the form"):
         control_law(pr, "box")
     with pytest.raises(ValueError, match="regularized=True"):
@@ -69,8 +78,14 @@ def test_hamiltonian_of_the_wrong_form_is_rejected():
 
 
 def test_non_autonomous_problem_is_rejected():
-    pr = OptimalControlProblem("timed", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
-                               lambda x, u, t: u[0] * t, tf=1.0, lagrange=lambda x, u, t: ca.fabs(u[0]))
+    pr = OptimalControlProblem(
+        "timed",
+        [State("x", initial=0.0, final=1.0)],
+        [Control("u", -1, 1)],
+        lambda x, u, t: u[0] * t,
+        tf=1.0,
+        lagrange=lambda x, u, t: ca.fabs(u[0]),
+    )
     with pytest.raises(ValueError, match="autonomous"):
         control_law(pr, "box")
 
@@ -174,8 +189,14 @@ def test_bad_shooting_input(osc_system):
         compiled.integrate(np.zeros(5), 0.0, 1.0, atol=-1.0)
     with pytest.raises(ValueError, match="detection must be one of"):
         compiled.integrate(np.zeros(5), 0.0, 1.0, detection="fast")
-    free_start = OptimalControlProblem("free", [State("x", final=1.0)], [Control("u", -1, 1)], lambda x, u, t: u[0],
-                                       tf=1.0, lagrange=lambda x, u, t: ca.fabs(u[0]))
+    free_start = OptimalControlProblem(
+        "free",
+        [State("x", final=1.0)],
+        [Control("u", -1, 1)],
+        lambda x, u, t: u[0],
+        tf=1.0,
+        lagrange=lambda x, u, t: ca.fabs(u[0]),
+    )
     with pytest.raises(ValueError, match="fixed initial value"):
         Shooting(free_start, control_law(free_start, "box"))
 
@@ -238,11 +259,17 @@ def test_short_arcs_inside_a_step_are_found(osc_system, detection):
 def test_shooting_integrates_with_its_own_problem_parameters():
     """A Shooting on a compiled system shared with another parameter value integrates with its problem's own
     (regression: it used the values the shared system was compiled with)."""
+
     def problem(gain):
         return OptimalControlProblem(
-            "gain", [State("x", initial=0.0, final=1.0)], [Control("u", -1, 1)],
-            lambda x, u, t, P: P["gain"] * u[0], tf=2.0,
-            lagrange=lambda x, u, t, P: ca.fabs(u[0]), parameters={"gain": gain})
+            "gain",
+            [State("x", initial=0.0, final=1.0)],
+            [Control("u", -1, 1)],
+            lambda x, u, t, P: P["gain"] * u[0],
+            tf=2.0,
+            lagrange=lambda x, u, t, P: ca.fabs(u[0]),
+            parameters={"gain": gain},
+        )
 
     compiled_at_one = CompiledSystem(HamiltonianSystem(problem(1.0), control_law(problem(1.0), "box")))
     pr = problem(3.0)

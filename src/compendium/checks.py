@@ -9,8 +9,17 @@ from __future__ import annotations
 import math
 
 
-def check(name: str, value, expected, *, rtol: float = 0.0, atol: float = 0.0, how: str = "close",
-          digits: int = 4, quiet: bool = False) -> None:
+def check(
+    name: str,
+    value,
+    expected,
+    *,
+    rtol: float = 0.0,
+    atol: float = 0.0,
+    how: str = "close",
+    digits: int = 4,
+    quiet: bool = False,
+) -> None:
     """Assert ``value`` against ``expected`` and print one line saying so.
 
     ``how``: ``"close"`` (``|value - expected| <= atol + rtol |expected|``), ``"at most"``
@@ -22,8 +31,11 @@ def check(name: str, value, expected, *, rtol: float = 0.0, atol: float = 0.0, h
         raise ValueError(f"how must be 'close', 'at most' or 'at least', got {how!r}")
     value, expected = float(value), float(expected)
     slack = atol + rtol * abs(expected)
-    ok = {"close": abs(value - expected) <= slack, "at most": value <= expected + slack,
-          "at least": value >= expected - slack}[how]
+    ok = {
+        "close": abs(value - expected) <= slack,
+        "at most": value <= expected + slack,
+        "at least": value >= expected - slack,
+    }[how]
     if math.isnan(value):
         ok = False
     tolerance = " + ".join(t for t in (f"{atol:g}" if atol else "", f"{rtol:g} relative" if rtol else "") if t)

@@ -13,8 +13,15 @@ class SolverError(RuntimeError):
     one: never a converged answer, but what a diagnosis needs.
     """
 
-    def __init__(self, solver: str, status: str, iterations: int | None = None, detail: str = "",
-                 unit: str = "iterations", result=None):
+    def __init__(
+        self,
+        solver: str,
+        status: str,
+        iterations: int | None = None,
+        detail: str = "",
+        unit: str = "iterations",
+        result=None,
+    ):
         self.solver = solver
         self.status = status
         self.iterations = iterations

@@ -35,5 +35,5 @@ class PiecewiseEvaluator:
         lo, hi = self.ppoly.x[0], self.ppoly.x[-1]
         return self.ppoly(np.clip(t, lo, hi))
 
-    def derivative(self, order: int = 1) -> "PiecewiseEvaluator":
+    def derivative(self, order: int = 1) -> PiecewiseEvaluator:
         return PiecewiseEvaluator(self.ppoly.derivative(order))

@@ -26,7 +26,6 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sps
 
-
 #: Instances per block above which the mapped evaluations use two threads.
 THREAD_THRESHOLD = 256
 
@@ -82,8 +81,7 @@ class Block:
         npar = self.function.size1_in(1)
         if self.parameters.shape != (npar, count):
             raise ValueError(
-                f"block {self.name!r}: parameters have shape {self.parameters.shape}, "
-                f"expected ({npar}, {count})"
+                f"block {self.name!r}: parameters have shape {self.parameters.shape}, expected ({npar}, {count})"
             )
         if self.function.size1_in(0) != nz:
             raise ValueError(
@@ -304,6 +302,8 @@ def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: 
 def failure_hint(status: str) -> str:
     """What to do about a failed IPOPT status (for error messages)."""
     if status == ACCEPTABLE:
-        return ("IPOPT stopped at its acceptable (looser) tolerances; pass allow_acceptable=True to accept this "
-                "solution, or tighten the problem's scaling")
+        return (
+            "IPOPT stopped at its acceptable (looser) tolerances; pass allow_acceptable=True to accept this "
+            "solution, or tighten the problem's scaling"
+        )
     return "the last iterate is attached to the error as .result; solve(raise_on_failure=False) returns it instead"

@@ -21,17 +21,17 @@ One argument order throughout: ``f(x, u, t)``, ``L(x, u, t)``,
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable, Mapping, Sequence, Union
 
 import casadi as ca
 import numpy as np
 
-Bound = Union[None, float, tuple[float, float]]
+Bound = None | float | tuple[float, float]
 """A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
 
-GuessSpec = Union[None, float, tuple[float, float], Callable]
+GuessSpec = None | float | tuple[float, float] | Callable
 """A guess: ``None`` (derived from bounds), a constant, ``(start, end)`` linear in time, or a function of time."""
 
 
@@ -40,7 +40,9 @@ def _as_interval(spec: Bound, what: str) -> tuple[float, float]:
     if spec is None:
         return (-math.inf, math.inf)
     if isinstance(spec, list):
-        raise TypeError(f"{what}: a list {spec!r} is ambiguous; give a value, or a (lower, upper) tuple for an interval")
+        raise TypeError(
+            f"{what}: a list {spec!r} is ambiguous; give a value, or a (lower, upper) tuple for an interval"
+        )
     if isinstance(spec, tuple):
         if len(spec) != 2:
             raise ValueError(f"{what}: expected a value or a (lower, upper) tuple, got {spec!r}")
@@ -70,11 +72,13 @@ def guess_function(spec: GuessSpec, what: str) -> Callable[[np.ndarray, np.ndarr
     if spec is None:
         return None
     if callable(spec):
+
         def from_callable(s, t):
             val = np.asarray(spec(t), dtype=float)
             if val.shape != np.shape(t):
                 raise ValueError(f"{what} returned shape {val.shape}, expected {np.shape(t)}")
             return val
+
         return from_callable
     if isinstance(spec, (tuple, list)):
         if len(spec) != 2:
@@ -93,12 +97,13 @@ class AffineScaling:
     scale: np.ndarray
 
     @classmethod
-    def of(cls, variables) -> "AffineScaling":
+    def of(cls, variables) -> AffineScaling:
         """The scaling of a sequence of :class:`Variable`."""
-        return cls(np.array([v.shift for v in variables], dtype=float),
-                   np.array([v.scale for v in variables], dtype=float))
+        return cls(
+            np.array([v.shift for v in variables], dtype=float), np.array([v.scale for v in variables], dtype=float)
+        )
 
-    def subset(self, index) -> "AffineScaling":
+    def subset(self, index) -> AffineScaling:
         return AffineScaling(self.shift[index], self.scale[index])
 
     def to_nlp(self, values):
@@ -244,7 +249,7 @@ class ProblemFunctions:
     phi: ca.Function | None
 
     @cached_property
-    def hamiltonian(self) -> "Hamiltonian":
+    def hamiltonian(self) -> Hamiltonian:
         return Hamiltonian.of(self)
 
 
@@ -267,8 +272,9 @@ class Hamiltonian:
     H: ca.SX
 
     @classmethod
-    def of(cls, functions: ProblemFunctions, x: ca.SX | None = None, p: ca.SX | None = None,
-           P: ca.SX | None = None) -> "Hamiltonian":
+    def of(
+        cls, functions: ProblemFunctions, x: ca.SX | None = None, p: ca.SX | None = None, P: ca.SX | None = None
+    ) -> Hamiltonian:
         """The Hamiltonian of ``functions``, on new symbols or on given ``x, p, P`` (with new ``u, t``).
 
         On given symbols it is a second expression graph of the same definition: the
@@ -333,8 +339,17 @@ class OptimalControlProblem:
         _functions: ProblemFunctions | None = None,
     ) -> None:
         spec = dict(
-            name=name, states=states, controls=controls, dynamics=dynamics, t0=t0, tf=tf, mayer=mayer,
-            lagrange=lagrange, objective_scale=objective_scale, description=description, parameters=parameters,
+            name=name,
+            states=states,
+            controls=controls,
+            dynamics=dynamics,
+            t0=t0,
+            tf=tf,
+            mayer=mayer,
+            lagrange=lagrange,
+            objective_scale=objective_scale,
+            description=description,
+            parameters=parameters,
         )
         set_ = object.__setattr__
         set_(self, "_spec", spec)
@@ -378,14 +393,22 @@ class OptimalControlProblem:
                 raise ValueError(f"parameter {k!r} must be finite, got {v}")
         set_(self, "parameters", values)
         if _functions is None:
-            _functions = _build_functions(self.nx, self.nu, values, dynamics, lagrange, mayer,
-                                          with_parameters=parameters is not None, state_names=self.state_names)
+            _functions = _build_functions(
+                self.nx,
+                self.nu,
+                values,
+                dynamics,
+                lagrange,
+                mayer,
+                with_parameters=parameters is not None,
+                state_names=self.state_names,
+            )
         set_(self, "functions", _functions)
 
     def __setattr__(self, name, value):
         raise AttributeError(f"an OptimalControlProblem is immutable; use replace({name}=...)")
 
-    def replace(self, **changes) -> "OptimalControlProblem":
+    def replace(self, **changes) -> OptimalControlProblem:
         """A copy with some constructor arguments changed, e.g. ``parameters={"lam": 0.5}``.
 
         Parameter values given are merged into the current ones (an unknown name is
@@ -404,7 +427,8 @@ class OptimalControlProblem:
             changes["parameters"] = {**self.parameters, **new}
         spec.update(changes)
         shared = set(changes) <= {"parameters", "name", "description"} and (
-            changes.get("parameters") is not None or "parameters" not in changes)
+            changes.get("parameters") is not None or "parameters" not in changes
+        )
         return OptimalControlProblem(**spec, _functions=self.functions if shared else None)
 
     # -- the functions, at this problem's parameter values --------------------------------------
@@ -508,13 +532,13 @@ class OptimalControlProblem:
     def __repr__(self) -> str:
         tf = "free" if self.free_final_time else self.tf
         return (
-            f"OptimalControlProblem({self.name!r}, states={self.state_names}, "
-            f"controls={self.control_names}, tf={tf})"
+            f"OptimalControlProblem({self.name!r}, states={self.state_names}, controls={self.control_names}, tf={tf})"
         )
 
 
-def _build_functions(nx: int, nu: int, values: dict, dynamics, lagrange, mayer, *, with_parameters: bool,
-                     state_names) -> ProblemFunctions:
+def _build_functions(
+    nx: int, nu: int, values: dict, dynamics, lagrange, mayer, *, with_parameters: bool, state_names
+) -> ProblemFunctions:
     """The problem's CasADi functions from the user's callables (called once, on symbols)."""
     P = ca.SX.sym("P", len(values))
     extra = ({k: P[i] for i, k in enumerate(values)},) if with_parameters else ()
@@ -542,8 +566,10 @@ def _build_functions(nx: int, nu: int, values: dict, dynamics, lagrange, mayer, 
 
 def _column(expr, what: str) -> ca.SX:
     if isinstance(expr, np.ndarray):
-        raise TypeError(f"{what} returned a numpy array: return CasADi expressions (ca.vertcat(...)) or a list of them; "
-                        "numpy turns CasADi symbols into NaN")
+        raise TypeError(
+            f"{what} returned a numpy array: return CasADi expressions (ca.vertcat(...)) or a list of them; "
+            "numpy turns CasADi symbols into NaN"
+        )
     if isinstance(expr, (list, tuple)):
         expr = ca.vertcat(*expr)
     if isinstance(expr, (int, float, ca.DM)):
@@ -555,7 +581,8 @@ def _column(expr, what: str) -> ca.SX:
         if e.is_constant() and math.isnan(float(e)):
             raise ValueError(
                 f"{what} returned NaN in entry {k}: a math or numpy function (math.cos, np.sqrt) applied to a CasADi "
-                "symbol gives NaN; use CasADi's (ca.cos, ca.sqrt)")
+                "symbol gives NaN; use CasADi's (ca.cos, ca.sqrt)"
+            )
     return expr
 
 
@@ -583,8 +610,10 @@ class Guess:
                 raise KeyError(f"guess names unknown {key} {unknown}; {key} are {names}")
 
         def build(spec_map, variables):
-            parts = [guess_function(spec_map[v.name], f"guess for {v.name!r}") if v.name in spec_map
-                     else v.guess_function() for v in variables]
+            parts = [
+                guess_function(spec_map[v.name], f"guess for {v.name!r}") if v.name in spec_map else v.guess_function()
+                for v in variables
+            ]
 
             def fun(t):
                 t = np.asarray(t, dtype=float)

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 
@@ -81,8 +81,10 @@ class Solution(Trajectory):
         if self.costate_values is None:
             raise ValueError(f"{self.transcription} provides no costate estimates")
         t = np.asarray(t, dtype=float)
-        cols = [np.interp(t.ravel(), self.costate_times, self.costate_values[:, j])
-                for j in range(self.costate_values.shape[1])]
+        cols = [
+            np.interp(t.ravel(), self.costate_times, self.costate_values[:, j])
+            for j in range(self.costate_values.shape[1])
+        ]
         return np.stack(cols, axis=-1).reshape(t.shape + (len(cols),))
 
     @cached_property

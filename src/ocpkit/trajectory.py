@@ -123,8 +123,9 @@ class Trajectory(ABC):
         return pd.DataFrame(data)
 
     # -- verification -----------------------------------------------------------------------
-    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001,
-                    controls: str = "bounded") -> Reintegration:
+    def reintegrate(
+        self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"
+    ) -> Reintegration:
         """Integrate dx/dt = f(x, u(t), t) from x(t0) with DOP853 and compare with :meth:`state`.
 
         ``controls="bounded"`` (default) flies the admissible control :meth:`control`:
@@ -164,11 +165,17 @@ class Trajectory(ABC):
             x = sol.y[:, -1]
         err = out - self.state(t_eval)
         return Reintegration(
-            t=t_eval, states=out, error=err, state_names=problem.state_names,
-            scale=scale, rtol=rtol, atol=atol, n_rhs=n_rhs,
+            t=t_eval,
+            states=out,
+            error=err,
+            state_names=problem.state_names,
+            scale=scale,
+            rtol=rtol,
+            atol=atol,
+            n_rhs=n_rhs,
         )
 
-    def difference(self, other: "Trajectory", n: int = 2001) -> dict:
+    def difference(self, other: Trajectory, n: int = 2001) -> dict:
         """Largest difference of each variable from ``other``, in percent of ``other``'s magnitude.
 
         For each state and control ``v``: ``100 max_k |v(s_k) - v_other(s_k)| / max_k |v_other(s_k)|``

@@ -26,6 +26,7 @@ import math
 import casadi as ca
 
 from ocpkit.problem import Control, OptimalControlProblem, State
+
 from ._data import load_problem_data
 
 AERO_MODELS = ("corrected", "as_published")
@@ -40,9 +41,13 @@ def entry_landing_constants() -> dict:
     v_unit, t_unit = math.sqrt(g0 * R0), math.sqrt(R0 / g0)
     deg = math.pi / 180
     return {
-        "R0_m": R0, "g0": g0, "m0_kg": m0,
-        "velocity_unit_m_s": v_unit, "time_unit_s": t_unit,
-        "Sref_m2": math.pi * v["Rref_m"] ** 2, "rho": v["rho_kg_m3"],
+        "R0_m": R0,
+        "g0": g0,
+        "m0_kg": m0,
+        "velocity_unit_m_s": v_unit,
+        "time_unit_s": t_unit,
+        "Sref_m2": math.pi * v["Rref_m"] ** 2,
+        "rho": v["rho_kg_m3"],
         "Tmax": v["Tmax_N"] / (m0 * g0),
         "Isp": v["Isp_s"] / t_unit,
         "drag_to_lift": v["drag_to_lift"],
@@ -137,16 +142,54 @@ def entry_landing(
     h0 = c["h0_R0"]
     sf = None if downrange_m is None else downrange_m / c["R0_m"]
     states = [
-        State("r", lower=c["rf"], upper=c["r0"], initial=c["r0"], final=c["rf"], shift=1.0, scale=h0,
-              description="radius / R0"),
-        State("s", lower=c["downrange_bounds"][0], upper=c["downrange_bounds"][1], initial=c["s0"], final=sf,
-              scale=h0, guess=0.0, description="downrange / R0"),
-        State("V", lower=c["Vf"], upper=c["V0"] if speed_cap else math.inf, initial=c["V0"], final=c["Vf"],
-              scale=c["V0"], description="speed / sqrt(g0 R0)"),
-        State("gamma", lower=c["gamma_bounds"][0], upper=c["gamma_bounds"][1], initial=c["gamma0"],
-              final=c["gammaf"], unit="rad", description="flight-path angle"),
-        State("m", lower=c["mass_bounds"][0], upper=c["mass_bounds"][1], initial=c["m_initial"],
-              shift=0.9, scale=0.1, guess=1.0, description="mass / m0"),
+        State(
+            "r",
+            lower=c["rf"],
+            upper=c["r0"],
+            initial=c["r0"],
+            final=c["rf"],
+            shift=1.0,
+            scale=h0,
+            description="radius / R0",
+        ),
+        State(
+            "s",
+            lower=c["downrange_bounds"][0],
+            upper=c["downrange_bounds"][1],
+            initial=c["s0"],
+            final=sf,
+            scale=h0,
+            guess=0.0,
+            description="downrange / R0",
+        ),
+        State(
+            "V",
+            lower=c["Vf"],
+            upper=c["V0"] if speed_cap else math.inf,
+            initial=c["V0"],
+            final=c["Vf"],
+            scale=c["V0"],
+            description="speed / sqrt(g0 R0)",
+        ),
+        State(
+            "gamma",
+            lower=c["gamma_bounds"][0],
+            upper=c["gamma_bounds"][1],
+            initial=c["gamma0"],
+            final=c["gammaf"],
+            unit="rad",
+            description="flight-path angle",
+        ),
+        State(
+            "m",
+            lower=c["mass_bounds"][0],
+            upper=c["mass_bounds"][1],
+            initial=c["m_initial"],
+            shift=0.9,
+            scale=0.1,
+            guess=1.0,
+            description="mass / m0",
+        ),
     ]
     lo, hi = c["thrust_angle"]
     eps_scale = max(abs(lo), abs(hi))
@@ -156,8 +199,9 @@ def entry_landing(
     ]
     if rated:
         rate = thrust_angle_rate_deg_s * math.pi / 180 * c["time_unit_s"]  # rad per time unit
-        states.append(State("eps", lower=lo, upper=hi, scale=eps_scale, guess=0.0, unit="rad",
-                            description="thrust angle"))
+        states.append(
+            State("eps", lower=lo, upper=hi, scale=eps_scale, guess=0.0, unit="rad", description="thrust angle")
+        )
         controls.append(Control("eps_rate", -rate, rate, scale=rate, guess=0.0, description="thrust-angle rate"))
     else:
         controls.append(Control("eps", lo, hi, scale=eps_scale, guess=0.0, unit="rad", description="thrust angle"))
@@ -169,6 +213,6 @@ def entry_landing(
         tf=c["tf"],
         mayer=(lambda x0, xf, t0, tf: -xf[4]) if objective == "max_final_mass" else (lambda x0, xf, t0, tf: xf[1] / h0),
         description=f"Entry-landing, {objective} (aero {aero_model}, downrange "
-                    f"{'free' if downrange_m is None else f'{downrange_m} m'}, "
-                    f"thrust-angle rate {'free' if not rated else f'{thrust_angle_rate_deg_s} deg/s'})",
+        f"{'free' if downrange_m is None else f'{downrange_m} m'}, "
+        f"thrust-angle rate {'free' if not rated else f'{thrust_angle_rate_deg_s} deg/s'})",
     )

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.optimize import root
 
 from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+
 from ._data import load_problem_data
 
 

@@ -7,6 +7,7 @@ import math
 import casadi as ca
 
 from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+
 from ._data import load_problem_data
 
 
@@ -68,8 +69,9 @@ def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
     states = [
         State("X", initial=ini["X"], guess=end_guess("X"), description="horizontal position / R"),
         State("Y", initial=ini["Y"], final=fin["Y"], guess=end_guess("Y"), description="vertical position / R"),
-        State("U", initial=ini["U"], final=fin["U"], guess=end_guess("U"),
-              description="horizontal velocity / sqrt(g R)"),
+        State(
+            "U", initial=ini["U"], final=fin["U"], guess=end_guess("U"), description="horizontal velocity / sqrt(g R)"
+        ),
         State("V", initial=ini["V"], final=fin["V"], guess=end_guess("V"), description="vertical velocity / sqrt(g R)"),
     ]
     lo, hi = c["theta_bounds"]

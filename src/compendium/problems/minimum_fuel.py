@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import casadi as ca
 
 from ocpkit.problem import Control, OptimalControlProblem, State
+
 from ._data import load_problem_data
 
 
@@ -30,7 +31,9 @@ def double_integrator(lam: float = 1.0, x0=None, horizon: float | None = None) -
         [State("x1", initial=x0[0], final=0.0), State("x2", initial=x0[1], final=0.0)],
         [Control("u", -1.0, 1.0)],
         lambda x, u, t, P: ca.vertcat(x[1], u[0]),
-        tf=T, lagrange=_cost, parameters={"lam": lam},
+        tf=T,
+        lagrange=_cost,
+        parameters={"lam": lam},
         description="Minimum-fuel double integrator",
     )
 
@@ -81,6 +84,8 @@ def harmonic_oscillator(lam: float = 1.0, x0=None, periods: float | None = None)
         [State("x1", initial=x0[0], final=0.0), State("x2", initial=x0[1], final=0.0)],
         [Control("u", -1.0, 1.0)],
         lambda x, u, t, P: ca.vertcat(x[1], -x[0] + u[0]),
-        tf=2 * math.pi * n, lagrange=_cost, parameters={"lam": lam},
+        tf=2 * math.pi * n,
+        lagrange=_cost,
+        parameters={"lam": lam},
         description="Minimum-fuel harmonic oscillator",
     )

@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 
 from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+
 from ._data import load_problem_data
 
 STATE_NAMES = ("P", "ex", "ey", "hx", "hy", "L", "m")
@@ -87,9 +88,16 @@ def equinoctial_fields(x, mu):
 FINAL_CONDITIONS = ("longitude", "time", "free")
 
 
-def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, *, final: str | None = None, tf: float | None = None,
-                   longitude: float | None = None, multiplier: float | None = None,
-                   objective: str = "fuel") -> OptimalControlProblem:
+def orbit_transfer(
+    thrust_N: float = 5.0,
+    lam: float = 1.0,
+    *,
+    final: str | None = None,
+    tf: float | None = None,
+    longitude: float | None = None,
+    multiplier: float | None = None,
+    objective: str = "fuel",
+) -> OptimalControlProblem:
     """The transfer with thrust ``thrust_N`` (parameter ``Tmax`` in kg Mm/h^2).
 
     Beyond the GEO elements (P, ex, ey, hx, hy), the final condition is one of
@@ -140,9 +148,15 @@ def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, *, final: str | None
     guess = minimum_time_estimate(thrust_N)
     if objective == "time":
         return OptimalControlProblem(
-            "orbit_transfer_time", states, controls, dynamics, tf=FreeFinalTime(1e-3, 1e6, guess),
-            mayer=lambda x0, xf, t0, tff, Pm: tff, lagrange=lambda x, u, t, Pm: 0 * ca.norm_2(u),
-            parameters=params, description=f"GTO-GEO minimum time, {thrust_N} N{what}",
+            "orbit_transfer_time",
+            states,
+            controls,
+            dynamics,
+            tf=FreeFinalTime(1e-3, 1e6, guess),
+            mayer=lambda x0, xf, t0, tff, Pm: tff,
+            lagrange=lambda x, u, t, Pm: 0 * ca.norm_2(u),
+            parameters=params,
+            description=f"GTO-GEO minimum time, {thrust_N} N{what}",
         )
     if final == "time":
         if tf is None or not tf > 0:
@@ -154,9 +168,14 @@ def orbit_transfer(thrust_N: float = 5.0, lam: float = 1.0, *, final: str | None
             raise ValueError(f"the final-time guess must be positive, got {tf!r}")
         tf_spec = FreeFinalTime(1e-3, 1e6, g)
     return OptimalControlProblem(
-        "orbit_transfer_fuel", states, controls, dynamics, tf=tf_spec,
+        "orbit_transfer_fuel",
+        states,
+        controls,
+        dynamics,
+        tf=tf_spec,
         lagrange=lambda x, u, t, Pm: Pm["lam"] * ca.norm_2(u) + (1 - Pm["lam"]) * ca.sumsqr(u),
-        parameters=params, description=f"GTO-GEO minimum fuel (lambda = {lam}), {thrust_N} N{what}",
+        parameters=params,
+        description=f"GTO-GEO minimum fuel (lambda = {lam}), {thrust_N} N{what}",
     )
 
 
@@ -174,17 +193,26 @@ def equinoctial_to_cartesian(x, mu):
     w = 1 + f * cL + g * sL
     r = P / w
     sq = lib.sqrt(mu / P)
-    pos = [r / s2 * (cL + alpha2 * cL + 2 * h * k * sL),
-           r / s2 * (sL - alpha2 * sL + 2 * h * k * cL),
-           2 * r / s2 * (h * sL - k * cL)]
-    vel = [-sq / s2 * (sL + alpha2 * sL - 2 * h * k * cL + g - 2 * f * h * k + alpha2 * g),
-           -sq / s2 * (-cL + alpha2 * cL + 2 * h * k * sL - f + 2 * g * h * k + alpha2 * f),
-           2 * sq / s2 * (h * cL + k * sL + f * h + g * k)]
+    pos = [
+        r / s2 * (cL + alpha2 * cL + 2 * h * k * sL),
+        r / s2 * (sL - alpha2 * sL + 2 * h * k * cL),
+        2 * r / s2 * (h * sL - k * cL),
+    ]
+    vel = [
+        -sq / s2 * (sL + alpha2 * sL - 2 * h * k * cL + g - 2 * f * h * k + alpha2 * g),
+        -sq / s2 * (-cL + alpha2 * cL + 2 * h * k * sL - f + 2 * g * h * k + alpha2 * f),
+        2 * sq / s2 * (h * cL + k * sL + f * h + g * k),
+    ]
     return pos, vel
 
 
-def orbit_transfer_direct(thrust_N: float, objective: str = "time", tf: float | None = None,
-                          revolutions_guess: float = 1.0, tf_guess: float = 15.0) -> OptimalControlProblem:
+def orbit_transfer_direct(
+    thrust_N: float,
+    objective: str = "time",
+    tf: float | None = None,
+    revolutions_guess: float = 1.0,
+    tf_guess: float = 15.0,
+) -> OptimalControlProblem:
     """A form of the transfer for direct transcriptions: the thrust direction as two angles.
 
     ``u = rho (cos(beta) cos(alpha), cos(beta) sin(alpha), sin(beta))`` (radial, orthoradial,
@@ -213,23 +241,43 @@ def orbit_transfer_direct(thrust_N: float, objective: str = "time", tf: float | 
     L_end = ini["L"] + 2 * math.pi * revolutions_guess
     scales = {"P": 10.0, "ex": 1.0, "ey": 1.0, "hx": 0.1, "hy": 0.1, "L": max(math.pi, L_end), "m": 100.0}
     shifts = {"m": 1400.0}
-    states = [State(n, initial=ini[n], final=fin.get(n), scale=scales[n], shift=shifts.get(n, 0.0),
-                    lower=0.5 if n == "P" else -math.inf,
-                    guess=(ini[n], L_end) if n == "L" else None) for n in STATE_NAMES]
-    angles = [Control("alpha", -2 * math.pi, 2 * math.pi, guess=math.pi / 2),
-              Control("beta", -math.pi / 2, math.pi / 2)]
+    states = [
+        State(
+            n,
+            initial=ini[n],
+            final=fin.get(n),
+            scale=scales[n],
+            shift=shifts.get(n, 0.0),
+            lower=0.5 if n == "P" else -math.inf,
+            guess=(ini[n], L_end) if n == "L" else None,
+        )
+        for n in STATE_NAMES
+    ]
+    angles = [
+        Control("alpha", -2 * math.pi, 2 * math.pi, guess=math.pi / 2),
+        Control("beta", -math.pi / 2, math.pi / 2),
+    ]
     if energy:
         if tf is None:
             raise ValueError("the energy problem needs a fixed final time tf (hours)")
         return OptimalControlProblem(
-            "orbit_transfer_energy_direct", states, [Control("rho", 0.0, 1.0, guess=0.5), *angles], dynamics,
-            tf=float(tf), lagrange=lambda x, u, t: u[0] ** 2, objective_scale=max(float(tf), 1.0),
+            "orbit_transfer_energy_direct",
+            states,
+            [Control("rho", 0.0, 1.0, guess=0.5), *angles],
+            dynamics,
+            tf=float(tf),
+            lagrange=lambda x, u, t: u[0] ** 2,
+            objective_scale=max(float(tf), 1.0),
             description=f"GTO-GEO energy problem (direct form), {thrust_N} N, tf = {tf} h",
         )
     return OptimalControlProblem(
-        "orbit_transfer_time_direct", states, angles, dynamics,
+        "orbit_transfer_time_direct",
+        states,
+        angles,
+        dynamics,
         tf=FreeFinalTime(0.1 * tf_guess, 10 * tf_guess, tf_guess, scale=tf_guess),
-        mayer=lambda x0, xf, t0, tff: tff, objective_scale=tf_guess,
+        mayer=lambda x0, xf, t0, tff: tff,
+        objective_scale=tf_guess,
         description=f"GTO-GEO minimum time (direct form), {thrust_N} N",
     )
 

@@ -16,18 +16,20 @@ def physical_histories(solution, t=None, n: int = 501):
     """
     c = entry_landing_constants()
     col = solution.to_dataframe(t=t, n=n)
-    return pd.DataFrame({
-        "t_s": col["t"] * c["time_unit_s"],
-        "altitude_m": (col["r"] - 1.0) * c["R0_m"],
-        "downrange_m": col["s"] * c["R0_m"],
-        "velocity_m_s": col["V"] * c["velocity_unit_m_s"],
-        "flight_path_angle_deg": np.degrees(col["gamma"]),
-        "mass_kg": col["m"] * c["m0_kg"],
-        "lift_fraction": col["u_L"],
-        "thrust_fraction": col["u_T"],
-        "thrust_kN": col["u_T"] * c["Tmax"] * c["m0_kg"] * c["g0"] / 1e3,
-        "thrust_angle_deg": np.degrees(col["eps"]),
-    })
+    return pd.DataFrame(
+        {
+            "t_s": col["t"] * c["time_unit_s"],
+            "altitude_m": (col["r"] - 1.0) * c["R0_m"],
+            "downrange_m": col["s"] * c["R0_m"],
+            "velocity_m_s": col["V"] * c["velocity_unit_m_s"],
+            "flight_path_angle_deg": np.degrees(col["gamma"]),
+            "mass_kg": col["m"] * c["m0_kg"],
+            "lift_fraction": col["u_L"],
+            "thrust_fraction": col["u_T"],
+            "thrust_kN": col["u_T"] * c["Tmax"] * c["m0_kg"] * c["g0"] / 1e3,
+            "thrust_angle_deg": np.degrees(col["eps"]),
+        }
+    )
 
 
 def landing_summary(solution) -> dict:

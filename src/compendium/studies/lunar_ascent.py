@@ -18,12 +18,14 @@ def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None =
     rows = []
     for eps in smoothings:
         sol = HLGL(lunar_ascent(float(eps)), segments).solve(ipopt_options=ipopt_options)
-        rows.append({
-            "speed_smoothing": float(eps),
-            "tf": sol.tf,
-            "iterations": sol.iterations,
-            "max_reintegration_error": sol.reintegrate().max_error,
-        })
+        rows.append(
+            {
+                "speed_smoothing": float(eps),
+                "tf": sol.tf,
+                "iterations": sol.iterations,
+                "max_reintegration_error": sol.reintegrate().max_error,
+            }
+        )
     df = pd.DataFrame(rows)
     ref = df.loc[df["speed_smoothing"].idxmin(), "tf"]
     df.insert(2, "tf_minus_smallest_eps", df["tf"] - ref)

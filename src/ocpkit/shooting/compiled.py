@@ -26,8 +26,14 @@ import numpy as np
 from .hamiltonian import HamiltonianSystem
 from .strategies import DETECTION_MODES
 
-_STATUS = {0: "ok", 1: "maximum number of steps reached", 2: "step size too small", 3: "non-finite values",
-           4: "out of memory", 5: "switching root not found"}
+_STATUS = {
+    0: "ok",
+    1: "maximum number of steps reached",
+    2: "step size too small",
+    3: "non-finite values",
+    4: "out of memory",
+    5: "switching root not found",
+}
 _SOURCE = Path(__file__).with_name("dopri5.c")
 CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99"]
 
@@ -150,8 +156,25 @@ class CompiledSystem:
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
         fn = lib.ocp_integrate
         fn.restype = ctypes.c_int
-        fn.argtypes = [dbl, ctypes.c_double, ctypes.c_double, dbl, i32, dbl, i32, dbl, i64,
-                       dbl, dbl, dbl, dbl, dbl, dbl, i32, ctypes.c_void_p]
+        fn.argtypes = [
+            dbl,
+            ctypes.c_double,
+            ctypes.c_double,
+            dbl,
+            i32,
+            dbl,
+            i32,
+            dbl,
+            i64,
+            dbl,
+            dbl,
+            dbl,
+            dbl,
+            dbl,
+            dbl,
+            i32,
+            ctypes.c_void_p,
+        ]
         self._fn = fn
         self._lib = lib
         self._groups = np.asarray(system.law.group_sizes, dtype=np.int32)
@@ -203,26 +226,58 @@ class CompiledSystem:
             Y0 = np.concatenate([y0, Psi0.ravel(order="F")])
         cap = int(capacity if capacity is not None else min(max_steps, 200_000)) if record else 1
         ng = sysm.law.n_switching
-        opt_int = np.array([n, nvar, ng, len(self._groups), DETECTION_MODES.index(detection), max_steps,
-                            int(record), cap, int(bool(interior_check))], dtype=np.int32)
+        opt_int = np.array(
+            [
+                n,
+                nvar,
+                ng,
+                len(self._groups),
+                DETECTION_MODES.index(detection),
+                max_steps,
+                int(record),
+                cap,
+                int(bool(interior_check)),
+            ],
+            dtype=np.int32,
+        )
         opt_dbl = np.array([rtol, atol, h0, hmax], dtype=float)
         Y = np.empty(Y0.size)
         out = np.zeros(9, dtype=np.int64)
         arrays = [np.empty(cap) for _ in range(6)]
         sw_k = np.empty(cap, dtype=np.int32)
         states = np.empty((cap, n)) if record else None
-        self._fn(np.ascontiguousarray(Y0), float(t0), float(tf), np.ascontiguousarray(P), opt_int, opt_dbl,
-                 self._groups, Y, out, *arrays, sw_k, None if states is None else states.ctypes.data)
+        self._fn(
+            np.ascontiguousarray(Y0),
+            float(t0),
+            float(tf),
+            np.ascontiguousarray(P),
+            opt_int,
+            opt_dbl,
+            self._groups,
+            Y,
+            out,
+            *arrays,
+            sw_k,
+            None if states is None else states.ctypes.data,
+        )
         status, acc, rej, nfev, nsw, nhist, nrej, nswr, ninside = (int(v) for v in out)
         ht, hh, hH, rt, rh, st = arrays
         return Integration(
             y=Y[:n].copy(),
             Psi=Y[n:].reshape(n, nvar, order="F").copy() if nvar else None,
             status=_STATUS.get(status, f"error {status}"),
-            accepted=acc, rejected=rej, rhs_evaluations=nfev, switchings=nsw, interior_switchings=ninside,
-            step_times=ht[:nhist].copy(), step_sizes=hh[:nhist].copy(), hamiltonian=hH[:nhist].copy(),
-            rejected_times=rt[:nrej].copy(), rejected_sizes=rh[:nrej].copy(),
-            switching_times=st[:nswr].copy(), switching_index=sw_k[:nswr].copy(),
+            accepted=acc,
+            rejected=rej,
+            rhs_evaluations=nfev,
+            switchings=nsw,
+            interior_switchings=ninside,
+            step_times=ht[:nhist].copy(),
+            step_sizes=hh[:nhist].copy(),
+            hamiltonian=hH[:nhist].copy(),
+            rejected_times=rt[:nrej].copy(),
+            rejected_sizes=rh[:nrej].copy(),
+            switching_times=st[:nswr].copy(),
+            switching_index=sw_k[:nswr].copy(),
             states=states[:nhist].copy() if states is not None else np.zeros((0, n)),
             truncated=bool(record and max(nhist, nrej, nswr) >= cap),
             parameters=P.copy(),

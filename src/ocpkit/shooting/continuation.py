@@ -29,14 +29,13 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 
 from ..errors import SolverError
 from .shooting import Shooting, ShootingResult
-
 
 # -- natural-parameter continuation -------------------------------------------------------------
 
@@ -44,8 +43,9 @@ from .shooting import Shooting, ShootingResult
 class Schedule:
     """Step rule: the given ``values`` in turn; a failed step is halved (``midpoint``) at most ``max_halvings`` times."""
 
-    def __init__(self, values: Sequence[float], *, midpoint: Callable = lambda a, b: 0.5 * (a + b),
-                 max_halvings: int = 6):
+    def __init__(
+        self, values: Sequence[float], *, midpoint: Callable = lambda a, b: 0.5 * (a + b), max_halvings: int = 6
+    ):
         self._values = [float(v) for v in values]
         self._next = 0
         self._pending: list[float] = []
@@ -61,9 +61,13 @@ class Schedule:
 
     def reject(self, current, value, error, solved: int):
         if current is None or len(self._pending) > self.max_halvings:
-            raise SolverError("continuation", f"failed at {value:.6g}", solved,
-                              f"after {len(self._pending) - 1} halvings of the step; last error: {error}",
-                              unit="points solved") from error
+            raise SolverError(
+                "continuation",
+                f"failed at {value:.6g}",
+                solved,
+                f"after {len(self._pending) - 1} halvings of the step; last error: {error}",
+                unit="points solved",
+            ) from error
         self._pending.append(self.midpoint(current, value))
 
     def accept(self, value):
@@ -83,8 +87,17 @@ class GeometricSteps:
     (``1 - (1 - factor) grow``, within ``[floor, cap]``). ``factor < 1`` decreases.
     """
 
-    def __init__(self, stop: float, *, targets=(), factor: float = 0.8, slowest: float = 0.995,
-                 floor: float = 0.7, cap: float = 0.8, grow: float = 1.5):
+    def __init__(
+        self,
+        stop: float,
+        *,
+        targets=(),
+        factor: float = 0.8,
+        slowest: float = 0.995,
+        floor: float = 0.7,
+        cap: float = 0.8,
+        grow: float = 1.5,
+    ):
         if not 0 < factor < 1:
             raise ValueError(f"factor must lie in (0, 1), got {factor}")
         self.stop, self.factor, self.slowest, self.floor, self.cap, self.grow = stop, factor, slowest, floor, cap, grow
@@ -102,16 +115,28 @@ class GeometricSteps:
     def reject(self, current, value, error, solved: int):
         self.factor = 1 - (1 - self.factor) / 2
         if self.factor > self.slowest:
-            raise SolverError("continuation", f"stalled at {current:.6g}", solved,
-                              f"the step ratio passed {self.slowest}; last error: {error}",
-                              unit="points solved") from error
+            raise SolverError(
+                "continuation",
+                f"stalled at {current:.6g}",
+                solved,
+                f"the step ratio passed {self.slowest}; last error: {error}",
+                unit="points solved",
+            ) from error
 
     def accept(self, value):
         self.factor = max(self.floor, min(self.cap, 1 - (1 - self.factor) * self.grow))
 
 
-def follow(solve_at: Callable, z0, start: float | None, steps, *, predictor: Callable | None = None,
-           choose: Callable | None = None, log: Callable | None = None) -> list[tuple[float, ShootingResult]]:
+def follow(
+    solve_at: Callable,
+    z0,
+    start: float | None,
+    steps,
+    *,
+    predictor: Callable | None = None,
+    choose: Callable | None = None,
+    log: Callable | None = None,
+) -> list[tuple[float, ShootingResult]]:
     """Natural-parameter continuation from ``z0`` (a solution at ``start``, or just a start when ``start`` is None).
 
     ``steps`` proposes the parameter values (:class:`Schedule`, :class:`GeometricSteps`);
@@ -152,8 +177,9 @@ def follow(solve_at: Callable, z0, start: float | None, steps, *, predictor: Cal
             log(value, result, time.perf_counter() - t0)
 
 
-def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", final: Shooting | None = None,
-             **solve_options) -> list[ShootingResult]:
+def homotopy(
+    regularized: Shooting, lambdas, z0, *, parameter: str = "lam", final: Shooting | None = None, **solve_options
+) -> list[ShootingResult]:
     """Continuation on a cost parameter: solve for each value of ``lambdas`` in turn, each warm-starting the next.
 
     ``regularized`` solves the problems with ``parameter`` in ``lambdas``; ``final``
@@ -172,7 +198,6 @@ def homotopy(regularized: Shooting, lambdas, z0, *, parameter: str = "lam", fina
     if final is not None:
         results.append(final.solve(results[-1].z, final.problem.parameter_values, **solve_options))
     return results
-
 
 
 @dataclass
@@ -199,16 +224,32 @@ class ContinuationPath:
         """The crossing of ``value`` that minimises ``key`` (default: the final time)."""
         if value not in self.targets or not self.targets[value]:
             if value in self.refinement_failures:
-                raise KeyError(f"the path crossed {self.parameter} = {value} but the shooting there failed: "
-                               + "; ".join(self.refinement_failures[value]))
+                raise KeyError(
+                    f"the path crossed {self.parameter} = {value} but the shooting there failed: "
+                    + "; ".join(self.refinement_failures[value])
+                )
             raise KeyError(f"the path did not reach {self.parameter} = {value}")
         return min(self.targets[value], key=key)
 
 
-def arclength(shooting: Shooting, z0, parameter: str, start: float, stop: float, *, targets=(),
-              log: bool = True, h0: float = 0.05, hmin: float = 1e-7, hmax: float = 0.5,
-              tol: float = 1e-9, max_steps: int = 5000, max_corrector: int = 8, fd_step: float = 1e-7,
-              stop_at_turn: bool = False) -> ContinuationPath:
+def arclength(
+    shooting: Shooting,
+    z0,
+    parameter: str,
+    start: float,
+    stop: float,
+    *,
+    targets=(),
+    log: bool = True,
+    h0: float = 0.05,
+    hmin: float = 1e-7,
+    hmax: float = 0.5,
+    tol: float = 1e-9,
+    max_steps: int = 5000,
+    max_corrector: int = 8,
+    fd_step: float = 1e-7,
+    stop_at_turn: bool = False,
+) -> ContinuationPath:
     """Follow ``S(z, parameter) = 0`` from ``(z0, start)`` until the parameter passes ``stop``.
 
     ``z0`` must solve the problem at ``start``. ``log``: continue in the logarithm

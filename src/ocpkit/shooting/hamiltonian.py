@@ -122,8 +122,9 @@ def _extract(H, u, nu: int):
     return H0, psi, w, b
 
 
-def control_law(problem: OptimalControlProblem, control_set: str = "box", *, regularized: bool = False,
-                radius: float = 1.0) -> ControlLaw:
+def control_law(
+    problem: OptimalControlProblem, control_set: str = "box", *, regularized: bool = False, radius: float = 1.0
+) -> ControlLaw:
     """The minimiser of the problem's Hamiltonian for an L1 or regularised cost.
 
     Parameters
@@ -263,15 +264,18 @@ class HamiltonianSystem:
         zero_phi = ca.SX.zeros(self.n)
         self.flow = ca.Function("ocp_flow", [y, mode, P], [sel(mode, flows, zero_phi)], ["y", "mode", "P"], ["ydot"])
         self.hamiltonian = ca.Function("ocp_ham", [y, mode, P], [sel(mode, hams, ca.SX(0))], ["y", "mode", "P"], ["H"])
-        self.control = ca.Function("ocp_control", [y, mode, P], [sel(mode, ctrls, ca.SX.zeros(law.nu))],
-                                   ["y", "mode", "P"], ["u"])
+        self.control = ca.Function(
+            "ocp_control", [y, mode, P], [sel(mode, ctrls, ca.SX.zeros(law.nu))], ["y", "mode", "P"], ["u"]
+        )
         g = law.switching()
         self.switching = ca.Function("ocp_switching", [y, P], [g], ["y", "P"], ["g"])
         self.dswitch = ca.Function("ocp_dswitch", [y, P], [ca.densify(ca.jacobian(g, y))], ["y", "P"], ["dg"])
         self.varflow = ca.Function(
-            "ocp_varflow", [y, Psi, mode, P],
+            "ocp_varflow",
+            [y, Psi, mode, P],
             [sel(mode, flows, zero_phi), sel(mode, varflows, ca.SX.zeros(self.n, self.n_variational))],
-            ["y", "Psi", "mode", "P"], ["ydot", "Psidot"],
+            ["y", "Psi", "mode", "P"],
+            ["ydot", "Psidot"],
         )
         self._branches = (y, Psi, P, flows, varflows, hams)
 
@@ -296,8 +300,9 @@ class HamiltonianSystem:
             return ca.Function(name, inputs, list(out), names_in, names_out)
 
         flow = switched("ocp_flow", [y, P], [(phi,) for phi in flows], ["y", "mode", "P"], ["ydot"])
-        varflow = switched("ocp_varflow", [y, Psi, P], list(zip(flows, varflows)),
-                           ["y", "Psi", "mode", "P"], ["ydot", "Psidot"])
+        varflow = switched(
+            "ocp_varflow", [y, Psi, P], list(zip(flows, varflows)), ["y", "Psi", "mode", "P"], ["ydot", "Psidot"]
+        )
         ham = switched("ocp_ham", [y, P], [(h,) for h in hams], ["y", "mode", "P"], ["H"])
         return [flow, varflow, self.switching, self.dswitch, ham]
 
@@ -306,6 +311,6 @@ class HamiltonianSystem:
         g = np.asarray(self.switching(y, P)).ravel()
         regimes, k = [], 0
         for size in self.law.group_sizes:
-            regimes.append(int(np.sum(g[k:k + size] > 0)))
+            regimes.append(int(np.sum(g[k : k + size] > 0)))
             k += size
         return self.law.mode_of(regimes)

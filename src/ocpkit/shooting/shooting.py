@@ -76,11 +76,21 @@ class ShootingResult:
     def summary(self) -> dict:
         tr = self.integration
         return {
-            "detection": self.detection, "jacobian": self.jacobian, "objective": self.objective,
-            "norm_S": self.norm, "converged": self.converged, "n_S": self.n_shooting, "n_jac": self.n_jacobian,
-            "integrations": self.n_integrations, "cpu_s": self.cpu_s, "switchings": tr.switchings,
-            "accepted": tr.accepted, "rejected": tr.rejected, "steps": tr.steps,
-            "rejected_pct": 100 * tr.rejected_ratio, "hamiltonian_drift": tr.hamiltonian_drift,
+            "detection": self.detection,
+            "jacobian": self.jacobian,
+            "objective": self.objective,
+            "norm_S": self.norm,
+            "converged": self.converged,
+            "n_S": self.n_shooting,
+            "n_jac": self.n_jacobian,
+            "integrations": self.n_integrations,
+            "cpu_s": self.cpu_s,
+            "switchings": tr.switchings,
+            "accepted": tr.accepted,
+            "rejected": tr.rejected,
+            "steps": tr.steps,
+            "rejected_pct": 100 * tr.rejected_ratio,
+            "hamiltonian_drift": tr.hamiltonian_drift,
         }
 
 
@@ -105,10 +115,20 @@ class Shooting:
         Reuse an already compiled system for the same problem and law.
     """
 
-    def __init__(self, problem: OptimalControlProblem, law: ControlLaw, *, detection: str = "correction",
-                 jacobian: str = "variational", rtol: float = 1e-8, atol: float = 1e-8,
-                 system: CompiledSystem | None = None, max_steps: int = 2_000_000, interior_check: bool = True,
-                 fd_step: float | None = None):
+    def __init__(
+        self,
+        problem: OptimalControlProblem,
+        law: ControlLaw,
+        *,
+        detection: str = "correction",
+        jacobian: str = "variational",
+        rtol: float = 1e-8,
+        atol: float = 1e-8,
+        system: CompiledSystem | None = None,
+        max_steps: int = 2_000_000,
+        interior_check: bool = True,
+        fd_step: float | None = None,
+    ):
         if detection not in DETECTION_MODES:
             raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
         self._jacobian = jacobian_strategy(jacobian)
@@ -142,7 +162,7 @@ class Shooting:
         tf = ca.SX.sym("tf")
         mode = ca.SX.sym("mode")
         P = ca.SX.sym("P", len(problem.parameters))
-        xf, pf = yf[:nx], yf[nx:2 * nx]
+        xf, pf = yf[:nx], yf[nx : 2 * nx]
         phi = problem.phi(ca.DM(self.x0), xf, problem.t0, tf, P) if problem.phi is not None else ca.SX(0)
         dphi = ca.gradient(phi, xf)
         rows = []
@@ -162,7 +182,7 @@ class Shooting:
         tf = z[-1] if self.free_tf else float(self.problem.tf)
         if not tf > self.problem.t0:
             raise ValueError(f"final time {tf} must exceed t0 = {self.problem.t0}")
-        return z[:self.problem.nx], tf
+        return z[: self.problem.nx], tf
 
     def integrate(self, z, parameters=None, *, variational: bool = False, record: bool = False) -> Integration:
         """The trajectory from the initial state and the costates (and tf) in ``z``.
@@ -177,14 +197,29 @@ class Shooting:
         Psi0 = None
         if variational:
             Psi0 = np.zeros((sysm.n, nx))
-            Psi0[nx:2 * nx] = np.eye(nx)
+            Psi0[nx : 2 * nx] = np.eye(nx)
         self.counts["integrations"] += 1
-        res = self.compiled.integrate(y0, self.problem.t0, tf, P, detection=self.detection,
-                                      rtol=self.rtol, atol=self.atol, Psi0=Psi0, record=record,
-                                      max_steps=self.max_steps, interior_check=self.interior_check)
+        res = self.compiled.integrate(
+            y0,
+            self.problem.t0,
+            tf,
+            P,
+            detection=self.detection,
+            rtol=self.rtol,
+            atol=self.atol,
+            Psi0=Psi0,
+            record=record,
+            max_steps=self.max_steps,
+            interior_check=self.interior_check,
+        )
         if res.status != "ok":
-            raise SolverError("Dormand-Prince integrator", res.status, res.accepted + res.rejected,
-                              f"at z = {np.array2string(np.asarray(z), precision=6)}", unit="steps")
+            raise SolverError(
+                "Dormand-Prince integrator",
+                res.status,
+                res.accepted + res.rejected,
+                f"at z = {np.array2string(np.asarray(z), precision=6)}",
+                unit="steps",
+            )
         return res
 
     def _params(self, parameters):
@@ -210,8 +245,9 @@ class Shooting:
             J = np.hstack([J, (dSdy @ ydot + dSdtf.ravel())[:, None]])
         return S.ravel(), J
 
-    def jacobian_matrix(self, z, parameters=None, method=None,
-                        S0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def jacobian_matrix(
+        self, z, parameters=None, method=None, S0: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(S(z), dS/dz)`` by ``method`` (a name in :data:`~ocpkit.shooting.strategies.JACOBIANS` or a
         strategy object; default: this run's).
 
@@ -223,9 +259,19 @@ class Shooting:
         return strategy(self, z, P, S0)
 
     # -- solve ------------------------------------------------------------------------------------
-    def solve(self, z0, parameters=None, *, solver="hybr", stol: float = 1e-8, xtol: float = 1e-14,
-              maxfev: int = 400, factor: float = 100.0, raise_on_failure: bool = True,
-              record: bool = True) -> ShootingResult:
+    def solve(
+        self,
+        z0,
+        parameters=None,
+        *,
+        solver="hybr",
+        stol: float = 1e-8,
+        xtol: float = 1e-14,
+        maxfev: int = 400,
+        factor: float = 100.0,
+        raise_on_failure: bool = True,
+        record: bool = True,
+    ) -> ShootingResult:
         """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with |S| and counts) on failure.
 
         Converged means ``|S| <= stol`` at the returned point, whatever MINPACK's own
@@ -274,8 +320,12 @@ class Shooting:
             if key not in last_J:
                 S, J = self.jacobian_matrix(z, P, S0=last_S.get(key))
                 if not np.all(np.isfinite(J)):
-                    raise SolverError("shooting", "the Jacobian is not finite (a grazing switching?)",
-                                      self.counts["S"], unit="shooting-function evaluations")
+                    raise SolverError(
+                        "shooting",
+                        "the Jacobian is not finite (a grazing switching?)",
+                        self.counts["S"],
+                        unit="shooting-function evaluations",
+                    )
                 last_S.clear()
                 last_S[key] = S
                 last_J.clear()
@@ -297,19 +347,38 @@ class Shooting:
         ok = bool(np.isfinite(norm) and norm <= stol)
         p0, tf = self._split(z)
         result = ShootingResult(
-            z=z, p0=p0, tf=tf, residual=S, norm=norm, converged=ok, message=message,
-            n_shooting=counts["S"], n_jacobian=counts["jac"], n_integrations=counts["integrations"],
-            cpu_s=cpu, objective=self._objective(final, tf, P), detection=self.detection,
-            jacobian=self.jacobian, parameters=P, integration=final, system=self.compiled.system,
+            z=z,
+            p0=p0,
+            tf=tf,
+            residual=S,
+            norm=norm,
+            converged=ok,
+            message=message,
+            n_shooting=counts["S"],
+            n_jacobian=counts["jac"],
+            n_integrations=counts["integrations"],
+            cpu_s=cpu,
+            objective=self._objective(final, tf, P),
+            detection=self.detection,
+            jacobian=self.jacobian,
+            parameters=P,
+            integration=final,
+            system=self.compiled.system,
         )
         if not ok and raise_on_failure:
-            name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(getattr(method, "name", ""),
-                                                                             type(method).__name__)
-            raise SolverError(f"shooting ({name})", message, counts["S"],
-                              f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
-                              f"{counts['jac']} Jacobian evaluations; the last iterate is the error's .result, "
-                              "solve(raise_on_failure=False) returns it", unit="shooting-function evaluations",
-                              result=result)
+            name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(
+                getattr(method, "name", ""), type(method).__name__
+            )
+            raise SolverError(
+                f"shooting ({name})",
+                message,
+                counts["S"],
+                f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
+                f"{counts['jac']} Jacobian evaluations; the last iterate is the error's .result, "
+                "solve(raise_on_failure=False) returns it",
+                unit="shooting-function evaluations",
+                result=result,
+            )
         return result
 
     def _objective(self, res: Integration, tf: float, P) -> float:
@@ -319,4 +388,3 @@ class Shooting:
         if self.problem.phi is not None:
             J += float(self.problem.phi(self.x0, res.y[:nx], self.problem.t0, tf, P))
         return J
-

@@ -99,8 +99,9 @@ class MinpackHybrid:
     def __call__(self, fun, jac, z0, *, stol: float, maxfev: int):
         from scipy.optimize import root
 
-        sol = root(fun, z0, jac=jac, method="hybr", options={"xtol": self.xtol, "maxfev": maxfev,
-                                                              "factor": self.factor})
+        sol = root(
+            fun, z0, jac=jac, method="hybr", options={"xtol": self.xtol, "maxfev": maxfev, "factor": self.factor}
+        )
         return sol.x, " ".join(sol.message.split())
 
 
@@ -134,7 +135,7 @@ class DampedNewton:
                 message = "the Newton step could not be computed"
                 break
             a, accepted = 1.0, False
-            while a >= 2.0 ** -14 and evaluations < maxfev:
+            while a >= 2.0**-14 and evaluations < maxfev:
                 trial = z + a * step
                 St = fun(trial)
                 evaluations += 1

@@ -52,8 +52,15 @@ class ShootingTrajectory(Trajectory):
             d1[sel] = np.asarray(f(Y[sel + 1].T, m, P)).T
         self._Y, self._D0, self._D1 = Y, d0, d1
         self._n = n
-        self.breakpoints = np.concatenate([[self.t0], integration.switching_times[
-            (integration.switching_times > self.t0) & (integration.switching_times < self.tf)], [self.tf]])
+        self.breakpoints = np.concatenate(
+            [
+                [self.t0],
+                integration.switching_times[
+                    (integration.switching_times > self.t0) & (integration.switching_times < self.tf)
+                ],
+                [self.tf],
+            ]
+        )
 
     def _modes_at(self, Y) -> np.ndarray:
         law = self.system.law
@@ -61,7 +68,7 @@ class ShootingTrajectory(Trajectory):
         modes = np.zeros(Y.shape[0], dtype=int)
         stride, k = 1, 0
         for size in law.group_sizes:
-            modes += stride * (g[:, k:k + size] > 0).sum(axis=1)
+            modes += stride * (g[:, k : k + size] > 0).sum(axis=1)
             stride *= size + 1
             k += size
         return modes
@@ -84,14 +91,14 @@ class ShootingTrajectory(Trajectory):
         return y.reshape(shape + (y.shape[-1],)), i
 
     def _state(self, t):
-        return self._y(t)[0][..., :self._n]
+        return self._y(t)[0][..., : self._n]
 
     @property
     def has_costates(self) -> bool:
         return True
 
     def _costate(self, t):
-        return self._y(t)[0][..., self._n:2 * self._n]
+        return self._y(t)[0][..., self._n : 2 * self._n]
 
     def _control(self, t):
         y, i = self._y(t)

@@ -1,8 +1,8 @@
 """Direct transcriptions: one module per scheme."""
 
 from .base import Transcription
-from .mesh import Mesh
 from .hlgl import HLGL
+from .mesh import Mesh
 from .multirate import MultiRateHLGL, state_partition
 from .radau import Radau
 

@@ -119,10 +119,12 @@ class Transcription(ABC):
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Scaled bounds of the NLP variables; state groups carry the boundary conditions."""
-        return self._stack_bounds([
-            node_bounds(g.variables, g.points) if g.is_state else point_bounds(g.variables, g.points)
-            for g in self._groups()
-        ])
+        return self._stack_bounds(
+            [
+                node_bounds(g.variables, g.points) if g.is_state else point_bounds(g.variables, g.points)
+                for g in self._groups()
+            ]
+        )
 
     def pack(self, *values, tf: float | None = None) -> np.ndarray:
         """Scaled NLP vector from physical values, one (points, variables) array per group, and tf."""
@@ -150,7 +152,7 @@ class Transcription(ABC):
             raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
         out, offset = [], 0
         for g in self._groups():
-            z = w[offset:offset + g.size].reshape(g.points, len(g.variables))
+            z = w[offset : offset + g.size].reshape(g.points, len(g.variables))
             out.append(g.scaling.from_nlp(z) if g.variables else z)
             offset += g.size
         pr = self.problem
@@ -181,7 +183,7 @@ class Transcription(ABC):
         p = ca.SX.sym("p", int(not free))
         tf = final_time(pr, z, p, 0)
         xs = pr.state_scaling
-        phi = pr.mayer(xs.from_nlp(z[:nx]), xs.from_nlp(z[nx:2 * nx]), pr.t0, tf)
+        phi = pr.mayer(xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx]), pr.t0, tf)
         var = np.concatenate([first, last] + ([[tf_index]] if free else []))
         par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
         return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
@@ -195,7 +197,7 @@ class Transcription(ABC):
         return self.n_defects
 
     # -- shared machinery ---------------------------------------------------------------
-    def build(self) -> "Transcription":
+    def build(self) -> Transcription:
         """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
         if self._nlp is None:
             t = time.perf_counter()
@@ -228,7 +230,9 @@ class Transcription(ABC):
             guess = Guess()
         if isinstance(guess, Solution):
             same = (guess.problem.state_names, guess.problem.control_names) == (
-                self.problem.state_names, self.problem.control_names)
+                self.problem.state_names,
+                self.problem.control_names,
+            )
             if not same:
                 raise ValueError("a Solution used as guess must have the same states and controls")
             tf, xs, us = guess.tf, guess.state, guess.control
@@ -242,8 +246,14 @@ class Transcription(ABC):
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 
-    def solve(self, guess=None, *, ipopt_options: dict | None = None, allow_acceptable: bool = False,
-              raise_on_failure: bool = True) -> Solution:
+    def solve(
+        self,
+        guess=None,
+        *,
+        ipopt_options: dict | None = None,
+        allow_acceptable: bool = False,
+        raise_on_failure: bool = True,
+    ) -> Solution:
         """Solve with IPOPT from ``guess``.
 
         Parameters

@@ -66,7 +66,7 @@ def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
 
 def segment_points(values: np.ndarray, n: int) -> np.ndarray:
     """Values (5, n, d) at the five points of each of ``n`` segments from (4n+1, d) values laid out point by point."""
-    return np.stack([values[j:4 * n:4] if j < 4 else values[4::4] for j in range(5)])
+    return np.stack([values[j : 4 * n : 4] if j < 4 else values[4::4] for j in range(5)])
 
 
 def hermite_coefficients(x_nodes: np.ndarray, f_nodes: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -76,8 +76,8 @@ def hermite_coefficients(x_nodes: np.ndarray, f_nodes: np.ndarray, h: np.ndarray
     state nodes; ``h`` (n,) are the segment lengths.
     """
     n = h.size
-    xs = [x_nodes[0:2 * n:2], x_nodes[1:2 * n:2], x_nodes[2::2]]
-    fs = [f_nodes[0:2 * n:2], f_nodes[1:2 * n:2], f_nodes[2::2]]
+    xs = [x_nodes[0 : 2 * n : 2], x_nodes[1 : 2 * n : 2], x_nodes[2::2]]
+    fs = [f_nodes[0 : 2 * n : 2], f_nodes[1 : 2 * n : 2], f_nodes[2::2]]
     data = np.stack([xs[0], h[:, None] * fs[0], xs[1], h[:, None] * fs[1], xs[2], h[:, None] * fs[2]])
     return np.einsum("kl,lnd->knd", nodes.hermite_quintic_matrix(), data)
 
@@ -118,8 +118,10 @@ class HLGL(Transcription):
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
-        return [VariableGroup("states", pr.states, self.n_state_nodes),
-                VariableGroup("controls", pr.controls, self.n_control_points)]
+        return [
+            VariableGroup("states", pr.states, self.n_state_nodes),
+            VariableGroup("controls", pr.controls, self.n_control_points),
+        ]
 
     @property
     def n_defects(self) -> int:
@@ -142,8 +144,8 @@ class HLGL(Transcription):
         z = ca.SX.sym("z", 3 * nx + 5 * nu + int(free))
         p = ca.SX.sym("p", 2 + int(not free))
         xs, us = pr.state_scaling, pr.control_scaling
-        x = [xs.from_nlp(z[j * nx:(j + 1) * nx]) for j in range(3)]
-        u = [us.from_nlp(z[3 * nx + j * nu:3 * nx + (j + 1) * nu]) for j in range(5)]
+        x = [xs.from_nlp(z[j * nx : (j + 1) * nx]) for j in range(3)]
+        u = [us.from_nlp(z[3 * nx + j * nu : 3 * nx + (j + 1) * nu]) for j in range(5)]
         t_begin, _, h = segment_clock(pr, z, p)
         t = [t_begin + h * s for s in nodes.HLGL_CONTROL_NODES]
         return z, p, x, u, t, h
@@ -211,9 +213,13 @@ class HLGL(Transcription):
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
         return dict(
-            t0=pr.t0, tf=tf,
-            state_times=t_x, state_values=X,
-            control_times=t_u, control_values=U,
+            t0=pr.t0,
+            tf=tf,
+            state_times=t_x,
+            state_values=X,
+            control_times=t_u,
+            control_values=U,
             breakpoints=breaks,
-            state_interpolant=states, control_interpolant=controls,
+            state_interpolant=states,
+            control_interpolant=controls,
         )

@@ -27,7 +27,7 @@ and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
@@ -37,8 +37,8 @@ from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
 from .base import Transcription, VariableGroup
-from .mesh import Mesh, segment_clock
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
+from .mesh import Mesh, segment_clock
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
 
@@ -146,9 +146,11 @@ class MultiRateHLGL(Transcription):
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
-        return [VariableGroup("slow states", tuple(pr.states[i] for i in self.slow), self.n_coarse_nodes),
-                VariableGroup("fast states", tuple(pr.states[i] for i in self.fast), self.n_fine_nodes),
-                VariableGroup("controls", pr.controls, self.n_control_points)]
+        return [
+            VariableGroup("slow states", tuple(pr.states[i] for i in self.slow), self.n_coarse_nodes),
+            VariableGroup("fast states", tuple(pr.states[i] for i in self.fast), self.n_fine_nodes),
+            VariableGroup("controls", pr.controls, self.n_control_points),
+        ]
 
     @property
     def n_defects(self) -> int:
@@ -193,11 +195,11 @@ class MultiRateHLGL(Transcription):
         xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
         sx, sz = xsc.scale, zsc.scale
         off = 0
-        X = [xsc.from_nlp(w[off + k * nxs: off + (k + 1) * nxs]) for k in range(3)]
+        X = [xsc.from_nlp(w[off + k * nxs : off + (k + 1) * nxs]) for k in range(3)]
         off += 3 * nxs
-        Z = [zsc.from_nlp(w[off + k * nzf: off + (k + 1) * nzf]) for k in range(2 * M + 1)]
+        Z = [zsc.from_nlp(w[off + k * nzf : off + (k + 1) * nzf]) for k in range(2 * M + 1)]
         off += (2 * M + 1) * nzf
-        U = [pr.control_scaling.from_nlp(w[off + k * nu: off + (k + 1) * nu]) for k in range(5)]
+        U = [pr.control_scaling.from_nlp(w[off + k * nu : off + (k + 1) * nu]) for k in range(5)]
         t_start, _, h = segment_clock(pr, w, p)
 
         def u_at(s):
@@ -369,9 +371,13 @@ class MultiRateHLGL(Transcription):
             return out
 
         return dict(
-            t0=pr.t0, tf=tf,
-            state_times=t_f, state_values=states(t_f),
-            control_times=t_u, control_values=U,
+            t0=pr.t0,
+            tf=tf,
+            state_times=t_f,
+            state_values=states(t_f),
+            control_times=t_u,
+            control_values=U,
             breakpoints=breaks,
-            state_interpolant=states, control_interpolant=controls,
+            state_interpolant=states,
+            control_interpolant=controls,
         )

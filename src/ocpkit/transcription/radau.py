@@ -81,8 +81,9 @@ class Radau(Transcription):
     # N = 100: solve 0.80 s -> 0.58 s; 20 intervals of 10 nodes: no change).
     ipopt_defaults = {"mumps_pivot_order": 2}
 
-    def __init__(self, problem: OptimalControlProblem, nodes: int | list[int] = 20, intervals: int | None = None,
-                 *, mesh=None):
+    def __init__(
+        self, problem: OptimalControlProblem, nodes: int | list[int] = 20, intervals: int | None = None, *, mesh=None
+    ):
         super().__init__(problem)
         if intervals is None and mesh is None:
             intervals = 1
@@ -111,8 +112,10 @@ class Radau(Transcription):
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
-        return [VariableGroup("states", pr.states, self.n_state_points),
-                VariableGroup("controls", pr.controls, self.n_collocation)]
+        return [
+            VariableGroup("states", pr.states, self.n_state_points),
+            VariableGroup("controls", pr.controls, self.n_collocation),
+        ]
 
     @property
     def n_defects(self) -> int:
@@ -146,8 +149,8 @@ class Radau(Transcription):
             z = ca.SX.sym("z", nx * (n + 1))
             DX = ca.mtimes(ca.reshape(z, nx, n + 1), ca.DM(D.T))  # (nx, n): column k = point k
             fun = ca.Function(f"lgr_D{n}", [z, ca.SX.sym("p", 0)], [ca.vec(DX)])
-            var = np.stack([X[:, o:o + n + 1].T.ravel() for o in self.offsets[which]], axis=1)
-            rows = np.stack([rows_all[:, o:o + n].T.ravel() for o in self.offsets[which]], axis=1)
+            var = np.stack([X[:, o : o + n + 1].T.ravel() for o in self.offsets[which]], axis=1)
+            rows = np.stack([rows_all[:, o : o + n].T.ravel() for o in self.offsets[which]], axis=1)
             linear = np.kron(D, np.eye(nx))  # point-major z and outputs
             blocks.append(Block(f"lgr_differentiation_{n}", fun, var, np.zeros((0, which.size)), rows, linear))
 
@@ -155,7 +158,7 @@ class Radau(Transcription):
         xs, us = pr.state_scaling, pr.control_scaling
         z = ca.SX.sym("z", nx + nu + int(free))
         p = ca.SX.sym("p", 2 + int(not free))  # normalised time, interval fraction, (tf)
-        x, u = xs.from_nlp(z[:nx]), us.from_nlp(z[nx:nx + nu])
+        x, u = xs.from_nlp(z[:nx]), us.from_nlp(z[nx : nx + nu])
         t, _, h = segment_clock(pr, z, p)
         half = h / 2
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t) / ca.DM(xs.scale)])
@@ -210,18 +213,20 @@ class Radau(Transcription):
         breaks = self._times(tf, self.mesh.breaks)
         x_pieces, u_pieces = [], []
         for o, n, tau in zip(self.offsets, self.counts, self.tau):
-            x_pieces.append((np.append(tau, 1.0), X[o:o + n + 1]))
-            u_pieces.append((tau, U[o:o + n]))
+            x_pieces.append((np.append(tau, 1.0), X[o : o + n + 1]))
+            u_pieces.append((tau, U[o : o + n]))
         t_x = self._times(tf, self.state_point_fractions())
         return dict(
-            t0=pr.t0, tf=tf,
-            state_times=t_x, state_values=X,
-            control_times=t_x[:-1], control_values=U,
+            t0=pr.t0,
+            tf=tf,
+            state_times=t_x,
+            state_values=X,
+            control_times=t_x[:-1],
+            control_values=U,
             breakpoints=breaks,
             state_interpolant=PiecewiseBarycentric(breaks, x_pieces),
             control_interpolant=(
-                PiecewiseBarycentric(breaks, u_pieces) if pr.nu
-                else (lambda t: np.zeros(np.shape(t) + (0,)))
+                PiecewiseBarycentric(breaks, u_pieces) if pr.nu else (lambda t: np.zeros(np.shape(t) + (0,)))
             ),
             costate_times=t_x,
             costate_values=self.costates(result.lam_g),
