@@ -1,7 +1,8 @@
 # Reproducible research compendium for optimal control.
 #   make reproduce   set up, execute every notebook headless, regenerate figures/ data/derived/ and the HTML report
-#   make test        set up, run the unit tests and nbval over the notebooks
-#   make lab         JupyterLab on the same environment
+#   make test        set up, lint, run the unit tests and nbval over the notebooks, compare their outputs with the
+#                    published record (figures/, data/derived/)
+#   make lab         JupyterLab on the repository, on the compendium's kernel (as root too)
 #   make bench       timing benchmarks (tables in build/bench/)
 #   make store       re-execute the notebooks in place (refresh the outputs nbval compares against)
 
@@ -11,17 +12,12 @@ PY     := $(VENV)/bin/python
 KERNEL := ocpkit
 STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
-ORBIT     := notebooks/05_orbit_transfer.ipynb
-# the full orbit-transfer run (all five thrusts, continuations from scratch, the whole 5 N horizon study);
-# CI's nbval uses the fast defaults
-ORBIT_PARAMS := -p thrusts None -p recompute True -p horizon_seeds "[1.3, 1.6, 1.75, 2.0]"
 
 # One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core.
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
-export MPLBACKEND := Agg
 
-.PHONY: setup reproduce notebooks report test unit nbval lab bench store clean
+.PHONY: setup reproduce notebooks report test lint unit nbval guard lab bench store clean
 
 setup: $(STAMP)
 
@@ -35,24 +31,34 @@ $(STAMP): environment.txt pyproject.toml
 
 reproduce: notebooks report
 
+# the published runs: each notebook with the parameters notebooks/published.toml gives it (the orbit transfer's
+# full run; the others' defaults), writing figures/ and data/derived/ when each completes
 notebooks: setup
-	$(PY) -m compendium.notebooks run $(filter-out $(ORBIT),$(NOTEBOOKS)) --output build/notebooks --kernel $(KERNEL)
-	$(PY) -m compendium.notebooks run $(ORBIT) --output build/notebooks --kernel $(KERNEL) $(ORBIT_PARAMS)
+	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
 
 report: notebooks
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-test: unit nbval
+test: lint unit nbval guard
+
+lint: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 
 unit: setup
 	$(PY) -m pytest tests/
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones
 nbval: setup
-	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) -p no:cacheprovider $(NOTEBOOKS)
+	rm -rf build/test-output
+	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output OCPKIT_PROGRESS=off $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) -p no:cacheprovider $(NOTEBOOKS)
+
+# what nbval's runs wrote, against the committed figures/ and data/derived/
+guard: nbval
+	$(PY) -m compendium.guard build/test-output
 
 lab: setup
-	$(VENV)/bin/jupyter lab notebooks/
+	$(PY) -m compendium.lab
 
 bench: setup
 	$(PY) benchmarks/bench_hlgl.py
@@ -61,10 +67,10 @@ bench: setup
 	$(PY) benchmarks/bench_shooting.py
 	$(PY) benchmarks/bench_orbit_transfer.py
 
-# stored outputs use the default parameters; their figures and tables go to build/store-output,
-# so storing never overwrites what make reproduce wrote to figures/ and data/derived/
+# stored outputs use the default parameters; where those are a notebook's published ones its figures and tables
+# are the published record (identical when nothing changed: review `git status`), otherwise they go to build/runs/
 store: setup
-	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/store-output $(PY) -m compendium.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
+	$(PY) -m compendium.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
 
 clean:
 	rm -rf build

@@ -1,13 +1,15 @@
 """Notebook structure, parameter handling and folder independence (compendium.notebooks)."""
 
 import json
+import re
 from pathlib import Path
 
 import nbformat
 import pytest
 
 from compendium import paths
-from compendium.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters
+from compendium.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters, published_overrides
+from compendium.outputs import published_parameters, read_run_record
 
 NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
 
@@ -71,5 +73,37 @@ def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypat
     summary = json.loads((out_root / "data" / "derived" / "lunar_ascent_summary.json").read_text())
     assert summary["segments"] == 6 and summary["nlp_parameters"] == 4 * 13 + 25 + 1
     assert summary["status"] == "Solve_Succeeded"
+    assert "build_s" not in summary, "timings live in the run record, not in the published table"
     assert (out_root / "figures" / "figure6_theta.pdf").is_file()
+    record = read_run_record(out_root, "01_lunar_ascent")
+    assert record["parameters"]["segments"] == 6 and not record["published_parameters"]
+    assert record["timings"]["lunar_ascent"][0]["solve_s"] > 0
     assert Path(out).is_file()
+
+
+def test_published_runs_are_declared_for_known_parameters():
+    """notebooks/published.toml names only parameters the notebooks declare, as Python literals."""
+    for path in NOTEBOOKS:
+        overrides = published_overrides(path)
+        check_parameters(path, overrides)
+        assert published_parameters(path.stem).items() >= overrides.items()
+    assert published_overrides(paths.notebooks_dir() / "05_orbit_transfer.ipynb")["thrusts"] is None
+
+
+def test_the_report_shows_the_figures_and_serves_mathjax_itself(tmp_path):
+    """HTML pages with their figures inline and MathJax from the report's own folder (readable offline)."""
+    import shutil
+
+    from compendium.notebooks import build_report
+
+    executed = tmp_path / "executed"
+    executed.mkdir()
+    shutil.copy(paths.notebooks_dir() / "01_lunar_ascent.ipynb", executed)
+    index = build_report(executed, tmp_path / "report")
+    page = (tmp_path / "report" / "01_lunar_ascent.html").read_text()
+    stored = nbformat.read(str(executed / "01_lunar_ascent.ipynb"), as_version=4)
+    figures = sum("image/png" in o.get("data", {}) for c in stored.cells if c.cell_type == "code" for o in c.outputs)
+    assert figures >= 3 and len(re.findall(r'<img [^>]*src="data:image/png;base64,', page)) == figures
+    assert 'src="mathjax/MathJax.js?config=' in page and "libs/mathjax" not in page
+    assert (tmp_path / "report" / "mathjax" / "MathJax.js").is_file()
+    assert "01_lunar_ascent.html" in index.read_text()

@@ -12,7 +12,7 @@ def _section(title: str) -> str:
     text = (REPO / "README.md").read_text()
     start = text.index(f"## {title}")
     end = text.find("\n## ", start + 1)
-    return text[start:end if end > 0 else None]
+    return text[start : end if end > 0 else None]
 
 
 def test_library_example_runs_and_prints_what_the_readme_shows(tmp_path):
@@ -30,7 +30,56 @@ def test_library_example_matches_the_exact_cost(tmp_path):
     code = re.findall(r"```python\n(.*?)```", _section("The library on its own"), flags=re.S)[0]
     namespace: dict = {}
     exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102
-    exact = 3 / 8 - 3 ** 0.5 / 12
+    exact = 3 / 8 - 3**0.5 / 12
     assert abs(namespace["indirect"].objective - exact) < 1e-9
     for name in ("hlgl", "radau"):
         assert abs(namespace[name].objective - exact) < 1e-5, name
+
+
+def _subsection(title: str) -> str:
+    text = (REPO / "README.md").read_text()
+    start = text.index(f"### {title}")
+    ends = [i for i in (text.find("\n### ", start + 1), text.find("\n## ", start + 1)) if i > 0]
+    return text[start : min(ends) if ends else None]
+
+
+def test_other_parameters_examples_run_verbatim_on_a_fresh_clone(tmp_path):
+    """Both commands, as printed, in a fresh clone: they work, and the published record stays as it was."""
+    import json
+    import os
+
+    commands = re.findall(r"```sh\n(.*?)```", _subsection("One notebook with other parameters"), flags=re.S)
+    assert len(commands) == 2 and all("segments 40" in c for c in commands)
+    clone = tmp_path / "clone"
+    subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
+    (clone / ".venv").symlink_to(REPO / ".venv")  # what `make setup` would build, shared
+    env = {k: v for k, v in os.environ.items() if k != "OCPKIT_OUTPUT_DIR"} | {"OCPKIT_ROOT": str(clone)}
+    for command in commands:
+        proc = subprocess.run(command, shell=True, cwd=clone, env=env, capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, f"{command}\n{proc.stderr[-3000:]}"
+    assert (clone / "build" / "custom" / "01_lunar_ascent.ipynb").is_file()
+    assert (clone / "build" / "lunar_40.ipynb").is_file()
+    run = clone / "build" / "runs" / "01_lunar_ascent"
+    record = json.loads((run / "data" / "derived" / "runs" / "01_lunar_ascent.json").read_text())
+    assert record["parameters"]["segments"] == 40 and record["published_parameters"] is False
+    assert json.loads((run / "data" / "derived" / "lunar_ascent_summary.json").read_text())["segments"] == 40
+    assert (run / "figures" / "figure6_theta.png").is_file()
+    status = subprocess.run(
+        ["git", "status", "--porcelain", "--", "figures", "data", "notebooks", "src"],
+        cwd=clone,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert status == "", f"the published record changed:\n{status}"
+
+
+def test_sources_are_cited_by_reference_not_by_a_path_outside_the_repository():
+    """A reader of the compendium has no ../shared/seeds: the README and the notebooks cite authors and titles."""
+    texts = {"README.md": (REPO / "README.md").read_text()}
+    texts |= {p.name: p.read_text() for p in sorted((REPO / "notebooks").glob("*.ipynb"))}
+    for name, text in texts.items():
+        assert "shared/seeds" not in text and "seeds/00" not in text, name
+    readme = texts["README.md"]
+    for cited in ("Desai", "Conway", "Martinon", "Gergaud", "Fuel optimal entry trajectory with Radau", "Herman"):
+        assert cited in readme, cited

@@ -1,9 +1,9 @@
 """Repository-relative paths, independent of the working directory.
 
 Inputs (``data/problems``, ``data/paper``) are always read from the repository.
-Outputs (``figures/``, ``data/derived/``) go to the repository too, unless the
-environment variable ``OCPKIT_OUTPUT_DIR`` names another root: the test suite
-uses it so that running the notebooks under nbval never rewrites tracked files.
+Where a notebook run writes its figures and tables is decided by
+:mod:`compendium.outputs` (the published record, ``build/runs/``, or
+``OCPKIT_OUTPUT_DIR``), never by a module writing on its own.
 """
 
 from __future__ import annotations
@@ -31,12 +31,6 @@ def repo_root() -> Path:
     return root
 
 
-def output_root() -> Path:
-    """Root for generated outputs: ``OCPKIT_OUTPUT_DIR`` if set, else the repository."""
-    env = os.environ.get("OCPKIT_OUTPUT_DIR")
-    return Path(env).resolve() if env else repo_root()
-
-
 def data_dir() -> Path:
     return repo_root() / "data"
 
@@ -60,16 +54,11 @@ def _ensure(path: Path) -> Path:
     return path
 
 
-def derived_dir() -> Path:
-    """Tables computed by the notebooks (created on demand)."""
-    return _ensure(output_root() / "data" / "derived")
-
-
-def figures_dir() -> Path:
-    """Figures written by the notebooks (created on demand)."""
-    return _ensure(output_root() / "figures")
+def published_derived_dir() -> Path:
+    """The published tables, ``data/derived/`` of the repository (read-only for the studies: caches)."""
+    return data_dir() / "derived"
 
 
 def build_dir() -> Path:
-    """Untracked build products: executed notebooks, report, benchmark tables."""
-    return _ensure(output_root() / "build")
+    """Untracked build products: executed notebooks, runs with other parameters, report, benchmark tables."""
+    return _ensure(repo_root() / "build")

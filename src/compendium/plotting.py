@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import matplotlib as mpl
 import matplotlib.pyplot as plt
-
-from .paths import figures_dir
 
 STYLE = {
     "figure.figsize": (6.4, 4.0),
@@ -24,9 +22,7 @@ STYLE = {
     "axes.spines.right": False,
     "legend.frameon": False,
     "lines.linewidth": 1.6,
-    "axes.prop_cycle": mpl.cycler(
-        color=["#1f5fa8", "#d1495b", "#2a9d8f", "#e9a23b", "#6d597a", "#3d405b"]
-    ),
+    "axes.prop_cycle": mpl.cycler(color=["#1f5fa8", "#d1495b", "#2a9d8f", "#e9a23b", "#6d597a", "#3d405b"]),
     "pdf.fonttype": 42,
     "svg.hashsalt": "ocpkit",
 }
@@ -41,13 +37,18 @@ def use_style() -> None:
     mpl.rcParams.update(STYLE)
 
 
-def save_figure(fig: plt.Figure, name: str, formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
-    """Write ``figures/<name>.<fmt>`` with metadata that does not change between runs."""
+def save_figure(fig: plt.Figure, name: str, folder: Path | str, formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
+    """Write ``<folder>/<name>.<fmt>`` with metadata that does not change between runs (byte-deterministic).
+
+    Notebooks do not call this directly: :meth:`compendium.outputs.Outputs.figure` decides the folder.
+    """
     if not name or "/" in name or "\\" in name:
         raise ValueError(f"figure name must be a plain file stem, got {name!r}")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
     out = []
     for fmt in formats:
-        path = figures_dir() / f"{name}.{fmt}"
+        path = folder / f"{name}.{fmt}"
         if fmt == "png":
             meta = _PNG_METADATA
         elif fmt == "pdf":
@@ -59,8 +60,16 @@ def save_figure(fig: plt.Figure, name: str, formats: Sequence[str] = ("png", "pd
     return out
 
 
-def time_histories(t, data, columns: Sequence[str], labels: Sequence[str], ylabel: str, title: str,
-                   xlabel: str = "t (non-dimensional)", markers=None) -> plt.Figure:
+def time_histories(
+    t,
+    data,
+    columns: Sequence[str],
+    labels: Sequence[str],
+    ylabel: str,
+    title: str,
+    xlabel: str = "t (non-dimensional)",
+    markers=None,
+) -> plt.Figure:
     """Time histories of ``data[column]`` against ``t`` (one line each), with optional markers.
 
     ``markers``: ``(times, values)``, values indexable by column (the NLP's parameters).

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -37,7 +36,7 @@ from ocpkit import SolverError
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, ShootingResult, control_law
 from ocpkit.shooting.continuation import GeometricSteps, Schedule, follow, geometric_midpoint
 
-from ..paths import data_dir, derived_dir
+from ..paths import published_derived_dir
 from ..problems.orbit_transfer import (
     STATE_NAMES,
     equinoctial_to_cartesian,
@@ -47,6 +46,7 @@ from ..problems.orbit_transfer import (
     orbit_transfer_direct,
     tangential_thrust_guess,
 )
+from ..progress import continuation_progress, progress
 from .shooting_methods import ALL_COMBINATIONS
 
 COSTATES = [f"p_{n}" for n in STATE_NAMES]
@@ -76,9 +76,19 @@ class TransferSystems:
             self._cache[kind] = (law, CompiledSystem(HamiltonianSystem(pr, law)))
         return self._cache[kind]
 
-    def shooting(self, kind: str, thrust_N: float, *, final: str | None = None, tf: float | None = None,
-                 longitude: float | None = None, detection: str = "correction", jacobian: str = "variational",
-                 tol: float = TOL, interior_check: bool = True) -> Shooting:
+    def shooting(
+        self,
+        kind: str,
+        thrust_N: float,
+        *,
+        final: str | None = None,
+        tf: float | None = None,
+        longitude: float | None = None,
+        detection: str = "correction",
+        jacobian: str = "variational",
+        tol: float = TOL,
+        interior_check: bool = True,
+    ) -> Shooting:
         """A shooting problem: ``kind`` is ``"time"``, ``"energy"`` or ``"fuel"``.
 
         ``final`` and ``longitude`` as :func:`~ocpkit.problems.orbit_transfer.orbit_transfer`
@@ -89,10 +99,17 @@ class TransferSystems:
         if kind == "time":
             pr = orbit_transfer(thrust_N, objective="time", final=final or "free", longitude=longitude)
         else:
-            pr = orbit_transfer(thrust_N, lam=0.0 if kind == "energy" else 1.0, final=final, tf=tf,
-                                longitude=longitude)
-        return Shooting(pr, law, detection=detection, jacobian=jacobian, rtol=tol, atol=tol, system=compiled,
-                        interior_check=interior_check)
+            pr = orbit_transfer(thrust_N, lam=0.0 if kind == "energy" else 1.0, final=final, tf=tf, longitude=longitude)
+        return Shooting(
+            pr,
+            law,
+            detection=detection,
+            jacobian=jacobian,
+            rtol=tol,
+            atol=tol,
+            system=compiled,
+            interior_check=interior_check,
+        )
 
 
 # -- continuations (ocpkit.shooting.follow) ------------------------------------------------------
@@ -149,8 +166,16 @@ def minimum_time_start(systems: TransferSystems, thrust_N: float = 60.0, nodes: 
 # -- 2. minimum-time continuation -------------------------------------------------------------
 
 
-def minimum_time_continuation(systems: TransferSystems, start, start_thrust: float, targets, *,
-                              factor: float = 0.8, slowest: float = 0.995, log=print) -> pd.DataFrame:
+def minimum_time_continuation(
+    systems: TransferSystems,
+    start,
+    start_thrust: float,
+    targets,
+    *,
+    factor: float = 0.8,
+    slowest: float = 0.995,
+    log=print,
+) -> pd.DataFrame:
     """t_min along a decreasing thrust schedule down to ``min(targets)``.
 
     :func:`~ocpkit.shooting.continuation.follow` with :class:`GeometricSteps` (the
@@ -178,12 +203,22 @@ def minimum_time_continuation(systems: TransferSystems, start, start_thrust: flo
 
     def report(T, r, elapsed):
         if log:
-            log(f"{T:8.4f} N: t_min = {r.tf:10.4f} h, t_min * Tmax = {T * r.tf:6.1f} N h, |S| = {r.norm:.1e}, "
-                f"{elapsed:5.1f} s")
+            log(
+                f"{T:8.4f} N: t_min = {r.tf:10.4f} h, t_min * Tmax = {T * r.tf:6.1f} N h, |S| = {r.norm:.1e}, "
+                f"{elapsed:5.1f} s"
+            )
 
     steps = GeometricSteps(targets[-1], targets=targets, factor=factor, slowest=slowest)
-    path = follow(solve_at, start, float(start_thrust), steps, predictor=predictor,
-                  choose=lambda results: min(results, key=lambda r: r.tf), log=report)
+    with continuation_progress("minimum time", "Tmax", report) as tick:
+        path = follow(
+            solve_at,
+            start,
+            float(start_thrust),
+            steps,
+            predictor=predictor,
+            choose=lambda results: min(results, key=lambda r: r.tf),
+            log=tick,
+        )
     rows = [_tmin_row(float(start_thrust), np.asarray(start, dtype=float), np.nan, float(start_thrust) in targets)]
     rows += [_tmin_row(T, r.z, r.norm, any(abs(T - t) < 1e-12 for t in targets)) for T, r in path]
     return pd.DataFrame(rows)
@@ -209,12 +244,14 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
     table = table.copy()
     table["continuation_tmin_h"] = table.tmin_h
     found = []
+    bar = progress(total=int(table.target.sum()) * len(table), desc="minimum-time restarts", unit="start")
     for i in table.index[table.target]:
         T = float(table.at[i, "thrust_N"])
         shooting = systems.shooting("time", T)
         best = None
         minima: dict[float, list] = {}
         for _, row in table.iterrows():
+            bar.update()
             z = row[COSTATES + ["tmin_h"]].to_numpy(dtype=float)
             z[-1] *= row.thrust_N / T
             try:
@@ -228,23 +265,33 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
             if best is None or r.tf < best.tf:
                 best = r
         if best is None:
-            raise SolverError("minimum-time refinement", f"no start converged at {T:g} N", len(table),
-                              unit="starts")
+            raise SolverError("minimum-time refinement", f"no start converged at {T:g} N", len(table), unit="starts")
         for key, (r, count) in sorted(minima.items()):
-            found.append({"thrust_N": T, "tmin_h": r.tf, "tmin_x_thrust_Nh": r.tf * T,
-                          "final_longitude_rad": float(r.integration.y[5]), "starts": count,
-                          "continuation": bool(abs(r.tf - table.at[i, "continuation_tmin_h"]) < 1e-6 * r.tf),
-                          "best": key == round(best.tf, 4)})
+            found.append(
+                {
+                    "thrust_N": T,
+                    "tmin_h": r.tf,
+                    "tmin_x_thrust_Nh": r.tf * T,
+                    "final_longitude_rad": float(r.integration.y[5]),
+                    "starts": count,
+                    "continuation": bool(abs(r.tf - table.at[i, "continuation_tmin_h"]) < 1e-6 * r.tf),
+                    "best": key == round(best.tf, 4),
+                }
+            )
         for name, value in _tmin_row(T, best.z, best.norm, True).items():
             table.at[i, name] = value
         if log:
-            log(f"{T:g} N: {len(minima)} distinct extremals from {len(table)} starts; "
-                f"t_min = {best.tf:.4f} h (the continuation had {table.at[i, 'continuation_tmin_h']:.4f} h)")
+            log(
+                f"{T:g} N: {len(minima)} distinct extremals from {len(table)} starts; "
+                f"t_min = {best.tf:.4f} h (the continuation had {table.at[i, 'continuation_tmin_h']:.4f} h)"
+            )
+    bar.close()
     return table, pd.DataFrame(found)
 
 
-def minimum_time_versus_longitude(systems: TransferSystems, thrust_N: float, z_time, *, step: float = 0.25,
-                                  below: float = 8.0, above: float = 20.0) -> pd.DataFrame:
+def minimum_time_versus_longitude(
+    systems: TransferSystems, thrust_N: float, z_time, *, step: float = 0.25, below: float = 8.0, above: float = 20.0
+) -> pd.DataFrame:
     """Minimum time with the final longitude fixed, t_min(Lf), around a free-longitude solution.
 
     From the free-longitude minimum ``z_time`` (costates and tf) at ``thrust_N``, the
@@ -265,10 +312,11 @@ def minimum_time_versus_longitude(systems: TransferSystems, thrust_N: float, z_t
 
     for end in (Lstar - below, Lstar + above):
         n = max(1, int(round(abs(end - Lstar) / step)))
-        try:
-            follow(solve_at, z_time, Lstar, Schedule(np.linspace(Lstar, end, n + 1)[1:], max_halvings=2))
-        except SolverError:
-            pass  # the edge of the feasible longitudes, or a fold: the curve stops there
+        with continuation_progress(f"t_min(Lf), {thrust_N:g} N", "Lf") as tick:
+            try:
+                follow(solve_at, z_time, Lstar, Schedule(np.linspace(Lstar, end, n + 1)[1:], max_halvings=2), log=tick)
+            except SolverError:
+                pass  # the edge of the feasible longitudes, or a fold: the curve stops there
     return pd.DataFrame(rows).sort_values("dL_rad").drop_duplicates("dL_rad").reset_index(drop=True)
 
 
@@ -306,8 +354,7 @@ def energy_start(systems: TransferSystems, thrust_N: float, tf: float, p0_time, 
             return shooting.solve(c * np.asarray(p0_time, dtype=float), maxfev=300)
         except SolverError:
             continue
-    raise SolverError("energy start", f"no scale in {scales} converged at {thrust_N} N", len(scales),
-                      unit="starts")
+    raise SolverError("energy start", f"no scale in {scales} converged at {thrust_N} N", len(scales), unit="starts")
 
 
 def energy_time_continuation(systems: TransferSystems, start, schedule, *, log=None) -> dict:
@@ -320,17 +367,31 @@ def energy_time_continuation(systems: TransferSystems, start, schedule, *, log=N
     def solve_at(T, z):
         tf = tf_of.get(T)
         if tf is None:  # an inserted thrust: tf interpolated log-log between its neighbours
-            tf = float(np.exp(np.interp(-math.log(T), [-math.log(a) for a, _ in schedule],
-                                        [math.log(b) for _, b in schedule])))
+            tf = float(
+                np.exp(np.interp(-math.log(T), [-math.log(a) for a, _ in schedule], [math.log(b) for _, b in schedule]))
+            )
         return solve_robustly(systems.shooting("energy", T, final="time", tf=tf), z)
 
-    path = follow(solve_at, start, schedule[0][0],
-                  Schedule([T for T, _ in schedule[1:]], midpoint=geometric_midpoint), log=log)
+    with continuation_progress("energy, fixed tf", "Tmax", log) as tick:
+        path = follow(
+            solve_at,
+            start,
+            schedule[0][0],
+            Schedule([T for T, _ in schedule[1:]], midpoint=geometric_midpoint),
+            log=tick,
+        )
     return {T: r for T, r in path if T in tf_of}
 
 
-def energy_longitude_start(systems: TransferSystems, thrust_N: float, energy_time: ShootingResult, *,
-                           multiplier: float | None = None, steps: int = 10, log=None) -> ShootingResult:
+def energy_longitude_start(
+    systems: TransferSystems,
+    thrust_N: float,
+    energy_time: ShootingResult,
+    *,
+    multiplier: float | None = None,
+    steps: int = 10,
+    log=None,
+) -> ShootingResult:
     """The slides' energy problem (fixed final longitude, free tf) at one thrust.
 
     From a fixed-time energy solution, whose final longitude is L_a: released to a
@@ -344,18 +405,28 @@ def energy_longitude_start(systems: TransferSystems, thrust_N: float, energy_tim
         return solve_robustly(systems.shooting("energy", thrust_N, final="longitude", longitude=Lf), z)
 
     first = solve_at(L_a, z0)
-    path = follow(solve_at, first.z, L_a, Schedule(np.linspace(L_a, target, steps + 1)[1:]), log=log)
+    with continuation_progress(f"energy, {thrust_N:g} N", "Lf", log) as tick:
+        path = follow(solve_at, first.z, L_a, Schedule(np.linspace(L_a, target, steps + 1)[1:]), log=tick)
     return path[-1][1]
 
 
-def energy_longitude_continuation(systems: TransferSystems, start, start_thrust: float, targets, *,
-                                  multiplier: float | None = None, factor: float = 0.8, log=None) -> dict:
+def energy_longitude_continuation(
+    systems: TransferSystems,
+    start,
+    start_thrust: float,
+    targets,
+    *,
+    multiplier: float | None = None,
+    factor: float = 0.8,
+    log=None,
+) -> dict:
     """The slides' energy problem along a decreasing thrust schedule, Lf = Lf(Tmax) moving with the thrust.
 
     ``start``: costates and tf at ``start_thrust``. The final time is predicted by
     the thrust ratio (t_f x Tmax is nearly constant). Returns ``{thrust: ShootingResult}``
     at every target below the start.
     """
+
     def solve_at(T, z):
         s = systems.shooting("energy", T, final="longitude", longitude=final_longitude(T, multiplier))
         return solve_robustly(s, z)
@@ -364,15 +435,22 @@ def energy_longitude_continuation(systems: TransferSystems, start, start_thrust:
         Ta, z = history[-1]
         return np.concatenate([z[:-1], [z[-1] * Ta / Tb]])  # tf x Tmax nearly constant
 
-    path = follow(solve_at, start, start_thrust,
-                  Schedule(thrust_schedule(start_thrust, targets, factor), midpoint=geometric_midpoint),
-                  predictor=predictor, log=log)
+    with continuation_progress("energy, fixed Lf(Tmax)", "Tmax", log) as tick:
+        path = follow(
+            solve_at,
+            start,
+            start_thrust,
+            Schedule(thrust_schedule(start_thrust, targets, factor), midpoint=geometric_midpoint),
+            predictor=predictor,
+            log=tick,
+        )
     wanted = {float(t) for t in targets}
     return {T: r for T, r in path if any(abs(T - t) < 1e-12 for t in wanted)}
 
 
-def calibrate_multiplier(systems: TransferSystems, thrust_N: float, z_energy, multipliers, *,
-                         rtol: float = 1e-8) -> pd.DataFrame:
+def calibrate_multiplier(
+    systems: TransferSystems, thrust_N: float, z_energy, multipliers, *, rtol: float = 1e-8
+) -> pd.DataFrame:
     """The slides' transfer for several longitude multipliers c at one thrust.
 
     From the energy solution ``z_energy`` (costates and tf) at the reading's Lf, the
@@ -383,7 +461,8 @@ def calibrate_multiplier(systems: TransferSystems, thrust_N: float, z_energy, mu
     c0 = orbit_transfer_constants()["longitude_multiplier"]
     L_start = final_longitude(thrust_N, c0)
     rows = []
-    for c in multipliers:
+    for c in progress(multipliers, desc=f"calibration, {thrust_N:g} N", unit="c"):
+
         def solve_at(Lf, z):
             return solve_robustly(systems.shooting("energy", thrust_N, final="longitude", longitude=Lf), z)
 
@@ -392,9 +471,18 @@ def calibrate_multiplier(systems: TransferSystems, thrust_N: float, z_energy, mu
         z = follow(solve_at, z_energy, L_start, Schedule(np.linspace(L_start, Lf, n + 1)[1:]))[-1][1].z
         s = systems.shooting("fuel", thrust_N, final="longitude", longitude=Lf, tol=rtol)
         r = solve_robustly(s, z, maxfev=300)
-        rows.append({"multiplier": c, "thrust_N": thrust_N, "Lf_minus_L0_rad": Lf - orbit_transfer_constants()[
-            "initial"]["L"], "tf_h": r.tf, "fuel_kg": fuel_kg(r), "switchings": r.integration.switchings,
-            "steps": r.integration.steps, "norm_S": r.norm})
+        rows.append(
+            {
+                "multiplier": c,
+                "thrust_N": thrust_N,
+                "Lf_minus_L0_rad": Lf - orbit_transfer_constants()["initial"]["L"],
+                "tf_h": r.tf,
+                "fuel_kg": fuel_kg(r),
+                "switchings": r.integration.switchings,
+                "steps": r.integration.steps,
+                "norm_S": r.norm,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -406,28 +494,67 @@ def fuel_kg(result) -> float:
 # -- 4. the L1 experiment ------------------------------------------------------------------------
 
 
-def l1_runs(systems: TransferSystems, thrust_N: float, z_energy, *, final: str | None = None,
-            tf: float | None = None, solvers=("hybr",), combinations=ALL_COMBINATIONS, rtol: float = 1e-8,
-            maxfev: int = 300, interior_check: bool = True):
+def l1_runs(
+    systems: TransferSystems,
+    thrust_N: float,
+    z_energy,
+    *,
+    final: str | None = None,
+    tf: float | None = None,
+    solvers=("hybr",),
+    combinations=ALL_COMBINATIONS,
+    rtol: float = 1e-8,
+    maxfev: int = 300,
+    interior_check: bool = True,
+):
     """The L1 shooting from the energy costates with each (detection, Jacobian) and solver.
 
     Tolerances 1e-8 as in the slides. Non-converged runs are reported, not raised.
     Returns ``(table, results)``; ``results`` is keyed by ``(solver, detection, jacobian)``.
     """
     rows, results = [], {}
+    bar = progress(total=len(solvers) * len(combinations), desc=f"L1 shooting, {thrust_N:g} N", unit="run")
     for solver in solvers:
         for detection, jacobian in combinations:
-            s = systems.shooting("fuel", thrust_N, final=final, tf=tf, detection=detection, jacobian=jacobian,
-                                 tol=rtol, interior_check=interior_check)
+            bar.update()
+            s = systems.shooting(
+                "fuel",
+                thrust_N,
+                final=final,
+                tf=tf,
+                detection=detection,
+                jacobian=jacobian,
+                tol=rtol,
+                interior_check=interior_check,
+            )
             r = s.solve(z_energy, solver=solver, maxfev=maxfev, raise_on_failure=False)
             results[(solver, detection, jacobian)] = r
-            rows.append({"thrust_N": thrust_N, "solver": solver, **r.summary(), "fuel_kg": fuel_kg(r),
-                         "tf_h": r.tf, "interior_switchings": r.integration.interior_switchings})
+            rows.append(
+                {
+                    "thrust_N": thrust_N,
+                    "solver": solver,
+                    **r.summary(),
+                    "fuel_kg": fuel_kg(r),
+                    "tf_h": r.tf,
+                    "interior_switchings": r.integration.interior_switchings,
+                }
+            )
+    bar.close()
     return pd.DataFrame(rows), results
 
 
-def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: float, *, lo: float = 1.05,
-                     hi: float = 2.0, step: float = 0.01, rtol: float = 1e-8, log=None) -> pd.DataFrame:
+def horizon_branches(
+    systems: TransferSystems,
+    thrust_N: float,
+    seeds,
+    tmin: float,
+    *,
+    lo: float = 1.05,
+    hi: float = 2.0,
+    step: float = 0.01,
+    rtol: float = 1e-8,
+    log=None,
+) -> pd.DataFrame:
     """Minimum fuel versus the final time (the fixed-time reading) by continuation of converged L1 extremals.
 
     ``seeds``: ``[(tf, z), ...]`` converged L1 solutions at ``thrust_N``; each is
@@ -447,13 +574,20 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
 
     def record(b, r):
         H = float(r.integration.hamiltonian[-1])
-        row = {"branch": b, "tf_h": r.tf, "tf_over_tmin": r.tf / tmin, "fuel_kg": fuel_kg(r),
-               "switchings": r.integration.switchings, "H_tf": H, "dfuel_dtf_kg_h": kg_per_cost * H,
-               "norm_S": r.norm}
+        row = {
+            "branch": b,
+            "tf_h": r.tf,
+            "tf_over_tmin": r.tf / tmin,
+            "fuel_kg": fuel_kg(r),
+            "switchings": r.integration.switchings,
+            "H_tf": H,
+            "dfuel_dtf_kg_h": kg_per_cost * H,
+            "norm_S": r.norm,
+        }
         rows.append(row)
         return row
 
-    for b, (tf0, z0) in enumerate(seeds):
+    for b, (tf0, z0) in enumerate(progress(seeds, desc=f"horizon branches, {thrust_N:g} N", unit="branch")):
         try:
             first = solve_robustly(systems.shooting("fuel", thrust_N, final="time", tf=tf0, tol=rtol), z0)
         except SolverError:
@@ -473,16 +607,21 @@ def horizon_branches(systems: TransferSystems, thrust_N: float, seeds, tmin: flo
                 predicted = 0.5 * (slope + last["dfuel_dtf_kg_h"]) * (tf - last["tf_h"])
                 jump = abs(J - last["fuel_kg"] - predicted) > 0.002 + 0.01 * abs(predicted)
                 if jump or abs(r.integration.switchings - last["switchings"]) > 2:
-                    raise SolverError("horizon continuation", "the shooting jumped to another extremal", 1,
-                                      f"at tf = {tf:.4g} h: fuel {J:.4f} kg from {last['fuel_kg']:.4f} kg, "
-                                      f"expected a change of {predicted:.4f} kg")
+                    raise SolverError(
+                        "horizon continuation",
+                        "the shooting jumped to another extremal",
+                        1,
+                        f"at tf = {tf:.4g} h: fuel {J:.4f} kg from {last['fuel_kg']:.4f} kg, "
+                        f"expected a change of {predicted:.4f} kg",
+                    )
                 last.update(record(b, r))
                 return r
 
-            try:
-                follow(solve_at, first.z, tf0, Schedule(np.linspace(tf0, end, n + 1)[1:], max_halvings=4))
-            except SolverError:
-                pass  # the branch ends here (a fold, a new arc, or a jump): what was solved stands
+            with continuation_progress(f"branch {b}", "tf", None) as tick:
+                try:
+                    follow(solve_at, first.z, tf0, Schedule(np.linspace(tf0, end, n + 1)[1:], max_halvings=4), log=tick)
+                except SolverError:
+                    pass  # the branch ends here (a fold, a new arc, or a jump): what was solved stands
         if log:
             log(f"branch {b} from tf = {tf0 / tmin:.3f} t_min: {sum(r['branch'] == b for r in rows)} points")
     df = pd.DataFrame(rows)
@@ -505,8 +644,9 @@ def best_known_fuel(branches: pd.DataFrame, grid) -> pd.DataFrame:
     pts = np.vstack(points)
     pts = pts[np.argsort(pts[:, 0])]
     running = np.minimum.accumulate(pts[:, 1])
-    return pd.DataFrame({"tf_h": grid, "fuel_kg": [running[pts[:, 0] <= g].min() if (pts[:, 0] <= g).any()
-                                                   else np.nan for g in grid]})
+    return pd.DataFrame(
+        {"tf_h": grid, "fuel_kg": [running[pts[:, 0] <= g].min() if (pts[:, 0] <= g).any() else np.nan for g in grid]}
+    )
 
 
 def residual_noise(shooting: Shooting, z, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
@@ -528,12 +668,15 @@ def residual_noise(shooting: Shooting, z, *, samples: int = 12, relative: float 
     return float(np.median(diffs))
 
 
-def goal_met(converged: bool, norm_S: float, cpu_s: float, slide) -> bool:
-    """The issue's goal against a slides row (``norm_S``, ``cpu_s``): converged, |S| and CPU time at or below theirs.
+def goal_met(converged: bool, norm_S: float, slide, cpu_s: float | None = None) -> bool:
+    """The issue's goal against a slides row (``norm_S``, ``cpu_s``): converged, |S| at or below theirs and,
+    given ``cpu_s``, CPU time at or below theirs.
 
-    The slides print whole seconds, so "0 s" means below 0.5 s.
+    The slides print whole seconds, so "0 s" means below 0.5 s. Without ``cpu_s``, the accuracy part alone
+    (what a published table can hold: measured times change from run to run).
     """
-    return bool(converged and norm_S <= slide.norm_S and cpu_s < slide.cpu_s + 0.5)
+    accurate = bool(converged and norm_S <= slide.norm_S)
+    return accurate if cpu_s is None else bool(accurate and cpu_s < slide.cpu_s + 0.5)
 
 
 # -- the chain with its caches ------------------------------------------------------------------
@@ -544,41 +687,65 @@ def goal_met(converged: bool, norm_S: float, cpu_s: float, slide) -> bool:
 SLIDES_CONVERGED = 1e-5
 
 
-def minimum_times(systems: TransferSystems, thrusts, *, recompute: bool = False, start_thrust: float = 60.0,
-                  log=print):
+def minimum_times(
+    systems: TransferSystems, thrusts, *, recompute: bool = False, start_thrust: float = 60.0, outputs=None, log=print
+):
     """t_min at every thrust of ``thrusts``: ``(table, minima)``, from the cache or computed.
 
     Computed: :func:`minimum_time_start` at ``start_thrust``,
     :func:`minimum_time_continuation` through the targets, :func:`refine_minimum_time`.
     The cache (``orbit_transfer_tmin``, ``orbit_transfer_tmin_minima``) serves when it
-    holds every thrust asked for.
+    holds every thrust asked for; what is computed is written to ``outputs``
+    (:class:`compendium.outputs.Outputs`) when given.
     """
     thrusts = [float(t) for t in thrusts]
     table = None if recompute else read_cache("orbit_transfer_tmin")
     minima = None if recompute else read_cache("orbit_transfer_tmin_minima")
-    if table is not None and minima is not None and "continuation_tmin_h" in table and all(
-            np.isclose(table.thrust_N[table.target], t).any() for t in thrusts):
+    if (
+        table is not None
+        and minima is not None
+        and "continuation_tmin_h" in table
+        and all(np.isclose(table.thrust_N[table.target], t).any() for t in thrusts)
+    ):
         log("minimum times from the cache data/derived/orbit_transfer_tmin*.csv (recompute=True to rebuild)")
         return table, minima
     t0 = time.perf_counter()
     start, direct = minimum_time_start(systems, start_thrust)
-    log(f"{start_thrust:g} N: direct Radau t_f = {direct.tf:.3f} h; indirect shooting from its costate estimates: "
-        f"t_min = {start.tf:.4f} h, |S| = {start.norm:.1e}")
+    log(
+        f"{start_thrust:g} N: direct Radau t_f = {direct.tf:.3f} h; indirect shooting from its costate estimates: "
+        f"t_min = {start.tf:.4f} h, |S| = {start.norm:.1e}"
+    )
     table = minimum_time_continuation(systems, start.z, start_thrust, thrusts, log=log)
     table, minima = refine_minimum_time(systems, table, log=log)
-    write_cache(table, "orbit_transfer_tmin")
-    write_cache(minima, "orbit_transfer_tmin_minima")
+    if outputs is not None:
+        outputs.table(table, "orbit_transfer_tmin", float_format=CACHE_FORMAT)
+        outputs.table(minima, "orbit_transfer_tmin_minima", float_format=CACHE_FORMAT)
     log(f"minimum time: {time.perf_counter() - t0:.0f} s")
     return table, minima
 
 
 def _energy_row(reading, T, r):
-    return {"reading": reading, "thrust_N": T, "tf_h": r.tf, "Lf_rad": float(r.integration.y[5]),
-            "energy_fuel_kg": fuel_kg(r), **dict(zip(COSTATES, r.z[:7])), "norm_S": r.norm}
+    return {
+        "reading": reading,
+        "thrust_N": T,
+        "tf_h": r.tf,
+        "Lf_rad": float(r.integration.y[5]),
+        "energy_fuel_kg": fuel_kg(r),
+        **dict(zip(COSTATES, r.z[:7])),
+        "norm_S": r.norm,
+    }
 
 
-def energy_solutions(systems: TransferSystems, tmin_table: pd.DataFrame, thrusts, *, recompute: bool = False,
-                     tf_factor: float | None = None, log=print) -> pd.DataFrame:
+def energy_solutions(
+    systems: TransferSystems,
+    tmin_table: pd.DataFrame,
+    thrusts,
+    *,
+    recompute: bool = False,
+    tf_factor: float | None = None,
+    outputs=None,
+    log=print,
+) -> pd.DataFrame:
     """Energy-problem costates at every thrust of ``thrusts`` for both readings, from the cache or computed.
 
     ``"time"``: tf = ``tf_factor`` t_min, from scaled minimum-time costates at the
@@ -586,7 +753,8 @@ def energy_solutions(systems: TransferSystems, tmin_table: pd.DataFrame, thrusts
     ``"longitude"``: from the fixed-time solution at the largest thrust, released to a
     free tf and followed in the final longitude to Lf(Tmax), then on the thrust with Lf
     moving with it (:func:`energy_longitude_continuation`). One row per reading and
-    thrust (tf, final longitude, energy fuel, costates, |S|); cached as ``orbit_transfer_energy``.
+    thrust (tf, final longitude, energy fuel, costates, |S|); cached as ``orbit_transfer_energy``
+    (written to ``outputs`` when computed and given).
     """
     thrusts = sorted({float(t) for t in thrusts}, reverse=True)
     factor = orbit_transfer_constants()["final_time_factor"] if tf_factor is None else float(tf_factor)
@@ -598,7 +766,8 @@ def energy_solutions(systems: TransferSystems, tmin_table: pd.DataFrame, thrusts
             rows = table[np.isclose(table.thrust_N, T)]
             time_rows = rows[rows.reading == "time"]
             ok &= (rows.reading == "longitude").any() and np.isclose(
-                time_rows.tf_h, factor * tmin[np.isclose(tmin.index, T)].iloc[0]).any()
+                time_rows.tf_h, factor * tmin[np.isclose(tmin.index, T)].iloc[0]
+            ).any()
         if ok:
             log("energy-problem costates from the cache data/derived/orbit_transfer_energy.csv")
             return table
@@ -615,7 +784,8 @@ def energy_solutions(systems: TransferSystems, tmin_table: pd.DataFrame, thrusts
     rows = [_energy_row("longitude", T, longitude[T]) for T in thrusts]
     rows += [_energy_row("time", T, timed[T]) for T in thrusts]
     table = pd.DataFrame(rows)
-    write_cache(table, "orbit_transfer_energy")
+    if outputs is not None:
+        outputs.table(table, "orbit_transfer_energy", float_format=CACHE_FORMAT)
     return table
 
 
@@ -641,31 +811,48 @@ def versus_slides(runs: pd.DataFrame, slides: pd.DataFrame) -> pd.DataFrame:
         s = sl.loc[key] if key in sl.index else None
         rf = ref.loc[r.thrust_N] if r.thrust_N in ref.index else None
         ref_ok = rf is not None and rf.norm_S <= SLIDES_CONVERGED
-        get = (lambda name: s[name] if s is not None else np.nan)
-        rows.append({
-            "thrust_N": r.thrust_N, "detection": r.detection, "jacobian": r.jacobian, "converged": r.converged,
-            "fuel_kg": r.fuel_kg, "fuel_kg_slides": get("objective_kg"),
-            "fuel_ref_kg": rf.objective_kg if ref_ok else np.nan,
-            "norm_S": r.norm_S, "norm_S_slides": get("norm_S"),
-            "n_S": r.n_S, "n_S_slides": get("n_S"), "n_jac": r.n_jac, "n_jac_slides": get("n_jac"),
-            "cpu_s": r.cpu_s, "cpu_s_slides": get("cpu_s"),
-            "switchings": r.switchings, "switchings_ref": rf.switchings if ref_ok else np.nan,
-            "steps": r.steps, "steps_slides": get("steps"), "rejected_pct": r.rejected_pct,
-        })
+
+        def get(name, s=s):
+            return s[name] if s is not None else np.nan
+
+        rows.append(
+            {
+                "thrust_N": r.thrust_N,
+                "detection": r.detection,
+                "jacobian": r.jacobian,
+                "converged": r.converged,
+                "fuel_kg": r.fuel_kg,
+                "fuel_kg_slides": get("objective_kg"),
+                "fuel_ref_kg": rf.objective_kg if ref_ok else np.nan,
+                "norm_S": r.norm_S,
+                "norm_S_slides": get("norm_S"),
+                "n_S": r.n_S,
+                "n_S_slides": get("n_S"),
+                "n_jac": r.n_jac,
+                "n_jac_slides": get("n_jac"),
+                "cpu_s": r.cpu_s,
+                "cpu_s_slides": get("cpu_s"),
+                "switchings": r.switchings,
+                "switchings_ref": rf.switchings if ref_ok else np.nan,
+                "steps": r.steps,
+                "steps_slides": get("steps"),
+                "rejected_pct": r.rejected_pct,
+            }
+        )
     return pd.DataFrame(rows)
 
 
 # -- caches and geometry -------------------------------------------------------------------------
 
 
+#: the caches keep every digit: a run from the cache continues from exactly the published solutions
+CACHE_FORMAT = "%.17g"
+
+
 def read_cache(name: str) -> pd.DataFrame | None:
-    """A cached table from the repository's ``data/derived`` (None if absent)."""
-    path = data_dir() / "derived" / f"{name}.csv"
+    """A cached table of the published record, the repository's ``data/derived`` (None if absent)."""
+    path = published_derived_dir() / f"{name}.csv"
     return pd.read_csv(path) if path.is_file() else None
-
-
-def write_cache(df: pd.DataFrame, name: str) -> None:
-    df.to_csv(derived_dir() / f"{name}.csv", index=False, float_format="%.17g")
 
 
 def cartesian_track(trajectory, system, points: int = 20000):

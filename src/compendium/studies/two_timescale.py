@@ -2,15 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import pandas as pd
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
 
 TABLE_COLUMNS = [
-    "scheme", "segments", "nlp_parameters", "defect_equations", "iterations",
-    "max_state_diff_pct", "max_control_diff_pct", "build_s", "solve_s",
+    "scheme",
+    "segments",
+    "nlp_parameters",
+    "defect_equations",
+    "iterations",
+    "max_state_diff_pct",
+    "max_control_diff_pct",
+    "build_s",
+    "solve_s",
 ]
 
 
@@ -96,25 +103,33 @@ def ratio_study(
     rows = []
     for M in ratios:
         table, standard, two = compare_case(
-            problem, coarse_segments, int(M), fast, "two_timescale",
-            fast_interpolation=fast_interpolation, ipopt_options=ipopt_options, n=n,
+            problem,
+            coarse_segments,
+            int(M),
+            fast,
+            "two_timescale",
+            fast_interpolation=fast_interpolation,
+            ipopt_options=ipopt_options,
+            n=n,
         )
         err = two.difference(reference, n)
         err_std = standard.difference(reference, n)
-        rows.append({
-            "fast_interpolation": fast_interpolation,
-            "coarse_segments": coarse_segments,
-            "ratio": int(M),
-            "nlp_parameters": two.nlp_parameters,
-            "standard_nlp_parameters": standard.nlp_parameters,
-            "iterations": two.iterations,
-            "state_diff_vs_standard_pct": table.loc[1, "max_state_diff_pct"],
-            "control_diff_vs_standard_pct": table.loc[1, "max_control_diff_pct"],
-            "state_error_vs_reference_pct": err["states"],
-            "control_error_vs_reference_pct": err["controls"],
-            "standard_control_error_vs_reference_pct": err_std["controls"],
-            "tf_minus_reference": two.tf - reference.tf,
-        })
+        rows.append(
+            {
+                "fast_interpolation": fast_interpolation,
+                "coarse_segments": coarse_segments,
+                "ratio": int(M),
+                "nlp_parameters": two.nlp_parameters,
+                "standard_nlp_parameters": standard.nlp_parameters,
+                "iterations": two.iterations,
+                "state_diff_vs_standard_pct": table.loc[1, "max_state_diff_pct"],
+                "control_diff_vs_standard_pct": table.loc[1, "max_control_diff_pct"],
+                "state_error_vs_reference_pct": err["states"],
+                "control_error_vs_reference_pct": err["controls"],
+                "standard_control_error_vs_reference_pct": err_std["controls"],
+                "tf_minus_reference": two.tf - reference.tf,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -134,29 +149,54 @@ def segments_study(
 
 
 #: display formats of the side-by-side tables
-SIDE_BY_SIDE_FORMATS = {"max_state_diff_pct paper": ".2g", "max_state_diff_pct ours": ".2g",
-                        "max_control_diff_pct paper": ".2g", "max_control_diff_pct ours": ".2g"}
+SIDE_BY_SIDE_FORMATS = {
+    "max_state_diff_pct paper": ".2g",
+    "max_state_diff_pct ours": ".2g",
+    "max_control_diff_pct paper": ".2g",
+    "max_control_diff_pct ours": ".2g",
+}
 
 
-def paper_case(problem: OptimalControlProblem, name: str, coarse_segments: int, ratio: int, fast: Sequence[str],
-               scheme: str, *, fast_interpolation: str = "coarse", ipopt_options: dict | None = None,
-               n: int = 2001):
-    """One of Desai & Conway's tables (``name``: ``"table1"``, ``"table2"``), computed and written.
+def paper_case(
+    problem: OptimalControlProblem,
+    name: str,
+    coarse_segments: int,
+    ratio: int,
+    fast: Sequence[str],
+    scheme: str,
+    *,
+    fast_interpolation: str = "coarse",
+    ipopt_options: dict | None = None,
+    n: int = 2001,
+    outputs=None,
+):
+    """One of Desai & Conway's tables (``name``: ``"table1"``, ``"table2"``), computed and, given ``outputs``
+    (a :class:`compendium.outputs.Outputs`), written.
 
-    Writes ``data/derived/<name>.csv`` (our rows) and ``<name>.md`` (paper beside ours).
-    Returns ``(rows, side_by_side, standard, two_timescale)``.
+    Writes ``data/derived/<name>.csv`` (our rows, without the measured times, which go to the run's
+    timings) and ``<name>.md`` (paper beside ours). Returns ``(rows, side_by_side, standard, two_timescale)``.
     """
     from ..paper import paper_source, paper_table
-    from ..paths import derived_dir
     from ..tables import markdown_table
 
-    rows, standard, two = compare_case(problem, coarse_segments, ratio, fast, scheme,
-                                       fast_interpolation=fast_interpolation, ipopt_options=ipopt_options, n=n)
-    rows.to_csv(derived_dir() / f"{name}.csv", index=False, float_format="%.6g")
+    rows, standard, two = compare_case(
+        problem,
+        coarse_segments,
+        ratio,
+        fast,
+        scheme,
+        fast_interpolation=fast_interpolation,
+        ipopt_options=ipopt_options,
+        n=n,
+    )
     both = side_by_side(paper_table(name), rows)
-    source = paper_source(name).splitlines()
-    header = f"<!-- written by notebooks/02_two_timescale.ipynb -->\n\nPaper values: {source[0]} {source[1]}\n\n"
-    (derived_dir() / f"{name}.md").write_text(header + markdown_table(both, SIDE_BY_SIDE_FORMATS) + "\n")
+    if outputs is not None:
+        timing = ["build_s", "solve_s"]
+        outputs.table(rows.drop(columns=timing), name, "%.6g")
+        outputs.timing(name, rows[["scheme", *timing]])
+        source = paper_source(name).splitlines()
+        header = f"<!-- written by notebooks/02_two_timescale.ipynb -->\n\nPaper values: {source[0]} {source[1]}\n\n"
+        outputs.text(header + markdown_table(both, SIDE_BY_SIDE_FORMATS) + "\n", f"{name}.md")
     return rows, both, standard, two
 
 
@@ -166,8 +206,10 @@ def verdict_lines(rows: pd.DataFrame, paper: pd.DataFrame) -> list[str]:
     scheme = ours.index[1]
     lines = []
     for col in ("nlp_parameters", "defect_equations"):
-        lines.append(f"{col}: standard {ours.loc['standard', col]} (paper {paper.loc['standard', col]}), "
-                     f"{scheme} {ours.loc[scheme, col]} (paper {paper.loc[scheme, col]})")
+        lines.append(
+            f"{col}: standard {ours.loc['standard', col]} (paper {paper.loc['standard', col]}), "
+            f"{scheme} {ours.loc[scheme, col]} (paper {paper.loc[scheme, col]})"
+        )
     for col in ("max_state_diff_pct", "max_control_diff_pct"):
         v, bound = ours.loc[scheme, col], paper.loc[scheme, col]
         lines.append(f"{col}: {v:.1g} % (paper {bound} %), at or below the paper: {v <= bound}")
