@@ -1,7 +1,7 @@
 """ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
 
 from .errors import SolverError
-from .problem import Control, FreeFinalTime, Guess, OptimalControlProblem, State
+from .problem import Constraint, Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
 from .trajectory import Trajectory
 from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
@@ -9,6 +9,7 @@ from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
 __version__ = "0.2.0"
 
 __all__ = [
+    "Constraint",
     "Control",
     "FreeFinalTime",
     "Guess",

@@ -3,14 +3,18 @@
     minimise    phi(x(t0), x(tf), t0, tf) + integral_{t0}^{tf} L(x, u, t) dt
     subject to  dx/dt = f(x, u, t)
                 x_lo <= x(t) <= x_hi,  u_lo <= u(t) <= u_hi
+                g_lo <= g(x(t), u(t), t) <= g_hi                  (path constraints)
+                psi_lo <= psi(x(t0), x(tf), t0, tf) <= psi_hi     (boundary constraints)
                 x(t0), x(tf) fixed or bounded component by component
                 t0 fixed; tf fixed or free within bounds.
 
-This is the problem of Desai & Conway, Eqs. (1)-(5), without general path
-constraints. The definition is independent of any transcription: dynamics and
-costs are Python callables on CasADi symbols, turned into CasADi Functions once
-(:class:`ProblemFunctions`, with the parameter vector ``P`` as their last input)
-and shared by every transcription and by the shooting engine. A problem is
+This is the problem of Desai & Conway, Eqs. (1)-(5): their path constraints
+``g(x, u, t) <= 0`` are :class:`Constraint` s of ``path_constraints`` (mixed
+state-control allowed), and general event conditions those of
+``boundary_constraints``. The definition is independent of any transcription: dynamics,
+costs and constraints are Python callables on CasADi symbols, turned into CasADi
+Functions once (:class:`ProblemFunctions`, with the parameter vector ``P`` as their
+last input) and shared by every transcription and by the shooting engine. A problem is
 immutable; :meth:`OptimalControlProblem.replace` makes changed copies, and a
 change of parameter values alone reuses the functions.
 
@@ -219,6 +223,74 @@ class Control(Variable):
 
 
 @dataclass(frozen=True)
+class Constraint:
+    """``lower <= function(...) <= upper``: a path or a boundary constraint, named.
+
+    As a path constraint ``function(x, u, t)`` (``x``, ``u`` CasADi column vectors, and a
+    dict of the problem's parameter symbols after ``t`` when it has parameters); as a
+    boundary constraint ``function(x0, xf, t0, tf)`` (likewise). It returns one
+    expression or a list of them; ``lower`` and ``upper`` are numbers or one per
+    expression (equality where they are equal). ``scale``: the NLP holds
+    ``function / scale``; choose it so that the constraint is of order one.
+    """
+
+    name: str
+    function: Callable
+    lower: float | Sequence[float] = -math.inf
+    upper: float | Sequence[float] = math.inf
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            raise ValueError(f"constraint name must be an identifier, got {self.name!r}")
+        if not callable(self.function):
+            raise TypeError(f"constraint {self.name!r}: function must be callable, got {type(self.function).__name__}")
+        if not (self.scale > 0 and math.isfinite(self.scale)):
+            raise ValueError(f"constraint {self.name!r}: scale must be positive and finite, got {self.scale}")
+
+    def bounds(self, size: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(lower, upper)`` of a constraint with ``size`` expressions, checked."""
+        out = []
+        for which in ("lower", "upper"):
+            v = np.asarray(getattr(self, which), dtype=float).ravel()
+            if v.size == 1:
+                v = np.full(size, v[0])
+            if v.size != size:
+                raise ValueError(f"constraint {self.name!r}: {which} has {v.size} values for {size} expression(s)")
+            if np.any(np.isnan(v)):
+                raise ValueError(f"constraint {self.name!r}: NaN in {which}")
+            out.append(v)
+        lo, hi = out
+        bad = np.flatnonzero(lo > hi)
+        if bad.size:
+            raise ValueError(f"constraint {self.name!r}: lower > upper in entry {bad.tolist()}: the bounds cannot hold")
+        if np.all(np.isinf(lo)) and np.all(np.isinf(hi)):
+            raise ValueError(f"constraint {self.name!r} has no finite bound: give lower, upper or both")
+        return lo, hi
+
+
+@dataclass(frozen=True)
+class ConstraintSet:
+    """Compiled constraints of one kind: the stacked function, bounds, names and the rows of each constraint."""
+
+    function: ca.Function
+    lower: np.ndarray
+    upper: np.ndarray
+    scale: np.ndarray
+    names: tuple[str, ...]
+    sizes: tuple[int, ...]
+
+    @property
+    def size(self) -> int:
+        return int(sum(self.sizes))
+
+    @property
+    def labels(self) -> list[str]:
+        """One label per expression: the constraint's name, indexed when it has several."""
+        return [n if k == 1 else f"{n}[{i}]" for n, k in zip(self.names, self.sizes) for i in range(k)]
+
+
+@dataclass(frozen=True)
 class FreeFinalTime:
     """A free final time ``tf`` in ``[lower, upper]``."""
 
@@ -240,13 +312,17 @@ class ProblemFunctions:
     """A problem's CasADi functions, built once; the parameter vector ``P`` is the last input of each.
 
     ``f(x, u, t, P)`` the dynamics, ``L(x, u, t, P)`` the running cost (None without
-    one), ``phi(x0, xf, t0, tf, P)`` the Mayer term (None without one); and, for the
-    indirect side, the Hamiltonian ``H = L + p' f`` (:attr:`hamiltonian`).
+    one), ``phi(x0, xf, t0, tf, P)`` the Mayer term (None without one), ``path``
+    (``g(x, u, t, P)``) and ``boundary`` (``psi(x0, xf, t0, tf, P)``) the constraints
+    (None without); and, for the indirect side, the Hamiltonian ``H = L + p' f``
+    (:attr:`hamiltonian`).
     """
 
     f: ca.Function
     L: ca.Function | None
     phi: ca.Function | None
+    path: ConstraintSet | None = None
+    boundary: ConstraintSet | None = None
 
     @cached_property
     def hamiltonian(self) -> Hamiltonian:
@@ -336,6 +412,8 @@ class OptimalControlProblem:
         objective_scale: float = 1.0,
         description: str = "",
         parameters: Mapping[str, float] | None = None,
+        path_constraints: Sequence[Constraint] = (),
+        boundary_constraints: Sequence[Constraint] = (),
         _functions: ProblemFunctions | None = None,
     ) -> None:
         spec = dict(
@@ -350,6 +428,8 @@ class OptimalControlProblem:
             objective_scale=objective_scale,
             description=description,
             parameters=parameters,
+            path_constraints=path_constraints,
+            boundary_constraints=boundary_constraints,
         )
         set_ = object.__setattr__
         set_(self, "_spec", spec)
@@ -392,6 +472,16 @@ class OptimalControlProblem:
             if not math.isfinite(v):
                 raise ValueError(f"parameter {k!r} must be finite, got {v}")
         set_(self, "parameters", values)
+        for kind, given in (("path_constraints", path_constraints), ("boundary_constraints", boundary_constraints)):
+            given = tuple(given)
+            for c in given:
+                if not isinstance(c, Constraint):
+                    raise TypeError(f"{kind} must be Constraint objects, got {c!r}")
+            names = [c.name for c in given]
+            dup = sorted({n for n in names if names.count(n) > 1})
+            if dup:
+                raise ValueError(f"duplicate constraint names in {kind}: {dup}")
+            set_(self, kind, given)
         if _functions is None:
             _functions = _build_functions(
                 self.nx,
@@ -402,6 +492,8 @@ class OptimalControlProblem:
                 mayer,
                 with_parameters=parameters is not None,
                 state_names=self.state_names,
+                path_constraints=self.path_constraints,
+                boundary_constraints=self.boundary_constraints,
             )
         set_(self, "functions", _functions)
 
@@ -463,6 +555,11 @@ class OptimalControlProblem:
         return P
 
     @property
+    def takes_parameters(self) -> bool:
+        """Whether the user's functions receive the dict of parameter symbols (the problem was given ``parameters``)."""
+        return self._spec["parameters"] is not None
+
+    @property
     def parameter_values(self) -> np.ndarray:
         return self.parameter_vector()
 
@@ -481,6 +578,16 @@ class OptimalControlProblem:
     def mayer(self, x0, xf, t0, tf):
         """``phi(x0, xf, t0, tf)`` with this problem's parameters; 0 without a Mayer term."""
         return self.functions.phi(x0, xf, t0, tf, self._P) if self.functions.phi is not None else ca.DM(0)
+
+    def path(self, x, u, t):
+        """The stacked path constraints ``g(x, u, t)`` with this problem's parameters (None without)."""
+        c = self.functions.path
+        return None if c is None else c.function(x, u, t, self._P)
+
+    def boundary(self, x0, xf, t0, tf):
+        """The stacked boundary constraints ``psi(x0, xf, t0, tf)`` with this problem's parameters (None without)."""
+        c = self.functions.boundary
+        return None if c is None else c.function(x0, xf, t0, tf, self._P)
 
     # -- descriptors -----------------------------------------------------------------
     @property
@@ -537,7 +644,17 @@ class OptimalControlProblem:
 
 
 def _build_functions(
-    nx: int, nu: int, values: dict, dynamics, lagrange, mayer, *, with_parameters: bool, state_names
+    nx: int,
+    nu: int,
+    values: dict,
+    dynamics,
+    lagrange,
+    mayer,
+    *,
+    with_parameters: bool,
+    state_names,
+    path_constraints=(),
+    boundary_constraints=(),
 ) -> ProblemFunctions:
     """The problem's CasADi functions from the user's callables (called once, on symbols)."""
     P = ca.SX.sym("P", len(values))
@@ -561,7 +678,41 @@ def _build_functions(
         if expr.shape != (1, 1):
             raise ValueError(f"mayer must return a scalar, got shape {expr.shape}")
         phi = ca.Function("phi_p", [x0, xf, s0, sf, P], [expr], ["x0", "xf", "t0", "tf", "P"], ["phi"])
-    return ProblemFunctions(f, L, phi)
+    path = _constraint_set("path", path_constraints, [x, u, t], ["x", "u", "t"], P, extra)
+    x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+    boundary = _constraint_set("boundary", boundary_constraints, [x0, xf, s0, sf], ["x0", "xf", "t0", "tf"], P, extra)
+    return ProblemFunctions(f, L, phi, path, boundary)
+
+
+def _constraint_set(kind: str, constraints, inputs, input_names, P, extra) -> ConstraintSet | None:
+    """Compile constraints of one kind into one stacked function ``(inputs..., P) -> g`` and its bounds."""
+    if not constraints:
+        return None
+    exprs, lower, upper, scale, sizes = [], [], [], [], []
+    for c in constraints:
+        try:
+            e = _column(c.function(*inputs, *extra), f"{kind} constraint {c.name!r}")
+        except (TypeError, ValueError) as exc:
+            if f"constraint {c.name!r}" in str(exc):
+                raise
+            raise type(exc)(f"{kind} constraint {c.name!r}: {exc}") from exc
+        if e.shape[1] != 1 or e.numel() == 0:
+            raise ValueError(f"{kind} constraint {c.name!r} must return one or more scalar expressions, got {e.shape}")
+        lo, hi = c.bounds(e.shape[0])
+        exprs.append(e)
+        lower.append(lo)
+        upper.append(hi)
+        scale.append(np.full(e.shape[0], c.scale))
+        sizes.append(e.shape[0])
+    fun = ca.Function(f"{kind}_constraints", [*inputs, P], [ca.vertcat(*exprs)], [*input_names, "P"], ["g"])
+    return ConstraintSet(
+        fun,
+        np.concatenate(lower),
+        np.concatenate(upper),
+        np.concatenate(scale),
+        tuple(c.name for c in constraints),
+        tuple(sizes),
+    )
 
 
 def _column(expr, what: str) -> ca.SX:

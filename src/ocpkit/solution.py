@@ -26,6 +26,15 @@ class Solution(Trajectory):
     times (``state_*``, ``control_*``), the transcription's interpolants, segment
     ``breakpoints``, ``raw`` (the NLP vector, multipliers and IPOPT statistics) and,
     for schemes that estimate them, ``costate_times`` and ``costate_values``.
+
+    With path constraints: ``path_times`` (the points where the scheme enforces them,
+    increasing), ``path_values`` (points, expressions) and ``path_multipliers`` (their
+    KKT multipliers in the problem's units: positive where the upper bound is active,
+    negative where the lower one is, zero where inactive; a discrete measure, whose sum
+    over an interval estimates the integral of the continuous multiplier). With boundary
+    constraints: ``boundary_values`` and ``boundary_multipliers``. Columns and entries
+    follow ``problem.functions.path.labels`` and ``.boundary.labels``; :meth:`constraint`
+    and :meth:`path_dataframe` select by name.
     """
 
     problem: OptimalControlProblem
@@ -51,6 +60,11 @@ class Solution(Trajectory):
     costate_times: np.ndarray | None = field(default=None, repr=False)
     costate_values: np.ndarray | None = field(default=None, repr=False)
     converged: bool = True
+    path_times: np.ndarray | None = field(default=None, repr=False)
+    path_values: np.ndarray | None = field(default=None, repr=False)
+    path_multipliers: np.ndarray | None = field(default=None, repr=False)
+    boundary_values: np.ndarray | None = field(default=None, repr=False)
+    boundary_multipliers: np.ndarray | None = field(default=None, repr=False)
 
     # -- the trajectory -------------------------------------------------------------
     def _state(self, t):
@@ -101,6 +115,41 @@ class Solution(Trajectory):
             raise ValueError(f"{self.transcription} provides no costate estimates")
         df = pd.DataFrame(self.costate_values, columns=[f"lambda_{n}" for n in self.problem.state_names])
         df.insert(0, "t", self.costate_times)
+        return df
+
+    def constraint(self, name: str) -> dict:
+        """One constraint by name: ``{"values", "multipliers", "lower", "upper"}`` (and the times ``"t"`` of a
+        path constraint), one column per expression of the constraint."""
+        functions = self.problem.functions
+        for kind in ("path", "boundary"):
+            cs = getattr(functions, kind)
+            if cs is None or name not in cs.names:
+                continue
+            i = cs.names.index(name)
+            start = int(sum(cs.sizes[:i]))
+            cols = slice(start, start + cs.sizes[i])
+            out = {"lower": cs.lower[cols], "upper": cs.upper[cols]}
+            if kind == "path":
+                out.update(
+                    t=self.path_times, values=self.path_values[:, cols], multipliers=self.path_multipliers[:, cols]
+                )
+            else:
+                out.update(values=self.boundary_values[cols], multipliers=self.boundary_multipliers[cols])
+            return out
+        known = [n for kind in ("path", "boundary") if getattr(functions, kind) for n in getattr(functions, kind).names]
+        raise KeyError(f"no constraint {name!r}; the problem's constraints are {known}")
+
+    def path_dataframe(self):
+        """Path constraints at their points: ``t``, each expression's value and its multiplier (``mu_<label>``)."""
+        import pandas as pd
+
+        cs = self.problem.functions.path
+        if cs is None:
+            raise ValueError(f"{self.problem.name!r} has no path constraints")
+        df = pd.DataFrame(self.path_values, columns=cs.labels)
+        for j, label in enumerate(cs.labels):
+            df[f"mu_{label}"] = self.path_multipliers[:, j]
+        df.insert(0, "t", self.path_times)
         return df
 
     def nodes_dataframe(self):

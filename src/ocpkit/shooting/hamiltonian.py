@@ -20,17 +20,27 @@ cases, assuming (and checking numerically) the form
 (``b = 0``: bang-off-bang, with ``w`` the switching level) or the regularised cost
 ``lambda |u| + (1 - lambda) |u|^2`` of the energy-to-L1 homotopy (``b > 0``:
 saturated linear law). ``psi``, ``w`` and ``b`` are extracted exactly by evaluating
-H at ``u = 0, +-e_i, 2 e_i``; a mass equation driven by ``|u|`` fits the form.
+H at ``u = 0, +-e_i, 2 e_i``; a mass equation driven by ``|u|`` fits the form. An
+unbounded box control suits the regularised law when ``b > 0`` (the saturation on an
+infinite side never occurs), never the bang-off-bang one (H, affine in ``u``, has no
+minimum then).
+
+Any other Hamiltonian (``u`` entering through ``cos u``, a brachistochrone; a
+non-quadratic cost) needs the minimiser from the user: ``control_law(problem, u_star)``
+with ``u_star(x, p)`` (``u_star(x, p, params)`` for a problem with named parameters)
+returning CasADi expressions of ``u* = argmin_u H(x, p, u)``. Such a law is smooth:
+one mode, no switching function, so the integrator's switching options do nothing.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
 
-from ..problem import Hamiltonian, OptimalControlProblem
+from ..problem import Hamiltonian, OptimalControlProblem, _column
 
 CONTROL_SETS = ("box", "ball")
 
@@ -51,7 +61,11 @@ class SwitchingGroup:
 
 @dataclass
 class ControlLaw:
-    """A piecewise-smooth minimiser of H: switching groups over the control vector (see module docstring)."""
+    """A piecewise-smooth minimiser of H: switching groups over the control vector (see module docstring).
+
+    ``control_set`` is ``"box"``, ``"ball"`` or ``"user"``: a law of the user's, one group
+    without thresholds (one smooth mode, no switching function).
+    """
 
     groups: list
     nu: int
@@ -99,7 +113,7 @@ class ControlLaw:
 
     def switching(self) -> ca.SX:
         """All switching functions ``g_k = q - c_k`` (SX in x, p, P)."""
-        return ca.vertcat(*[g.quantity - c for g in self.groups for c in g.thresholds])
+        return ca.vertcat(ca.SX(0, 1), *[g.quantity - c for g in self.groups for c in g.thresholds])
 
 
 def _extract(H, u, nu: int):
@@ -123,43 +137,78 @@ def _extract(H, u, nu: int):
 
 
 def control_law(
-    problem: OptimalControlProblem, control_set: str = "box", *, regularized: bool = False, radius: float = 1.0
+    problem: OptimalControlProblem,
+    control_set: str | Callable = "box",
+    *,
+    regularized: bool = False,
+    radius: float = 1.0,
 ) -> ControlLaw:
-    """The minimiser of the problem's Hamiltonian for an L1 or regularised cost.
+    """The minimiser of the problem's Hamiltonian ``H = L + p'f``: derived for an L1 or regularised cost, or given.
 
     Parameters
     ----------
     problem : OptimalControlProblem
-        Autonomous; its Lagrange cost and dynamics give H (parameters stay symbolic).
+        Autonomous; its running cost (0 without one) and dynamics give H (parameters stay symbolic).
     control_set : ``"box"`` (each control within its bounds, which must contain 0) or
-        ``"ball"`` (``|u| <= radius``).
+        ``"ball"`` (``|u| <= radius``): the law is derived (see the module docstring);
+        or a callable ``u_star``: a law of your own (below).
     regularized : bool
-        False: bang-off-bang (the quadratic coefficient ``b`` must vanish). True:
-        saturated linear law for ``b >= 0``, valid for every homotopy parameter
-        including the L1 end, where its linear regimes have zero width.
+        False: bang-off-bang (the quadratic coefficient ``b`` must vanish; a box control
+        needs finite bounds). True: saturated linear law for ``b >= 0``, valid for every
+        homotopy parameter including the L1 end, where its linear regimes have zero width;
+        an unbounded side of a box is never saturated (then ``b > 0`` is required).
+
+    A law of your own, ``control_law(problem, u_star)``: ``u_star(x, p)`` -- or
+    ``u_star(x, p, params)`` when the problem has named parameters, ``params`` the dict of
+    CasADi symbols by name that its dynamics receive -- is called once, on CasADi columns
+    ``x`` and ``p`` of ``nx`` symbols each, and returns the minimising control
+
+        u*(x, p) = argmin_{u in U} H(x, p, u)
+
+    as CasADi expressions: one expression (``nu = 1``), a list of ``nu`` or a column
+    (``ca.vertcat``), written with CasADi's functions (``ca.atan2``, ``ca.fmin``). A
+    numpy array, a ``math`` function (NaN on a symbol), another number of controls than
+    ``nu``, a law depending on other symbols, or one finite nowhere, is an error naming
+    the law. The flow is that of Pontryagin's principle at ``u = u*(x, p)``:
+    ``dx/dt = f(x, u*)``, ``dp/dt = -dH/dx (x, p, u*)`` (the partial derivative at fixed u);
+    the law is one smooth mode with no switching function, so the integrator's detection
+    options change nothing. That ``u*`` minimises H (not maximises; within the bounds) is
+    the user's to ensure: the law is not checked against H. Examples: ``u* = -p_v`` for
+    ``L = u^2 / 2`` and ``dv/dt = u``; ``u* = atan2(-(v p_y + g p_v), -v p_x)`` for the
+    brachistochrone ``(x, y, v)' = (v cos u, v sin u, g sin u)``.
     """
+    if callable(control_set):
+        if regularized or radius != 1.0:
+            raise ValueError("regularized and radius apply to the derived box and ball laws, not to a law of your own")
+        return _user_law(problem, control_set)
     if control_set not in CONTROL_SETS:
-        raise ValueError(f"control_set must be one of {CONTROL_SETS}, got {control_set!r}")
-    if problem.L is None:
-        raise ValueError("the control law needs a Lagrange cost (an L1 or regularised control cost)")
+        raise ValueError(f"control_set must be one of {CONTROL_SETS} or a control law u_star, got {control_set!r}")
     nu = problem.nu
     if nu == 0:
         raise ValueError("the problem has no controls")
     ham = problem.functions.hamiltonian
     u, H = ham.u, ham.H
-    if ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t):
-        raise ValueError("indirect shooting here needs an autonomous problem (no explicit time dependence)")
+    _require_autonomous(ham)
     _, psi, w, b = _extract(H, u, nu)
+    unbounded = []
+    if control_set == "box":
+        unbounded = [i for i, c in enumerate(problem.controls) if not (np.isfinite(c.lower) and np.isfinite(c.upper))]
+    # the form first: an H this law cannot minimise is the error, whatever the bounds
+    _check_form(problem, ham, control_set, regularized, psi, w, b, unbounded)
     groups = []
     if control_set == "box":
         for i, c in enumerate(problem.controls):
             lo, hi = c.lower, c.upper
-            if not (lo <= 0.0 <= hi) or not (np.isfinite(lo) and np.isfinite(hi)):
-                raise ValueError(f"box control {c.name!r} needs finite bounds around 0, got [{lo}, {hi}]")
+            if not lo <= 0.0 <= hi:
+                raise ValueError(f"box control {c.name!r} needs bounds around 0, got [{lo}, {hi}]")
             q = psi[i]
             if regularized:
-                thresholds = [-w[i] - 2 * b[i] * hi, -w[i], w[i], w[i] - 2 * b[i] * lo]
-                branches = [ca.SX(hi), -(q + w[i]) / (2 * b[i]), ca.SX(0), -(q - w[i]) / (2 * b[i]), ca.SX(lo)]
+                # saturation at a finite bound only: u = -(q +- w) / (2 b) never reaches an infinite one
+                top = [(-w[i] - 2 * b[i] * hi, ca.SX(hi))] if np.isfinite(hi) else []
+                bottom = [(w[i] - 2 * b[i] * lo, ca.SX(lo))] if np.isfinite(lo) else []
+                thresholds = [t for t, _ in top] + [-w[i], w[i]] + [t for t, _ in bottom]
+                linear = [-(q + w[i]) / (2 * b[i]), ca.SX(0), -(q - w[i]) / (2 * b[i])]
+                branches = [br for _, br in top] + linear + [br for _, br in bottom]
             else:
                 thresholds = [-w[i], w[i]]
                 branches = [ca.SX(hi), ca.SX(0), ca.SX(lo)]
@@ -180,16 +229,56 @@ def control_law(
             branches = [ca.DM.zeros(nu), radius * direction]
         groups.append(SwitchingGroup(q, thresholds, [ca.SX(br) for br in branches], tuple(range(nu))))
         description = f"ball |u| <= {radius}, {'saturated linear' if regularized else 'bang-off-bang'}"
-    law = ControlLaw(groups, nu, regularized, control_set, description, ham)
-    _check_form(problem, law, H, u, psi, w, b)
-    return law
+    return ControlLaw(groups, nu, regularized, control_set, description, ham)
 
 
-def _check_form(problem, law, H, u, psi, w, b, samples: int = 20, tol: float = 1e-8) -> None:
-    """H must equal H0 + psi.u + w|u| + b|u|^2 (b = 0 unless regularised); raise ValueError otherwise."""
-    x, p, P = law.hamiltonian.x, law.hamiltonian.p, law.hamiltonian.P
-    nu = law.nu
-    if law.control_set == "box":
+def _require_autonomous(ham: Hamiltonian) -> None:
+    if ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t):
+        raise ValueError("indirect shooting here needs an autonomous problem (no explicit time dependence)")
+
+
+def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5) -> ControlLaw:
+    """The law ``u_star(x, p[, params])`` of the user, as one smooth mode (see :func:`control_law`)."""
+    name = getattr(u_star, "__name__", type(u_star).__name__)
+    what = f"control law {name!r}"
+    nu, nx = problem.nu, problem.nx
+    if nu == 0:
+        raise ValueError("the problem has no controls")
+    ham = problem.functions.hamiltonian
+    _require_autonomous(ham)
+    params = ({k: ham.P[i] for i, k in enumerate(problem.parameters)},) if problem.takes_parameters else ()
+    u = _column(u_star(ham.x, ham.p, *params), what)
+    if u.shape != (nu, 1):
+        raise ValueError(
+            f"{what} returned shape {u.shape}, expected ({nu}, 1): one expression per control {problem.control_names}"
+        )
+    try:
+        ufun = ca.Function("u_star", [ham.x, ham.p, ham.P], [u])
+    except RuntimeError:
+        raise ValueError(
+            f"{what} depends on symbols other than its arguments x, p{' and params' if params else ''}"
+        ) from None
+    rng = np.random.default_rng(0)
+    xs = np.array([_sample(s) for s in problem.states])
+    pv = problem.parameter_values
+    if not any(np.all(np.isfinite(np.asarray(ufun(xs, rng.normal(size=nx), pv)))) for _ in range(samples)):
+        raise ValueError(
+            f"{what} is not finite at any sampled (x, p): a math or numpy function (math.atan2, np.sqrt) applied to "
+            "a CasADi symbol gives NaN; use CasADi's (ca.atan2, ca.sqrt)"
+        )
+    group = SwitchingGroup(ca.SX(0), [], [u], tuple(range(nu)))
+    return ControlLaw([group], nu, False, "user", f"user law {name}", ham)
+
+
+def _check_form(problem, ham, control_set, regularized, psi, w, b, unbounded=(), samples=20, tol=1e-8) -> None:
+    """H must equal H0 + psi.u + w|u| + b|u|^2 (b = 0 unless regularised, b > 0 on unbounded controls).
+
+    Raise ValueError otherwise, saying what is wrong: a Hamiltonian of another form needs
+    a law of the user's; an unbounded box control needs a positive quadratic cost.
+    """
+    x, p, P, u, H = ham.x, ham.p, ham.P, ham.u, ham.H
+    nu = problem.nu
+    if control_set == "box":
         model = sum(psi[i] * u[i] + w[i] * ca.fabs(u[i]) + b[i] * u[i] ** 2 for i in range(nu))
     else:
         model = ca.dot(ca.vertcat(*psi), u) + w[0] * ca.norm_2(u) + b[0] * ca.sumsqr(u)
@@ -199,18 +288,35 @@ def _check_form(problem, law, H, u, psi, w, b, samples: int = 20, tol: float = 1
     bfun = ca.Function("b", [x, p, P], [ca.vertcat(*b)])
     rng = np.random.default_rng(0)
     pv = problem.parameter_values
+    names = [problem.controls[i].name for i in unbounded]
     for _ in range(samples):
         xs = np.array([_sample(s) for s in problem.states])
         ps = rng.normal(size=problem.nx)
         us = rng.uniform(-1, 1, size=nu)
         r = abs(float(residual(xs, ps, us, pv)))
         if r > tol * (1 + abs(float(hfun(xs, ps, us, pv)))):
+            free = f", and {', '.join(names)} {'is' if len(names) == 1 else 'are'} unbounded" if names else ""
             raise ValueError(
-                "the Hamiltonian is not of the form H0 + psi.u + w|u| + b|u|^2 for this control set "
-                f"({law.control_set}); this control law does not apply"
+                "a control law is needed: the Hamiltonian is not of the form H0 + psi.u + w|u| + b|u|^2 that the "
+                f"{control_set} laws minimise (u enters it otherwise, through cos u, u^4, ...){free}; pass the "
+                "minimising control yourself, control_law(problem, u_star) with u_star(x, p) returning CasADi "
+                "expressions"
             )
-        if not law.regularized and np.abs(np.asarray(bfun(xs, ps, pv))).max() > tol:
+        bs = np.asarray(bfun(xs, ps, pv)).ravel()
+        if not regularized and np.abs(bs).max() > tol:
             raise ValueError("the cost has a quadratic control term: use regularized=True")
+        for i in unbounded:
+            c = problem.controls[i]
+            if not regularized:
+                raise ValueError(
+                    f"box control {c.name!r} is unbounded ([{c.lower}, {c.upper}]) and H is affine in it (an L1 "
+                    "cost or none): H has no minimum over an unbounded control; give it finite bounds"
+                )
+            if not bs[i] > tol:
+                raise ValueError(
+                    f"box control {c.name!r} is unbounded ([{c.lower}, {c.upper}]) and the quadratic coefficient "
+                    f"of H in it is {bs[i]:g}, not positive: H has no minimum; give it finite bounds"
+                )
 
 
 def _sample(state) -> float:

@@ -7,6 +7,19 @@ problem's fixed initial state. The shooting function collects, at ``tf``:
 * ``p_i(tf) - d phi / d x_i(tf)`` for every free final state (transversality);
 * ``H(tf) + d phi / d tf`` when ``tf`` is free (H is constant along an autonomous flow).
 
+The multiplier of the cost is normal, ``p^0 = 1``: ``H = L + p'f`` (``L = 0`` without a
+running cost); abnormal extremals (``p^0 = 0``) are not sought. Minimum time may be
+stated either way, with the same costates and extremal:
+
+* as a Mayer term ``phi = tf`` (``mayer=lambda x0, xf, t0, tf: tf``, no running cost):
+  ``H = p'f`` and the condition reads ``H(tf) + 1 = 0``;
+* as a running cost ``L = 1`` (``lagrange=lambda x, u, t: 1``): ``H = 1 + p'f`` and
+  ``H(tf) = 0``.
+
+Either needs a control law minimising ``p'f`` over the controls: derived when it is
+affine in bounded controls (bang-bang, :func:`~ocpkit.shooting.control_law` ``"box"``
+or ``"ball"``), else given, ``control_law(problem, u_star)`` (a brachistochrone).
+
 ``S(z) = 0`` is solved with MINPACK's hybrid method (``scipy.optimize.root``,
 ``hybr``; the source's solver) or a damped Newton method (Armijo backtracking on
 ``|S|``), given a Jacobian either by forward finite differences (step
@@ -102,6 +115,8 @@ class Shooting:
     problem : OptimalControlProblem
         Autonomous, every initial state fixed, final states fixed or free.
     law : ControlLaw
+        ``control_law(problem, "box" | "ball", ...)`` (derived) or ``control_law(problem, u_star)``
+        (the user's minimiser of H: one smooth mode, for which ``detection`` changes nothing).
     detection : ``"none" | "detection" | "correction"``
     jacobian : ``"fd" | "variational"``
     rtol, atol : integrator tolerances.
@@ -144,6 +159,12 @@ class Shooting:
         if not (self.fd_step > 0 and np.isfinite(self.fd_step)):
             raise ValueError(f"fd_step must be positive, got {fd_step!r}")
         nx = problem.nx
+        constrained = [c.name for c in (*problem.path_constraints, *problem.boundary_constraints)]
+        if constrained:
+            raise ValueError(
+                f"the shooting engine does not treat path or boundary constraints ({constrained} of {problem.name!r}); "
+                "solve the problem with a direct transcription (HLGL, Radau)"
+            )
         for s in problem.states:
             if s.fixed_initial is None:
                 raise ValueError(f"shooting needs a fixed initial value for state {s.name!r}, got {s.initial!r}")

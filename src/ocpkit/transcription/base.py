@@ -35,6 +35,34 @@ def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     return sc.to_nlp(lo), sc.to_nlp(hi)
 
 
+@dataclass
+class PathPoints:
+    """Where a scheme holds states and controls, for its path constraints: ``count`` instances of ``k`` points.
+
+    ``z`` and ``p`` are the symbols of one instance (its NLP variables and constants, the
+    layout of ``variables`` (nz, count) and ``parameters`` (np, count)); ``x``, ``u`` and
+    ``t`` are lists of ``k`` expressions in them (state, control, time at each point);
+    ``fractions`` (count, k) the normalised times (0..1) of the points.
+    """
+
+    z: ca.SX
+    p: ca.SX
+    x: list
+    u: list
+    t: list
+    variables: np.ndarray
+    parameters: np.ndarray
+    fractions: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return self.variables.shape[1]
+
+    @property
+    def k(self) -> int:
+        return len(self.x)
+
+
 @dataclass(frozen=True)
 class VariableGroup:
     """A run of NLP variables: the values of ``variables`` at ``points`` points, point by point.
@@ -103,6 +131,10 @@ class Transcription(ABC):
     @abstractmethod
     def _package(self, result: NLPResult) -> dict:
         """Solution fields (times, values, interpolants, breakpoints) from the NLP result."""
+
+    def _path_points(self) -> list[PathPoints]:
+        """The points where path constraints are enforced (schemes that support them override this)."""
+        raise NotImplementedError(f"{type(self).__name__} does not enforce path constraints")
 
     # -- layout: sizes, indices, bounds, packing -------------------------------------------
     @property
@@ -188,20 +220,129 @@ class Transcription(ABC):
         par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
         return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
 
+    # -- path and boundary constraints (rows after the defects) -------------------------------
+    @property
+    def n_path_points(self) -> int:
+        """Points at which the path constraints hold (0 without path constraints)."""
+        if self.problem.functions.path is None:
+            return 0
+        return sum(pp.count * pp.k for pp in self._path_points_cached())
+
+    def _path_points_cached(self) -> list[PathPoints]:
+        if getattr(self, "_path_points_list", None) is None:
+            self._path_points_list = self._path_points()
+        return self._path_points_list
+
+    @property
+    def n_path_constraints(self) -> int:
+        c = self.problem.functions.path
+        return 0 if c is None else self.n_path_points * c.size
+
+    @property
+    def n_boundary_constraints(self) -> int:
+        c = self.problem.functions.boundary
+        return 0 if c is None else c.size
+
+    def path_point_fractions(self) -> np.ndarray:
+        """Normalised times (0..1) of the path-constraint points, in constraint-row order."""
+        if self.problem.functions.path is None:
+            return np.zeros(0)
+        return np.concatenate([pp.fractions.ravel() for pp in self._path_points_cached()])
+
+    def _constraint_blocks(self) -> list[Block]:
+        """Path constraints ``g / scale`` at every point of :meth:`_path_points`, then the boundary constraints."""
+        pr = self.problem
+        blocks, row = [], self.n_defects
+        path = pr.functions.path
+        if path is not None:
+            scale = ca.DM(path.scale)
+            for j, pp in enumerate(self._path_points_cached()):
+                out = ca.vertcat(*[pr.path(x, u, t) / scale for x, u, t in zip(pp.x, pp.u, pp.t)])
+                per = out.shape[0]
+                rows = row + np.arange(per * pp.count).reshape(pp.count, per).T
+                fun = ca.Function(f"path_{j}", [pp.z, pp.p], [out])
+                blocks.append(Block(f"path_constraints_{j}", fun, pp.variables, pp.parameters, rows))
+                row += per * pp.count
+        boundary = pr.functions.boundary
+        if boundary is not None:
+            first, last, tfi = self._boundary_indices()
+            z, q, x0, xf, tf = self._boundary_symbols()
+            out = pr.boundary(x0, xf, pr.t0, tf) / ca.DM(boundary.scale)
+            var = np.concatenate([first, last] + ([[tfi]] if pr.free_final_time else []))
+            par = np.zeros((0, 1)) if pr.free_final_time else np.array([[pr.tf]])
+            rows = row + np.arange(boundary.size)[:, None]
+            blocks.append(
+                Block("boundary_constraints", ca.Function("boundary", [z, q], [out]), var[:, None], par, rows)
+            )
+        return blocks
+
+    def _boundary_symbols(self):
+        """Symbols ``z = [x(t0), x(tf), (tf)]`` (scaled), ``p = [(tf)]`` and the physical ``x0, xf, tf`` in them."""
+        pr = self.problem
+        nx, free = pr.nx, pr.free_final_time
+        z = ca.SX.sym("z", 2 * nx + int(free))
+        q = ca.SX.sym("p", int(not free))
+        xs = pr.state_scaling
+        return z, q, xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx]), final_time(pr, z, q, 0)
+
+    def _boundary_indices(self) -> tuple[np.ndarray, np.ndarray, int | None]:
+        """NLP indices of ``x(t0)`` and ``x(tf)`` (problem order) and of tf (None if fixed)."""
+        tables, tfi = self._index_tables()
+        X = tables[0]
+        return X[:, 0], X[:, -1], tfi
+
     def _constraint_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        z = np.zeros(self.n_defects)
-        return z, z.copy()
+        pr = self.problem
+        lo, hi = [np.zeros(self.n_defects)], [np.zeros(self.n_defects)]
+        path = pr.functions.path
+        if path is not None:
+            lo.append(np.tile(path.lower / path.scale, self.n_path_points))
+            hi.append(np.tile(path.upper / path.scale, self.n_path_points))
+        boundary = pr.functions.boundary
+        if boundary is not None:
+            lo.append(boundary.lower / boundary.scale)
+            hi.append(boundary.upper / boundary.scale)
+        return np.concatenate(lo), np.concatenate(hi)
 
     @property
     def n_constraints(self) -> int:
-        return self.n_defects
+        return self.n_defects + self.n_path_constraints + self.n_boundary_constraints
+
+    def _constraint_fields(self, result: NLPResult, tf: float, g: np.ndarray | None = None) -> dict:
+        """Values and multipliers of the path and boundary constraints, in the problem's units.
+
+        The multiplier of a constraint row is IPOPT's, converted from the scaled NLP
+        (``objective_scale / scale``): positive where the upper bound is active, negative
+        where the lower one is, zero where the constraint is inactive.
+        """
+        pr = self.problem
+        out = {}
+        if g is None and (pr.functions.path is not None or pr.functions.boundary is not None):
+            g = np.asarray(self.nlp.constraint_function(result.w)).ravel()
+        lam = np.asarray(result.lam_g, dtype=float).ravel()
+        row = self.n_defects
+        path = pr.functions.path
+        if path is not None:
+            n, m = self.n_path_points, path.size
+            sl = slice(row, row + n * m)
+            order = np.argsort(self.path_point_fractions(), kind="stable")
+            out["path_times"] = self._times(tf, self.path_point_fractions()[order])
+            out["path_values"] = (g[sl].reshape(n, m) * path.scale)[order]
+            out["path_multipliers"] = (lam[sl].reshape(n, m) * pr.objective_scale / path.scale)[order]
+            row += n * m
+        boundary = pr.functions.boundary
+        if boundary is not None:
+            sl = slice(row, row + boundary.size)
+            out["boundary_values"] = g[sl] * boundary.scale
+            out["boundary_multipliers"] = lam[sl] * pr.objective_scale / boundary.scale
+        return out
 
     # -- shared machinery ---------------------------------------------------------------
     def build(self) -> Transcription:
         """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
         if self._nlp is None:
             t = time.perf_counter()
-            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks())
+            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks() + self._constraint_blocks())
             self._nlp_build_s = time.perf_counter() - t
         return self
 
@@ -283,8 +424,10 @@ class Transcription(ABC):
             raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
         return solution
 
-    def _solution(self, result: NLPResult) -> Solution:
+    def _solution(self, result: NLPResult, g: np.ndarray | None = None) -> Solution:
+        """The :class:`Solution` of an NLP result (``g``: its constraint values, when already evaluated)."""
         fields = self._package(result)
+        fields.update(self._constraint_fields(result, fields["tf"], g))
         return Solution(
             problem=self.problem,
             transcription=self.label,

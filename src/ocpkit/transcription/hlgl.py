@@ -27,7 +27,7 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup
+from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, segment_clock
 
 
@@ -185,6 +185,19 @@ class HLGL(Transcription):
             blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], tfi))
         return blocks
 
+    def _path_points(self) -> list[PathPoints]:
+        """Path constraints at the five points of each segment: ``t_i, t_a, t_c, t_b`` of every segment (the
+        states at ``t_a, t_b`` from the quintic Hermite interpolant), and the final node once."""
+        z, p, x, u, t, h = self._segment_symbols()
+        _, _, x_a, x_b, _ = hlgl_segment(self.problem.dynamics, x[0], x[1], x[2], u, t, h)
+        variables, params = self._segment_tables()
+        mesh = self.mesh
+        fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_CONTROL_NODES[None, :4]
+        return [
+            PathPoints(z, p, [x[0], x_a, x[1], x_b], u[:4], t[:4], variables, params, fractions),
+            PathPoints(z, p, [x[2]], [u[4]], [t[4]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
+        ]
+
     # -- bounds and guess -------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
         X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)
@@ -194,7 +207,7 @@ class HLGL(Transcription):
     def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
         """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""
         w = self.pack(X, U, tf)
-        g = np.asarray(self.nlp.constraint_function(w)).ravel()
+        g = np.asarray(self.nlp.constraint_function(w)).ravel()[: self.n_defects]
         n, nx = self.segments, self.problem.nx
         return (g.reshape(n, 2, nx) * self.problem.state_scale).transpose(1, 2, 0)
 

@@ -36,7 +36,7 @@ from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup
+from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, segment_clock
 
@@ -183,17 +183,16 @@ class MultiRateHLGL(Transcription):
             parts[i] = z[j]
         return ca.vertcat(*parts)
 
-    def _segment_expressions(self):
-        """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
+    def _segment_symbols(self):
+        """Symbols of one coarse segment, ``w`` (its NLP variables, the layout of :meth:`_segment_tables`) and
+        ``p``, and in them the slow nodes ``X`` (3), fast nodes ``Z`` (2M + 1), controls ``U`` (5), start and length."""
         pr = self.problem
         M = self.ratio
         nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
         free = pr.free_final_time
-        nloc = 3 * nxs + (2 * M + 1) * nzf + 5 * nu + int(free)
-        w = ca.SX.sym("w", nloc)
+        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + 5 * nu + int(free))
         p = ca.SX.sym("p", 2 + int(not free))
         xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
-        sx, sz = xsc.scale, zsc.scale
         off = 0
         X = [xsc.from_nlp(w[off + k * nxs : off + (k + 1) * nxs]) for k in range(3)]
         off += 3 * nxs
@@ -201,6 +200,32 @@ class MultiRateHLGL(Transcription):
         off += (2 * M + 1) * nzf
         U = [pr.control_scaling.from_nlp(w[off + k * nu : off + (k + 1) * nu]) for k in range(5)]
         t_start, _, h = segment_clock(pr, w, p)
+        return w, p, X, Z, U, t_start, h
+
+    def _path_points(self) -> list[PathPoints]:
+        """Path constraints where both meshes hold NLP values: the coarse nodes (start and centre of every coarse
+        segment, slow states and the fast ones at the same times, the controls there), and the final node once."""
+        M = self.ratio
+        w, p, X, Z, U, t_start, h = self._segment_symbols()
+        full = [self._full_state(ca.vertsplit(X[k]), ca.vertsplit(Z[k * M])) for k in range(3)]
+        t = [t_start + h * s for s in nodes.HLGL_STATE_NODES]
+        variables, params = self._segment_tables()
+        mesh = self.mesh
+        fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_STATE_NODES[None, :2]
+        return [
+            PathPoints(w, p, full[:2], [U[0], U[2]], t[:2], variables, params, fractions),
+            PathPoints(w, p, [full[2]], [U[4]], [t[2]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
+        ]
+
+    def _segment_expressions(self):
+        """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
+        pr = self.problem
+        M = self.ratio
+        nu = pr.nu
+        nxs, nzf = len(self.slow), len(self.fast)
+        w, p, X, Z, U, t_start, h = self._segment_symbols()
+        sx = pr.state_scaling.subset(self.slow).scale
+        sz = pr.state_scaling.subset(self.fast).scale
 
         def u_at(s):
             L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s]))[0]
@@ -301,13 +326,17 @@ class MultiRateHLGL(Transcription):
             fun = ca.Function("mr_lagrange", [w, p], [quad / pr.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
         if pr.phi is not None:
-            X, Z, _, tfi = self._indices()
-            first = np.empty(pr.nx, dtype=np.int64)
-            last = np.empty(pr.nx, dtype=np.int64)
-            first[self.slow], last[self.slow] = X[:, 0], X[:, -1]
-            first[self.fast], last[self.fast] = Z[:, 0], Z[:, -1]
-            blocks.append(self._mayer_block(first, last, tfi))
+            blocks.append(self._mayer_block(*self._boundary_indices()))
         return blocks
+
+    def _boundary_indices(self):
+        """NLP indices of the full state at t0 and tf (problem order: slow and fast parts), and of tf."""
+        X, Z, _, tfi = self._indices()
+        first = np.empty(self.problem.nx, dtype=np.int64)
+        last = np.empty(self.problem.nx, dtype=np.int64)
+        first[self.slow], last[self.slow] = X[:, 0], X[:, -1]
+        first[self.fast], last[self.fast] = Z[:, 0], Z[:, -1]
+        return first, last, tfi
 
     # -- bounds, guess, packing -----------------------------------------------------------
     def _initial_point(self, tf, states, controls):
@@ -318,7 +347,7 @@ class MultiRateHLGL(Transcription):
 
     def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
         """All defects (physical units), in NLP row order, at given parameter values."""
-        g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()
+        g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()[: self.n_defects]
         per = g.size // self.segments
         scale = np.concatenate(
             [self.problem.state_scale[self.slow]] * (2 if self.slow else 0)

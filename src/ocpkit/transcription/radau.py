@@ -29,7 +29,7 @@ import numpy as np
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem
-from .base import Transcription, VariableGroup
+from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, segment_clock
 
 
@@ -178,6 +178,45 @@ class Radau(Transcription):
             blocks.append(self._mayer_block(X[:, 0], X[:, -1], tfi))
         return blocks
 
+    def _point_symbols(self, n_controls: int = 1):
+        """Symbols of one point: ``z = [x, u_1..u_n, (tf)]`` (scaled), ``p = [s, fraction, (tf)]``; physical
+        ``x``, the ``n`` controls and ``t`` in them."""
+        pr = self.problem
+        nx, nu = pr.nx, pr.nu
+        z = ca.SX.sym("z", nx + n_controls * nu + int(pr.free_final_time))
+        p = ca.SX.sym("p", 2 + int(not pr.free_final_time))
+        us = pr.control_scaling
+        u = [us.from_nlp(z[nx + k * nu : nx + (k + 1) * nu]) for k in range(n_controls)]
+        return z, p, pr.state_scaling.from_nlp(z[:nx]), u, segment_clock(pr, z, p)[0]
+
+    def _path_points(self) -> list[PathPoints]:
+        """Path constraints at every collocation point, and at the final time with the last interval's control
+        polynomial extrapolated there (the control the solution reports at tf)."""
+        pr = self.problem
+        free = pr.free_final_time
+        (X, U), tfi = self._index_tables()
+        tf_row = [np.full((1, self.n_collocation), tfi)] if free else []
+        z, p, x, u, t = self._point_symbols()
+        frac = np.repeat(self.mesh.fractions, self.counts)
+        colloc = PathPoints(
+            z,
+            p,
+            [x],
+            u,
+            [t],
+            np.vstack([X[:, :-1], U] + tf_row),
+            self.mesh.parameters(pr, self.collocation_fractions(), frac),
+            self.collocation_fractions()[:, None],
+        )
+        n, o = int(self.counts[-1]), int(self.offsets[-1])
+        z, p, x, u, t = self._point_symbols(n)
+        ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
+        u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
+        var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel()] + ([[tfi]] if free else []))
+        params = self.mesh.parameters(pr, np.array([1.0]), self.mesh.fractions[-1:])
+        end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
+        return [colloc, end]
+
     # -- bounds, guess, packing ---------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
         X = np.asarray(states(self._times(tf, self.state_point_fractions())), dtype=float)
@@ -186,7 +225,7 @@ class Radau(Transcription):
 
     def defects(self, X, U, tf=None) -> np.ndarray:
         """Defects (collocation points, nx) in physical units, in d/dtau form, at given values."""
-        g = np.asarray(self.nlp.constraint_function(self.pack(X, U, tf))).ravel()
+        g = np.asarray(self.nlp.constraint_function(self.pack(X, U, tf))).ravel()[: self.n_defects]
         return g.reshape(self.n_collocation, self.problem.nx) * self.problem.state_scale
 
     # -- solution -------------------------------------------------------------------------
@@ -198,7 +237,7 @@ class Radau(Transcription):
         physical units (``objective_scale / state_scale``).
         """
         pr = self.problem
-        Lam = -np.asarray(lam_g, dtype=float).reshape(self.n_collocation, pr.nx)
+        Lam = -np.asarray(lam_g, dtype=float)[: self.n_defects].reshape(self.n_collocation, pr.nx)
         Lam *= pr.objective_scale / pr.state_scale
         lam = np.empty((self.n_state_points, pr.nx))
         lam[:-1] = Lam / self._collocation_weights()[:, None]
