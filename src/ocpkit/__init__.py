@@ -4,7 +4,7 @@ from .errors import SolverError
 from .problem import Constraint, Control, FreeFinalTime, Guess, OptimalControlProblem, State
 from .solution import Reintegration, Solution
 from .trajectory import Trajectory
-from .transcription import HLGL, MultiRateHLGL, Radau, Transcription
+from .transcription import HLGL, Link, MultiPhase, MultiPhaseSolution, MultiRateHLGL, Radau, Transcription
 
 __version__ = "0.2.0"
 
@@ -14,6 +14,9 @@ __all__ = [
     "FreeFinalTime",
     "Guess",
     "HLGL",
+    "Link",
+    "MultiPhase",
+    "MultiPhaseSolution",
     "MultiRateHLGL",
     "OptimalControlProblem",
     "Radau",

@@ -4,6 +4,17 @@ from .base import Transcription
 from .hlgl import HLGL
 from .mesh import Mesh
 from .multirate import MultiRateHLGL, state_partition
+from .phases import Link, MultiPhase, MultiPhaseSolution
 from .radau import Radau
 
-__all__ = ["HLGL", "Mesh", "MultiRateHLGL", "Radau", "Transcription", "state_partition"]
+__all__ = [
+    "HLGL",
+    "Link",
+    "Mesh",
+    "MultiPhase",
+    "MultiPhaseSolution",
+    "MultiRateHLGL",
+    "Radau",
+    "Transcription",
+    "state_partition",
+]

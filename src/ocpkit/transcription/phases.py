@@ -1,0 +1,366 @@
+"""Multi-phase problems: several transcribed phases, linked, in one NLP and one solve.
+
+A phase is any direct transcription of a single-phase
+:class:`~ocpkit.problem.OptimalControlProblem` (its own dynamics, bounds, constraints,
+scheme and mesh). :class:`MultiPhase` stacks the phases' NLP variables and constraint
+rows, offsets their blocks accordingly (each block stays the small mapped function it
+was: the NLP keeps its block-separable exact derivatives), and adds one linkage block
+per :class:`Link`:
+
+    x_after(t0_after) - x_before(tf_before) - jump = 0        for the linked states,
+    t0_after = tf_before                                      (times, when linked),
+
+the jump being, for instance, the mass dropped at a stage separation. The objective is
+the sum of the phases' objectives. The result, :class:`MultiPhaseSolution`, holds each
+phase's :class:`~ocpkit.Solution` and is itself a :class:`~ocpkit.Trajectory` spanning
+the phases when they share their states and controls.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SolverError
+from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
+from ..solution import Solution
+from ..trajectory import Trajectory
+from .base import Transcription
+
+
+@dataclass(frozen=True)
+class Link:
+    """The start of phase ``after`` continues the end of phase ``before``.
+
+    ``states``: the names of the linked states (``"all"``: every state of ``before``, which
+    ``after`` must have too); ``jumps``: ``{state: value}`` added across the link
+    (``x_after(t0) = x_before(tf) + jump``; a stage separation's dropped mass is a
+    negative jump of the mass); ``time``: the phases meet in time, ``t0_after = tf_before``.
+    """
+
+    before: int
+    after: int
+    states: Sequence[str] | str = "all"
+    jumps: Mapping[str, float] = field(default_factory=dict)
+    time: bool = True
+
+    @property
+    def label(self) -> str:
+        return f"link {self.before} -> {self.after}"
+
+
+class MultiPhase:
+    """Transcribed phases and their links, as one NLP (see the module docstring).
+
+    Parameters
+    ----------
+    phases : sequence of :class:`~ocpkit.transcription.Transcription`
+        One transcription per phase, in time order.
+    links : sequence of :class:`Link`, optional
+        Default: each phase continues the previous one in every state and in time.
+    """
+
+    def __init__(self, phases: Sequence[Transcription], links: Sequence[Link] | None = None):
+        self.phases = list(phases)
+        if not self.phases:
+            raise ValueError("a multi-phase problem needs at least one phase")
+        for k, ph in enumerate(self.phases):
+            if not isinstance(ph, Transcription):
+                raise TypeError(f"phase {k} must be a Transcription (HLGL, Radau, ...), got {type(ph).__name__}")
+        if links is None:
+            links = [Link(k, k + 1) for k in range(len(self.phases) - 1)]
+        self.links = list(links)
+        self._link_states = [self._check_link(link) for link in self.links]
+        sizes = [ph.n_variables for ph in self.phases]
+        self.variable_offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+        rows = [ph.n_constraints for ph in self.phases]
+        self.row_offsets = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64)
+        self.n_variables = int(sum(sizes))
+        self.n_link_rows = sum(len(names) for names in self._link_states) + sum(
+            self._time_link_kind(link) == "constraint" for link in self.links
+        )
+        self.n_constraints = int(sum(rows)) + self.n_link_rows
+        self._nlp = None
+        self._solver = None
+        self._solver_options = None
+        self.build_s = 0.0
+
+    # -- links ----------------------------------------------------------------------------------
+    def _check_link(self, link: Link) -> list[tuple[int, int, str]]:
+        """``(index in before, index in after, name)`` of the linked states; bad links raise, naming the link."""
+        n = len(self.phases)
+        if not isinstance(link, Link):
+            raise TypeError(f"links must be Link objects, got {link!r}")
+        if not (0 <= link.before < n and 0 <= link.after < n) or link.before == link.after:
+            raise ValueError(f"{link.label}: phases must be two different indices in [0, {n})")
+        before, after = self.phases[link.before].problem, self.phases[link.after].problem
+        names = before.state_names if link.states == "all" else list(link.states)
+        if isinstance(link.states, str) and link.states != "all":
+            raise TypeError(f"{link.label}: states must be 'all' or a sequence of names, got {link.states!r}")
+        missing = [s for s in names if s not in before.state_names or s not in after.state_names]
+        if missing:
+            raise ValueError(
+                f"{link.label}: states {missing} are not states of both phases "
+                f"(phase {link.before}: {before.state_names}; phase {link.after}: {after.state_names})"
+            )
+        unknown = sorted(set(link.jumps) - set(names))
+        if unknown:
+            raise ValueError(f"{link.label}: jumps of {unknown}, which the link does not join (it joins {names})")
+        self._time_link_kind(link)  # validates
+        return [(before.state_index(s), after.state_index(s), s) for s in names]
+
+    def _time_link_kind(self, link: Link) -> str:
+        """``"none"``, ``"consistent"`` (both times fixed and equal) or ``"constraint"`` (tf of before is free)."""
+        if not link.time:
+            return "none"
+        before, after = self.phases[link.before].problem, self.phases[link.after].problem
+        if before.free_final_time:
+            return "constraint"
+        if not np.isclose(before.tf, after.t0, rtol=1e-12, atol=1e-12):
+            raise ValueError(
+                f"{link.label}: phase {link.before} ends at tf = {before.tf} but phase {link.after} starts at "
+                f"t0 = {after.t0}; make the times agree, or give phase {link.before} a FreeFinalTime"
+            )
+        return "consistent"
+
+    def _link_blocks(self) -> list[Block]:
+        blocks, row = [], int(sum(ph.n_constraints for ph in self.phases))
+        for link, joined in zip(self.links, self._link_states):
+            pb, pa = self.phases[link.before], self.phases[link.after]
+            ob, oa = self.variable_offsets[link.before], self.variable_offsets[link.after]
+            if joined:
+                _, end_b, _ = pb._boundary_indices()
+                start_a, _, _ = pa._boundary_indices()
+                ib = np.array([i for i, _, _ in joined])
+                ia = np.array([j for _, j, _ in joined])
+                sb, sa = pb.problem.state_scaling.subset(ib), pa.problem.state_scaling.subset(ia)
+                m = len(joined)
+                z = ca.SX.sym("z", 2 * m)
+                q = ca.SX.sym("q", m)  # the jumps
+                out = (sa.from_nlp(z[m:]) - sb.from_nlp(z[:m]) - q) / ca.DM(sa.scale)
+                var = np.concatenate([ob + end_b[ib], oa + start_a[ia]])[:, None]
+                jumps = np.array([[float(link.jumps.get(name, 0.0))] for _, _, name in joined])
+                rows = row + np.arange(m)[:, None]
+                blocks.append(
+                    Block(f"link_{link.before}_{link.after}", ca.Function("link", [z, q], [out]), var, jumps, rows)
+                )
+                row += m
+            if self._time_link_kind(link) == "constraint":
+                tf = pb.problem.tf
+                _, _, tfi = pb._boundary_indices()
+                z = ca.SX.sym("z", 1)
+                q = ca.SX.sym("q", 1)  # t0 of the phase after
+                out = (z[0] * tf.scale - q[0]) / tf.scale
+                blocks.append(
+                    Block(
+                        f"link_time_{link.before}_{link.after}",
+                        ca.Function("link_time", [z, q], [out]),
+                        np.array([[ob + tfi]]),
+                        np.array([[pa.problem.t0]]),
+                        np.array([[row]]),
+                    )
+                )
+                row += 1
+        return blocks
+
+    # -- the NLP ----------------------------------------------------------------------------
+    def _phase_blocks(self) -> list[Block]:
+        out = []
+        for k, ph in enumerate(self.phases):
+            ov, orow = self.variable_offsets[k], self.row_offsets[k]
+            for b in ph._blocks() + ph._constraint_blocks():
+                out.append(
+                    Block(
+                        f"phase{k}_{b.name}",
+                        b.function,
+                        b.variables + ov,
+                        b.parameters,
+                        None if b.rows is None else b.rows + orow,
+                        b.linear,
+                    )
+                )
+        return out
+
+    def build(self) -> MultiPhase:
+        """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
+        if self._nlp is None:
+            t = time.perf_counter()
+            self._blocks = self._phase_blocks() + self._link_blocks()
+            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks)
+            self.build_s = time.perf_counter() - t
+        return self
+
+    @property
+    def nlp(self) -> SeparableNLP:
+        return self.build()._nlp
+
+    def _bounds(self):
+        lb, ub = zip(*(ph._bounds() for ph in self.phases))
+        return np.concatenate(lb), np.concatenate(ub)
+
+    def _constraint_bounds(self):
+        lo, hi = zip(*(ph._constraint_bounds() for ph in self.phases))
+        z = np.zeros(self.n_link_rows)
+        return np.concatenate([*lo, z]), np.concatenate([*hi, z])
+
+    def initial_point(self, guesses=None) -> np.ndarray:
+        """The start vector from one guess per phase (a :class:`~ocpkit.Guess`, a Solution or None)."""
+        guesses = [None] * len(self.phases) if guesses is None else list(guesses)
+        if len(guesses) != len(self.phases):
+            raise ValueError(f"give one guess per phase: {len(self.phases)} phases, {len(guesses)} guesses")
+        return np.concatenate([ph.initial_point(g) for ph, g in zip(self.phases, guesses)])
+
+    def solve(
+        self,
+        guesses=None,
+        *,
+        ipopt_options: dict | None = None,
+        allow_acceptable: bool = False,
+        raise_on_failure: bool = True,
+    ) -> MultiPhaseSolution:
+        """Solve all phases at once with IPOPT (options as :meth:`Transcription.solve`)."""
+        self.build()
+        key = tuple(sorted((ipopt_options or {}).items()))
+        if self._solver is None or key != self._solver_options:
+            defaults = {}
+            for ph in self.phases:
+                defaults.update(ph.ipopt_defaults)
+            t = time.perf_counter()
+            self._solver = self._nlp.solver({**defaults, **(ipopt_options or {})})
+            self.build_s += time.perf_counter() - t
+            self._solver_options = key
+        lbw, ubw = self._bounds()
+        lbg, ubg = self._constraint_bounds()
+        result = solve_nlp(
+            self._solver, self.initial_point(guesses), lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable
+        )
+        solution = self._solution(result) if np.all(np.isfinite(result.w)) else None
+        if result.success:
+            return solution
+        if raise_on_failure or solution is None:
+            detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
+            raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
+        return solution
+
+    # -- the solution ------------------------------------------------------------------------
+    def _phase_objective(self, k: int, w: np.ndarray) -> float:
+        """Phase ``k``'s objective at ``w``: the sum of its objective blocks, in the problem's units."""
+        ph = self.phases[k]
+        total = 0.0
+        for b in ph._blocks():
+            if b.rows is None:
+                count = b.variables.shape[1]
+                Z = w[b.variables + self.variable_offsets[k]]
+                total += float(np.sum(np.asarray(b.function.map(count)(Z, b.parameters))))
+        return total * ph.problem.objective_scale
+
+    def _solution(self, result: NLPResult) -> MultiPhaseSolution:
+        g = np.asarray(self.nlp.constraint_function(result.w)).ravel()
+        phases = []
+        for k, ph in enumerate(self.phases):
+            v = slice(self.variable_offsets[k], self.variable_offsets[k] + ph.n_variables)
+            r = slice(self.row_offsets[k], self.row_offsets[k] + ph.n_constraints)
+            part = NLPResult(
+                w=result.w[v],
+                objective=self._phase_objective(k, result.w) / ph.problem.objective_scale,
+                lam_g=result.lam_g[r],
+                lam_w=result.lam_w[v],
+                status=result.status,
+                iterations=result.iterations,
+                solve_s=result.solve_s,
+                success=result.success,
+                stats=result.stats,
+            )
+            sol = ph._solution(part, g[r])
+            sol.build_s = self.build_s
+            phases.append(sol)
+        link_rows = slice(self.n_constraints - self.n_link_rows, self.n_constraints)
+        return MultiPhaseSolution(
+            phases=phases,
+            links=self.links,
+            status=result.status,
+            iterations=result.iterations,
+            objective=float(sum(p.objective for p in phases)),
+            nlp_parameters=self.n_variables,
+            constraints=self.n_constraints,
+            build_s=self.build_s,
+            solve_s=result.solve_s,
+            converged=result.success,
+            link_residual=float(np.max(np.abs(g[link_rows]))) if self.n_link_rows else 0.0,
+        )
+
+
+@dataclass
+class MultiPhaseSolution(Trajectory):
+    """The solution of a :class:`MultiPhase` problem.
+
+    ``phases``: each phase's :class:`~ocpkit.Solution` (its objective is the phase's share);
+    ``objective``: their sum; ``status``, ``iterations``, ``converged``, ``build_s``,
+    ``solve_s``, ``nlp_parameters`` and ``constraints`` of the one NLP; ``link_residual``:
+    the largest scaled residual of the links. As a :class:`~ocpkit.Trajectory` it spans
+    ``[phases[0].t0, phases[-1].tf]`` (phases that share their state and control names),
+    the later phase holding at a shared time; :meth:`reintegrate` flies each phase
+    from its own initial state (a link may jump).
+    """
+
+    phases: list[Solution]
+    links: list[Link]
+    status: str
+    iterations: int
+    objective: float
+    nlp_parameters: int
+    constraints: int
+    build_s: float
+    solve_s: float
+    converged: bool
+    link_residual: float
+
+    def __post_init__(self) -> None:
+        first = self.phases[0].problem
+        self.problem = first
+        self.t0 = self.phases[0].t0
+        self.tf = self.phases[-1].tf
+        self.breakpoints = np.unique(np.concatenate([p.breakpoints for p in self.phases]))
+        self._uniform = all(
+            (p.problem.state_names, p.problem.control_names) == (first.state_names, first.control_names)
+            for p in self.phases
+        )
+
+    def _phase_of(self, t: np.ndarray) -> np.ndarray:
+        starts = np.array([p.t0 for p in self.phases])
+        return np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.phases) - 1)
+
+    def _piecewise(self, t, what: str) -> np.ndarray:
+        if not self._uniform:
+            raise ValueError("the phases have different states or controls: evaluate phases[k] instead")
+        t = np.asarray(t, dtype=float)
+        flat = t.ravel()
+        k = self._phase_of(flat)
+        dim = getattr(self.phases[0], what)(np.array([self.phases[0].t0])).shape[-1]
+        out = np.empty((flat.size, dim))
+        for j in np.unique(k):
+            ph = self.phases[j]
+            sel = k == j
+            out[sel] = getattr(ph, what)(np.clip(flat[sel], ph.t0, ph.tf))
+        return out.reshape(t.shape + (dim,))
+
+    def _state(self, t):
+        return self._piecewise(t, "state")
+
+    def _control(self, t):
+        return self._piecewise(t, "control")
+
+    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"):
+        """Each phase re-integrated from its own initial state: one :class:`Reintegration` per phase."""
+        return [p.reintegrate(rtol=rtol, atol=atol, n=n, controls=controls) for p in self.phases]
+
+    def max_reintegration_error(self, **kwargs) -> float:
+        """The largest re-integration error over the phases (units of each state's scale)."""
+        return max(r.max_error for r in self.reintegrate(**kwargs))
+
+
+__all__ = ["Link", "MultiPhase", "MultiPhaseSolution"]

@@ -1,0 +1,72 @@
+"""Multi-phase problems: one NLP of linked phases (ocpkit.transcription.phases), against closed-form answers."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from ocpkit import HLGL, Control, FreeFinalTime, Link, MultiPhase, OptimalControlProblem, Radau, State
+
+
+def leg(t0, tf, initial=(None, None), final=(None, None), names=("x", "v")):
+    """min 1/2 int u^2 of the double integrator on [t0, tf], with the given end conditions."""
+    return OptimalControlProblem(
+        f"leg_{t0}_{tf}",
+        states=[State(n, initial=a, final=b) for n, a, b in zip(names, initial, final)],
+        controls=[Control("u")],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+        t0=t0,
+        tf=tf,
+        lagrange=lambda x, u, t: u[0] ** 2 / 2,
+    )
+
+
+def test_two_phases_are_one_problem():
+    """(0, 0) to (1, 0) in t = 1 split at t = 1/2, HLGL then Radau: J = 6, u = 6 - 12 t, continuous states."""
+    mp = MultiPhase([HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 5), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 6, 2)])
+    sol = mp.solve()
+    assert sol.objective == pytest.approx(6.0, rel=1e-9)
+    assert [p.objective for p in sol.phases] == pytest.approx([3.0, 3.0], rel=1e-9)  # int_0^.5 (6-12t)^2/2 = 3
+    assert sol.link_residual < 1e-10
+    t = np.linspace(0, 1, 11)
+    assert np.allclose(sol.control(t)[:, 0], 6 - 12 * t, atol=1e-6)
+    assert np.allclose(sol.state(t)[:, 0], 3 * t**2 - 2 * t**3, atol=1e-8)
+    assert sol.t0 == 0.0 and sol.tf == 1.0 and sol.max_reintegration_error() < 1e-8
+    assert mp.n_constraints == sum(p.n_constraints for p in mp.phases) + 2
+
+
+def test_a_jump_across_a_link():
+    """An impulse of +0.5 in v at t = 1/2: u = 5.5 - 12 t and J = 49/8 (closed form)."""
+    mp = MultiPhase(
+        [Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)],
+        [Link(0, 1, jumps={"v": 0.5})],
+    )
+    sol = mp.solve()
+    assert sol.objective == pytest.approx(49 / 8, rel=1e-9)
+    v_end, v_start = sol.phases[0].state_values[-1, 1], sol.phases[1].state_values[0, 1]
+    assert v_start - v_end == pytest.approx(0.5, abs=1e-10)
+
+
+def test_a_free_final_time_meets_the_next_phase():
+    """Phase 0 with a free tf, phase 1 starting at 0.5: the link fixes tf = 0.5 and J = 6."""
+    first = leg(0.0, FreeFinalTime(0.1, 0.9, 0.3), initial=(0.0, 0.0))
+    sol = MultiPhase([HLGL(first, 6), HLGL(leg(0.5, 1.0, final=(1.0, 0.0)), 6)]).solve()
+    assert sol.phases[0].tf == pytest.approx(0.5, abs=1e-10)
+    assert sol.objective == pytest.approx(6.0, rel=1e-9)
+
+
+def test_bad_links_are_named():
+    a, b = HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 4), HLGL(leg(0.5, 1.0, final=(1.0, 0.0), names=("y", "w")), 4)
+    with pytest.raises(ValueError, match=r"link 0 -> 1: states \['x', 'v'\] are not states of both phases"):
+        MultiPhase([a, b])
+    c = HLGL(leg(0.6, 1.0, final=(1.0, 0.0)), 4)
+    with pytest.raises(ValueError, match=r"link 0 -> 1: phase 0 ends at tf = 0.5 but phase 1 starts at t0 = 0.6"):
+        MultiPhase([a, c])
+    d = HLGL(leg(0.5, 1.0, final=(1.0, 0.0)), 4)
+    with pytest.raises(ValueError, match=r"link 0 -> 1: jumps of \['m'\], which the link does not join"):
+        MultiPhase([a, d], [Link(0, 1, jumps={"m": -1.0})])
+    with pytest.raises(ValueError, match="link 0 -> 0: phases must be two different indices"):
+        MultiPhase([a, d], [Link(0, 0)])
+    with pytest.raises(TypeError, match="phase 1 must be a Transcription"):
+        MultiPhase([a, leg(0.5, 1.0)])
+    with pytest.raises(ValueError, match="one guess per phase"):
+        MultiPhase([a, d]).solve([None])
