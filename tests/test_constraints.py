@@ -206,3 +206,91 @@ def test_the_shooting_engine_refuses_constraints_it_does_not_treat():
     pr = minimum_energy_to_a_line()
     with pytest.raises(ValueError, match=r"does not treat path or boundary constraints \(\['line'\]"):
         Shooting(pr, control_law(pr.replace(boundary_constraints=()), "box", regularized=True))
+
+
+# -- free static parameters and a free initial time ---------------------------------------------------
+
+
+def parameter_to_choose(make):
+    """Rest to rest at x(1) = p (boundary constraint), p free: J = 6 p^2 + 12 (p - 1)^2, minimal at p = 2/3, J = 4."""
+    from ocpkit import FreeParameter
+
+    pr = OptimalControlProblem(
+        "choose_p",
+        states=[State("x", initial=0.0), State("v", initial=0.0, final=0.0)],
+        controls=[Control("u")],
+        dynamics=lambda x, u, t, P: ca.vertcat(x[1], u[0]),
+        tf=1.0,
+        lagrange=lambda x, u, t, P: u[0] ** 2 / 2,
+        mayer=lambda x0, xf, t0, tf, P: 12 * (P["p"] - 1) ** 2,
+        free_parameters=[FreeParameter("p", lower=-5.0, upper=5.0, guess=0.0)],
+        boundary_constraints=[Constraint("reach", lambda x0, xf, t0, tf, P: xf[0] - P["p"], lower=0.0, upper=0.0)],
+    )
+    return make(pr)
+
+
+@pytest.mark.parametrize("scheme", ["hlgl", "radau", "multirate"])
+def test_a_free_parameter_is_optimised(scheme):
+    make = {
+        "hlgl": lambda pr: HLGL(pr, 8),
+        "radau": lambda pr: Radau(pr, 5, 2),
+        "multirate": lambda pr: MultiRateHLGL(pr, 4, ratio=2, fast=["v"]),
+    }[scheme]
+    tr = parameter_to_choose(make)
+    sol = tr.solve()
+    assert sol.objective == pytest.approx(4.0, rel=1e-9)
+    assert sol.problem.parameters["p"] == pytest.approx(2 / 3, rel=1e-9)  # the solution's problem has p fixed
+    assert sol.reintegrate().max_error < 1e-6
+    assert tr.n_variables == tr.global_indices()[-1] + 1
+
+
+def test_a_free_initial_time():
+    """Rest to rest over distance 1 ending at tf = 2, t0 free: J = 6 / T^3 + 18 T with T = 2 - t0 is minimal at
+    T = 1 (t0 = 1), J = 24."""
+    from ocpkit import FreeInitialTime
+
+    pr = OptimalControlProblem(
+        "free_start",
+        states=[State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        controls=[Control("u")],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+        t0=FreeInitialTime(0.0, 1.5, 0.5),
+        tf=2.0,
+        lagrange=lambda x, u, t: u[0] ** 2 / 2,
+        mayer=lambda x0, xf, t0, tf: 18 * (tf - t0),
+    )
+    for tr in (HLGL(pr, 6), Radau(pr, 6, 1)):
+        sol = tr.solve()
+        assert sol.t0 == pytest.approx(1.0, abs=1e-8) and sol.objective == pytest.approx(24.0, rel=1e-9)
+        assert sol.state_times[0] == pytest.approx(1.0, abs=1e-8)
+
+
+def test_free_times_and_parameters_are_checked():
+    from ocpkit import FreeFinalTime, FreeInitialTime, FreeParameter
+
+    def make(**kw):
+        spec = dict(
+            states=[State("x", initial=0.0)],
+            controls=[Control("u")],
+            dynamics=lambda x, u, t: u[0],
+            tf=1.0,
+            lagrange=lambda x, u, t: u[0] ** 2,
+        )
+        return OptimalControlProblem("p", **(spec | kw))
+
+    with pytest.raises(ValueError, match=r"final time 1.0 must exceed t0 \(at most 1.5\)"):
+        make(t0=FreeInitialTime(0.0, 1.5, 0.5))
+    with pytest.raises(ValueError, match="initial time guess 2.0 lies outside"):
+        FreeInitialTime(0.0, 1.0, 2.0)
+    with pytest.raises(ValueError, match=r"parameter names used twice .*\['k'\]"):
+        make(
+            parameters={"k": 1.0},
+            free_parameters=[FreeParameter("k", lower=0, upper=1)],
+            dynamics=lambda x, u, t, P: u[0],
+            lagrange=lambda x, u, t, P: u[0] ** 2,
+        )
+    with pytest.raises(ValueError, match="free parameter 'k': the guess must be a number"):
+        FreeParameter("k", lower=0, upper=1, guess=(0, 1))
+    with pytest.raises(TypeError, match="FreeInitialTime: give a FreeFinalTime"):
+        make(tf=FreeInitialTime(0.5, 1.0, 0.7))
+    assert make(tf=FreeFinalTime(0.5, 2.0, 1.0)).free_final_time

@@ -70,3 +70,13 @@ def test_bad_links_are_named():
         MultiPhase([a, leg(0.5, 1.0)])
     with pytest.raises(ValueError, match="one guess per phase"):
         MultiPhase([a, d]).solve([None])
+
+
+def test_a_free_initial_time_meets_the_previous_phase():
+    """Phase 1 with a free t0 after phase 0 ending at 0.5: the link fixes t0 = 0.5 and J = 6."""
+    from ocpkit import FreeInitialTime
+
+    second = leg(FreeInitialTime(0.2, 0.8, 0.6), 1.0, final=(1.0, 0.0))
+    sol = MultiPhase([Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 6), Radau(second, 6)]).solve()
+    assert sol.phases[1].t0 == pytest.approx(0.5, abs=1e-10)
+    assert sol.objective == pytest.approx(6.0, rel=1e-9)

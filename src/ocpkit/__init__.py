@@ -1,7 +1,16 @@
 """ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
 
 from .errors import SolverError
-from .problem import Constraint, Control, FreeFinalTime, Guess, OptimalControlProblem, State
+from .problem import (
+    Constraint,
+    Control,
+    FreeFinalTime,
+    FreeInitialTime,
+    FreeParameter,
+    Guess,
+    OptimalControlProblem,
+    State,
+)
 from .solution import Reintegration, Solution
 from .trajectory import Trajectory
 from .transcription import HLGL, Link, MultiPhase, MultiPhaseSolution, MultiRateHLGL, Radau, Transcription
@@ -12,6 +21,8 @@ __all__ = [
     "Constraint",
     "Control",
     "FreeFinalTime",
+    "FreeInitialTime",
+    "FreeParameter",
     "Guess",
     "HLGL",
     "Link",

@@ -6,7 +6,7 @@
                 g_lo <= g(x(t), u(t), t) <= g_hi                  (path constraints)
                 psi_lo <= psi(x(t0), x(tf), t0, tf) <= psi_hi     (boundary constraints)
                 x(t0), x(tf) fixed or bounded component by component
-                t0 fixed; tf fixed or free within bounds.
+                t0 and tf fixed or free within bounds; static parameters fixed or free.
 
 This is the problem of Desai & Conway, Eqs. (1)-(5): their path constraints
 ``g(x, u, t) <= 0`` are :class:`Constraint` s of ``path_constraints`` (mixed
@@ -292,19 +292,48 @@ class ConstraintSet:
 
 @dataclass(frozen=True)
 class FreeFinalTime:
-    """A free final time ``tf`` in ``[lower, upper]``."""
+    """A free final time ``tf`` in ``[lower, upper]``; the NLP holds ``tf / scale``."""
 
     lower: float
     upper: float
     guess: float
     scale: float = 1.0
 
+    _what = "final time"
+
     def __post_init__(self) -> None:
-        lo, hi = _as_interval((self.lower, self.upper), "final time bounds")
+        lo, hi = _as_interval((self.lower, self.upper), f"{self._what} bounds")
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ValueError(f"{self._what} bounds must be finite, got [{lo}, {hi}]")
         if not lo <= self.guess <= hi:
-            raise ValueError(f"final time guess {self.guess} lies outside [{lo}, {hi}]")
+            raise ValueError(f"{self._what} guess {self.guess} lies outside [{lo}, {hi}]")
         if not (self.scale > 0 and math.isfinite(self.scale)):
-            raise ValueError(f"final time scale must be positive and finite, got {self.scale}")
+            raise ValueError(f"{self._what} scale must be positive and finite, got {self.scale}")
+
+
+@dataclass(frozen=True)
+class FreeInitialTime(FreeFinalTime):
+    """A free initial time ``t0`` in ``[lower, upper]`` (below every admissible final time)."""
+
+    _what = "initial time"
+
+
+@dataclass(frozen=True)
+class FreeParameter(Variable):
+    """A static parameter the NLP optimises, within ``[lower, upper]``, from a constant ``guess``.
+
+    It reaches the problem's functions with the fixed ``parameters``, in the same dict of
+    symbols by name (a design variable, an unknown physical constant).
+    """
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.guess is not None and (callable(self.guess) or isinstance(self.guess, (tuple, list))):
+            raise ValueError(f"free parameter {self.name!r}: the guess must be a number, got {self.guess!r}")
+
+    @property
+    def guess_value(self) -> float:
+        return float(self.guess) if self.guess is not None else float(_midpoint(self.lower, self.upper))
 
 
 @dataclass(frozen=True)
@@ -392,6 +421,11 @@ class OptimalControlProblem:
         problem's functions (a homotopy parameter, a thrust level). When given,
         ``dynamics``, ``lagrange`` and ``mayer`` receive one more argument: a dict
         of CasADi symbols by name.
+    free_parameters : sequence of :class:`FreeParameter`, optional
+        Static parameters the transcriptions optimise; in the same dict of symbols.
+    path_constraints, boundary_constraints : sequences of :class:`Constraint`, optional.
+    t0 : float or :class:`FreeInitialTime`
+        A free initial time must lie below every admissible final time.
 
     The functions are :attr:`functions` (``f``, ``L``, ``phi`` with ``P`` last);
     :meth:`dynamics`, :meth:`lagrange` and :meth:`mayer` evaluate them with this
@@ -405,13 +439,14 @@ class OptimalControlProblem:
         controls: Sequence[Control],
         dynamics: Callable,
         *,
-        t0: float = 0.0,
+        t0: float | FreeInitialTime = 0.0,
         tf: float | FreeFinalTime,
         mayer: Callable | None = None,
         lagrange: Callable | None = None,
         objective_scale: float = 1.0,
         description: str = "",
         parameters: Mapping[str, float] | None = None,
+        free_parameters: Sequence[FreeParameter] = (),
         path_constraints: Sequence[Constraint] = (),
         boundary_constraints: Sequence[Constraint] = (),
         _functions: ProblemFunctions | None = None,
@@ -428,6 +463,7 @@ class OptimalControlProblem:
             objective_scale=objective_scale,
             description=description,
             parameters=parameters,
+            free_parameters=free_parameters,
             path_constraints=path_constraints,
             boundary_constraints=boundary_constraints,
         )
@@ -451,18 +487,27 @@ class OptimalControlProblem:
         if not (objective_scale > 0 and math.isfinite(objective_scale)):
             raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
         set_(self, "objective_scale", float(objective_scale))
-        if not (isinstance(t0, (int, float, np.floating)) and math.isfinite(t0)):
-            raise ValueError(f"t0 must be a finite number, got {t0!r}")
-        set_(self, "t0", float(t0))
+        if isinstance(t0, FreeInitialTime):
+            set_(self, "initial_time", t0)
+            set_(self, "t0", float(t0.guess))
+            t0_upper = t0.upper
+        else:
+            if isinstance(t0, FreeFinalTime) or not (isinstance(t0, (int, float, np.floating)) and math.isfinite(t0)):
+                raise ValueError(f"t0 must be a finite number or a FreeInitialTime, got {t0!r}")
+            set_(self, "initial_time", None)
+            set_(self, "t0", float(t0))
+            t0_upper = self.t0
+        if isinstance(tf, FreeInitialTime):
+            raise TypeError("tf is a FreeInitialTime: give a FreeFinalTime")
         if isinstance(tf, FreeFinalTime):
-            if tf.lower <= self.t0:
-                raise ValueError(f"final time lower bound {tf.lower} must exceed t0 = {self.t0}")
+            if tf.lower <= t0_upper:
+                raise ValueError(f"final time lower bound {tf.lower} must exceed t0 (at most {t0_upper})")
             set_(self, "tf", tf)
         else:
             if not (isinstance(tf, (int, float, np.floating)) and math.isfinite(tf)):
                 raise ValueError(f"tf must be a finite number or a FreeFinalTime, got {tf!r}")
-            if float(tf) <= self.t0:
-                raise ValueError(f"final time {tf} must exceed t0 = {self.t0}")
+            if float(tf) <= t0_upper:
+                raise ValueError(f"final time {tf} must exceed t0 (at most {t0_upper})")
             set_(self, "tf", float(tf))
 
         values = {} if parameters is None else {str(k): float(v) for k, v in parameters.items()}
@@ -472,6 +517,16 @@ class OptimalControlProblem:
             if not math.isfinite(v):
                 raise ValueError(f"parameter {k!r} must be finite, got {v}")
         set_(self, "parameters", values)
+        free = tuple(free_parameters)
+        for v in free:
+            if not isinstance(v, FreeParameter):
+                raise TypeError(f"free_parameters must be FreeParameter objects, got {v!r}")
+        clash = sorted({v.name for v in free} & set(values))
+        names = [v.name for v in free]
+        clash += sorted({n for n in names if names.count(n) > 1})
+        if clash:
+            raise ValueError(f"parameter names used twice (fixed and free, or free twice): {clash}")
+        set_(self, "free_parameters", free)
         for kind, given in (("path_constraints", path_constraints), ("boundary_constraints", boundary_constraints)):
             given = tuple(given)
             for c in given:
@@ -490,8 +545,9 @@ class OptimalControlProblem:
                 dynamics,
                 lagrange,
                 mayer,
-                with_parameters=parameters is not None,
+                with_parameters=self.takes_parameters,
                 state_names=self.state_names,
+                free_names=[v.name for v in free],
                 path_constraints=self.path_constraints,
                 boundary_constraints=self.boundary_constraints,
             )
@@ -556,8 +612,26 @@ class OptimalControlProblem:
 
     @property
     def takes_parameters(self) -> bool:
-        """Whether the user's functions receive the dict of parameter symbols (the problem was given ``parameters``)."""
-        return self._spec["parameters"] is not None
+        """Whether the user's functions receive the dict of parameter symbols (given ``parameters`` or free ones)."""
+        return self._spec["parameters"] is not None or bool(self._spec["free_parameters"])
+
+    @property
+    def free_initial_time(self) -> bool:
+        return self.initial_time is not None
+
+    @property
+    def free_parameter_scaling(self) -> AffineScaling:
+        return AffineScaling.of(self.free_parameters)
+
+    def fix_parameters(self, values: Mapping[str, float]) -> OptimalControlProblem:
+        """This problem with its free parameters fixed at ``values`` (every one named), sharing its functions."""
+        names = [v.name for v in self.free_parameters]
+        if sorted(values) != sorted(names):
+            raise KeyError(f"give a value for each free parameter {names}, got {sorted(values)}")
+        spec = dict(self._spec)
+        spec["parameters"] = {**self.parameters, **{k: float(values[k]) for k in names}}
+        spec["free_parameters"] = ()
+        return OptimalControlProblem(**spec, _functions=self.functions)
 
     @property
     def parameter_values(self) -> np.ndarray:
@@ -565,29 +639,38 @@ class OptimalControlProblem:
 
     @cached_property
     def _P(self) -> ca.DM:
-        return ca.DM(self.parameter_vector()) if self.parameters else ca.DM(0, 1)
+        """The parameter vector of the functions: the fixed values, then each free parameter's guess."""
+        values = [*self.parameter_vector(), *(v.guess_value for v in self.free_parameters)]
+        return ca.DM(values) if values else ca.DM(0, 1)
 
-    def dynamics(self, x, u, t):
-        """``f(x, u, t)`` with this problem's parameters (numbers give a DM, CasADi symbols an expression)."""
-        return self.functions.f(x, u, t, self._P)
+    def dynamics(self, x, u, t, P=None):
+        """``f(x, u, t)`` with this problem's parameters, or ``P`` (numbers give a DM, CasADi symbols an expression).
 
-    def lagrange(self, x, u, t):
+        Here and below, ``P`` (default :attr:`_P`) is the full parameter vector: the fixed
+        values, then the free parameters (their guesses by default; a transcription passes
+        its NLP symbols).
+        """
+        return self.functions.f(x, u, t, self._P if P is None else P)
+
+    def lagrange(self, x, u, t, P=None):
         """``L(x, u, t)`` with this problem's parameters; 0 without a running cost."""
-        return self.functions.L(x, u, t, self._P) if self.functions.L is not None else ca.DM(0)
+        return self.functions.L(x, u, t, self._P if P is None else P) if self.functions.L is not None else ca.DM(0)
 
-    def mayer(self, x0, xf, t0, tf):
+    def mayer(self, x0, xf, t0, tf, P=None):
         """``phi(x0, xf, t0, tf)`` with this problem's parameters; 0 without a Mayer term."""
-        return self.functions.phi(x0, xf, t0, tf, self._P) if self.functions.phi is not None else ca.DM(0)
+        if self.functions.phi is None:
+            return ca.DM(0)
+        return self.functions.phi(x0, xf, t0, tf, self._P if P is None else P)
 
-    def path(self, x, u, t):
+    def path(self, x, u, t, P=None):
         """The stacked path constraints ``g(x, u, t)`` with this problem's parameters (None without)."""
         c = self.functions.path
-        return None if c is None else c.function(x, u, t, self._P)
+        return None if c is None else c.function(x, u, t, self._P if P is None else P)
 
-    def boundary(self, x0, xf, t0, tf):
+    def boundary(self, x0, xf, t0, tf, P=None):
         """The stacked boundary constraints ``psi(x0, xf, t0, tf)`` with this problem's parameters (None without)."""
         c = self.functions.boundary
-        return None if c is None else c.function(x0, xf, t0, tf, self._P)
+        return None if c is None else c.function(x0, xf, t0, tf, self._P if P is None else P)
 
     # -- descriptors -----------------------------------------------------------------
     @property
@@ -653,12 +736,14 @@ def _build_functions(
     *,
     with_parameters: bool,
     state_names,
+    free_names=(),
     path_constraints=(),
     boundary_constraints=(),
 ) -> ProblemFunctions:
     """The problem's CasADi functions from the user's callables (called once, on symbols)."""
-    P = ca.SX.sym("P", len(values))
-    extra = ({k: P[i] for i, k in enumerate(values)},) if with_parameters else ()
+    names = [*values, *free_names]
+    P = ca.SX.sym("P", len(names))
+    extra = ({k: P[i] for i, k in enumerate(names)},) if with_parameters else ()
     x = ca.SX.sym("x", nx)
     u = ca.SX.sym("u", nu)
     t = ca.SX.sym("t")
@@ -743,18 +828,30 @@ class Guess:
 
     ``states`` and ``controls`` map names to a :data:`GuessSpec` (a function of time,
     a constant, or a ``(start, end)`` tuple linear in time); names left out use each
-    variable's own guess. ``tf`` defaults to the problem's guess.
+    variable's own guess. ``tf`` defaults to the problem's guess (a free initial time
+    starts at its guess), and ``parameters`` (free parameter name -> value) to each free
+    parameter's guess.
     """
 
     tf: float | None = None
     states: Mapping[str, object] = field(default_factory=dict)
     controls: Mapping[str, object] = field(default_factory=dict)
+    parameters: Mapping[str, float] = field(default_factory=dict)
+
+    def parameter_values(self, problem: OptimalControlProblem) -> dict[str, float]:
+        """The guess of every free parameter, by name."""
+        names = [v.name for v in problem.free_parameters]
+        unknown = sorted(set(self.parameters) - set(names))
+        if unknown:
+            raise KeyError(f"guess names unknown free parameters {unknown}; free parameters are {names}")
+        return {v.name: float(self.parameters.get(v.name, v.guess_value)) for v in problem.free_parameters}
 
     def functions(self, problem: OptimalControlProblem):
         """``(tf, states(t), controls(t))``: the guessed final time and the guess as functions of time."""
         tf = problem.tf_guess if self.tf is None else float(self.tf)
-        if not (math.isfinite(tf) and tf > problem.t0):
-            raise ValueError(f"guess tf = {tf} must be finite and exceed t0 = {problem.t0}")
+        t0 = problem.t0
+        if not (math.isfinite(tf) and tf > t0):
+            raise ValueError(f"guess tf = {tf} must be finite and exceed t0 = {t0}")
         for key, names in (("states", problem.state_names), ("controls", problem.control_names)):
             unknown = sorted(set(getattr(self, key)) - set(names))
             if unknown:
@@ -768,7 +865,7 @@ class Guess:
 
             def fun(t):
                 t = np.asarray(t, dtype=float)
-                s = (t - problem.t0) / (tf - problem.t0)
+                s = (t - t0) / (tf - t0)
                 if not parts:
                     return np.zeros(t.shape + (0,))
                 return np.stack([np.broadcast_to(g(s, t), t.shape) for g in parts], axis=-1)

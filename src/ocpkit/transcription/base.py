@@ -13,7 +13,7 @@ from ..errors import SolverError
 from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
-from .mesh import Mesh, final_time
+from .mesh import Mesh, final_time, initial_time, n_globals, parameter_vector
 
 
 def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,7 +139,34 @@ class Transcription(ABC):
     # -- layout: sizes, indices, bounds, packing -------------------------------------------
     @property
     def n_variables(self) -> int:
-        return sum(g.size for g in self._groups()) + int(self.problem.free_final_time)
+        return sum(g.size for g in self._groups()) + n_globals(self.problem)
+
+    def global_indices(self) -> np.ndarray:
+        """NLP indices of the problem-wide variables (free parameters, then t0 and tf where free), last in ``w``."""
+        k = n_globals(self.problem)
+        return np.arange(self.n_variables - k, self.n_variables, dtype=np.int64)
+
+    def _global_rows(self, count: int) -> list[np.ndarray]:
+        """The problem-wide variables as index-table rows for ``count`` instances (an empty list without any)."""
+        g = self.global_indices()
+        return [np.tile(g[:, None], (1, count))] if g.size else []
+
+    def time_indices(self) -> tuple[int | None, int | None]:
+        """NLP indices of t0 and tf (None where fixed)."""
+        g = self.global_indices()
+        pr = self.problem
+        i0 = int(g[len(pr.free_parameters)]) if pr.free_initial_time else None
+        return i0, (int(g[-1]) if pr.free_final_time else None)
+
+    def global_values(self, w) -> dict:
+        """``{"parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector."""
+        pr = self.problem
+        z = np.asarray(w, dtype=float).ravel()[self.global_indices()]
+        nf = len(pr.free_parameters)
+        values = pr.free_parameter_scaling.from_nlp(z[:nf]) if nf else np.zeros(0)
+        t0 = float(z[nf] * pr.initial_time.scale) if pr.free_initial_time else pr.t0
+        tf = float(z[-1] * pr.tf.scale) if pr.free_final_time else pr.tf
+        return {"parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())), "t0": t0, "tf": tf}
 
     def _index_tables(self) -> tuple[list[np.ndarray], int | None]:
         """Global NLP indices of each group, shaped (variables, points), and of tf (None if fixed)."""
@@ -158,8 +185,9 @@ class Transcription(ABC):
             ]
         )
 
-    def pack(self, *values, tf: float | None = None) -> np.ndarray:
-        """Scaled NLP vector from physical values, one (points, variables) array per group, and tf."""
+    def pack(self, *values, tf: float | None = None, t0: float | None = None, parameters=None) -> np.ndarray:
+        """Scaled NLP vector from physical values, one (points, variables) array per group, and tf
+        (free parameters and a free t0: ``parameters`` and ``t0``, default their guesses)."""
         groups = self._groups()
         if len(values) == len(groups) + 1 and tf is None:
             *values, tf = values
@@ -171,10 +199,16 @@ class Transcription(ABC):
             if v.shape != (g.points, len(g.variables)):
                 raise ValueError(f"{g.name} have shape {v.shape}, expected ({g.points}, {len(g.variables)})")
             parts.append(g.scaling.to_nlp(v).ravel() if g.variables else np.zeros(0))
-        if self.problem.free_final_time:
+        pr = self.problem
+        if pr.free_parameters:
+            values = {v.name: v.guess_value for v in pr.free_parameters} | dict(parameters or {})
+            parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
+        if pr.free_initial_time:
+            parts.append([(pr.t0 if t0 is None else t0) / pr.initial_time.scale])
+        if pr.free_final_time:
             if tf is None:
                 raise ValueError("this problem has a free final time: give tf")
-            parts.append([tf / self.problem.tf.scale])
+            parts.append([tf / pr.tf.scale])
         return np.concatenate(parts)
 
     def unpack(self, w) -> tuple:
@@ -192,15 +226,28 @@ class Transcription(ABC):
         return tuple(out)
 
     # -- helpers for subclasses ------------------------------------------------------------
-    def _times(self, tf: float, s: np.ndarray) -> np.ndarray:
+    def _times(self, tf: float, s: np.ndarray, t0: float | None = None) -> np.ndarray:
         """Physical times of normalised times ``s`` in [0, 1]."""
-        return Mesh.times(self.problem, tf, s)
+        return Mesh.times(self.problem, tf, s, t0)
+
+    def _result_problem(self, result: NLPResult):
+        """The problem of a result: with the free parameters fixed at their solved values; and ``(t0, tf)``."""
+        g = self.global_values(result.w)
+        pr = self.problem.fix_parameters(g["parameters"]) if self.problem.free_parameters else self.problem
+        return pr, g["t0"], g["tf"]
 
     def _stack_bounds(self, parts) -> tuple[np.ndarray, np.ndarray]:
-        """Concatenate ``(lower, upper)`` arrays in layout order and append the final-time bounds."""
+        """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds."""
         pr = self.problem
         lb = [np.ravel(lo) for lo, _ in parts]
         ub = [np.ravel(hi) for _, hi in parts]
+        if pr.free_parameters:
+            sc = pr.free_parameter_scaling
+            lb.append(sc.to_nlp([v.lower for v in pr.free_parameters]))
+            ub.append(sc.to_nlp([v.upper for v in pr.free_parameters]))
+        if pr.free_initial_time:
+            lb.append([pr.initial_time.lower / pr.initial_time.scale])
+            ub.append([pr.initial_time.upper / pr.initial_time.scale])
         if pr.free_final_time:
             lb.append([pr.tf.lower / pr.tf.scale])
             ub.append([pr.tf.upper / pr.tf.scale])
@@ -209,15 +256,10 @@ class Transcription(ABC):
     def _mayer_block(self, first: np.ndarray, last: np.ndarray, tf_index: int | None) -> Block:
         """The Mayer term phi(x(t0), x(tf), t0, tf) on the NLP variables ``first`` and ``last`` (problem order)."""
         pr = self.problem
-        nx = pr.nx
-        free = pr.free_final_time
-        z = ca.SX.sym("z", 2 * nx + int(free))
-        p = ca.SX.sym("p", int(not free))
-        tf = final_time(pr, z, p, 0)
-        xs = pr.state_scaling
-        phi = pr.mayer(xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx]), pr.t0, tf)
-        var = np.concatenate([first, last] + ([[tf_index]] if free else []))
-        par = np.zeros((0, 1)) if free else np.array([[pr.tf]])
+        z, p, x0, xf, t0, tf, P = self._boundary_symbols()
+        phi = pr.mayer(x0, xf, t0, tf, P)
+        var = np.concatenate([first, last, self.global_indices()])
+        par = np.zeros((0, 1)) if pr.free_final_time else np.array([[pr.tf]])
         return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
 
     # -- path and boundary constraints (rows after the defects) -------------------------------
@@ -257,7 +299,8 @@ class Transcription(ABC):
         if path is not None:
             scale = ca.DM(path.scale)
             for j, pp in enumerate(self._path_points_cached()):
-                out = ca.vertcat(*[pr.path(x, u, t) / scale for x, u, t in zip(pp.x, pp.u, pp.t)])
+                P = parameter_vector(pr, pp.z)
+                out = ca.vertcat(*[pr.path(x, u, t, P) / scale for x, u, t in zip(pp.x, pp.u, pp.t)])
                 per = out.shape[0]
                 rows = row + np.arange(per * pp.count).reshape(pp.count, per).T
                 fun = ca.Function(f"path_{j}", [pp.z, pp.p], [out])
@@ -265,10 +308,10 @@ class Transcription(ABC):
                 row += per * pp.count
         boundary = pr.functions.boundary
         if boundary is not None:
-            first, last, tfi = self._boundary_indices()
-            z, q, x0, xf, tf = self._boundary_symbols()
-            out = pr.boundary(x0, xf, pr.t0, tf) / ca.DM(boundary.scale)
-            var = np.concatenate([first, last] + ([[tfi]] if pr.free_final_time else []))
+            first, last, _ = self._boundary_indices()
+            z, q, x0, xf, t0, tf, P = self._boundary_symbols()
+            out = pr.boundary(x0, xf, t0, tf, P) / ca.DM(boundary.scale)
+            var = np.concatenate([first, last, self.global_indices()])
             par = np.zeros((0, 1)) if pr.free_final_time else np.array([[pr.tf]])
             rows = row + np.arange(boundary.size)[:, None]
             blocks.append(
@@ -277,13 +320,15 @@ class Transcription(ABC):
         return blocks
 
     def _boundary_symbols(self):
-        """Symbols ``z = [x(t0), x(tf), (tf)]`` (scaled), ``p = [(tf)]`` and the physical ``x0, xf, tf`` in them."""
+        """Symbols ``z = [x(t0), x(tf), problem-wide variables]`` (scaled) and ``p = [(tf)]``, and in them the
+        physical ``x0, xf, t0, tf`` and the parameter vector ``P``."""
         pr = self.problem
-        nx, free = pr.nx, pr.free_final_time
-        z = ca.SX.sym("z", 2 * nx + int(free))
-        q = ca.SX.sym("p", int(not free))
+        nx = pr.nx
+        z = ca.SX.sym("z", 2 * nx + n_globals(pr))
+        q = ca.SX.sym("p", int(not pr.free_final_time))
         xs = pr.state_scaling
-        return z, q, xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx]), final_time(pr, z, q, 0)
+        x0, xf = xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx])
+        return z, q, x0, xf, initial_time(pr, z), final_time(pr, z, q, 0), parameter_vector(pr, z)
 
     def _boundary_indices(self) -> tuple[np.ndarray, np.ndarray, int | None]:
         """NLP indices of ``x(t0)`` and ``x(tf)`` (problem order) and of tf (None if fixed)."""
@@ -384,6 +429,17 @@ class Transcription(ABC):
         w0 = np.asarray(self._initial_point(tf, xs, us), dtype=float)
         if w0.shape != (self.n_variables,):
             raise ValueError(f"initial point has shape {w0.shape}, expected ({self.n_variables},)")
+        if self.problem.free_parameters:
+            if isinstance(guess, Solution):
+                values = {
+                    v.name: guess.problem.parameters.get(v.name, v.guess_value) for v in self.problem.free_parameters
+                }
+            else:
+                values = guess.parameter_values(self.problem)
+            nf = len(self.problem.free_parameters)
+            w0[self.global_indices()[:nf]] = self.problem.free_parameter_scaling.to_nlp(
+                [values[v.name] for v in self.problem.free_parameters]
+            )
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 
@@ -425,11 +481,17 @@ class Transcription(ABC):
         return solution
 
     def _solution(self, result: NLPResult, g: np.ndarray | None = None) -> Solution:
-        """The :class:`Solution` of an NLP result (``g``: its constraint values, when already evaluated)."""
+        """The :class:`Solution` of an NLP result (``g``: its constraint values, when already evaluated).
+
+        With free parameters, the solution's problem has them fixed at their solved values
+        (:meth:`~ocpkit.OptimalControlProblem.fix_parameters`), so that everything done with
+        the solution (interpolation, re-integration) uses them.
+        """
         fields = self._package(result)
         fields.update(self._constraint_fields(result, fields["tf"], g))
+        problem, _, _ = self._result_problem(result)
         return Solution(
-            problem=self.problem,
+            problem=problem,
             transcription=self.label,
             status=result.status,
             iterations=result.iterations,

@@ -28,7 +28,7 @@ from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
 from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, segment_clock
+from .mesh import Mesh, n_globals, parameter_vector, segment_clock
 
 
 def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
@@ -137,11 +137,12 @@ class HLGL(Transcription):
 
     # -- NLP blocks ----------------------------------------------------------------------
     def _segment_symbols(self):
-        """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, (tf)] scaled; p = [start, frac, (tf)]."""
+        """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, problem-wide variables] scaled;
+        p = [start, frac, (tf)]."""
         pr = self.problem
         nx, nu = pr.nx, pr.nu
         free = pr.free_final_time
-        z = ca.SX.sym("z", 3 * nx + 5 * nu + int(free))
+        z = ca.SX.sym("z", 3 * nx + 5 * nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not free))
         xs, us = pr.state_scaling, pr.control_scaling
         x = [xs.from_nlp(z[j * nx : (j + 1) * nx]) for j in range(3)]
@@ -154,11 +155,10 @@ class HLGL(Transcription):
         pr = self.problem
         n = self.segments
         k = np.arange(n)
-        (Xi, Ui), tfi = self._index_tables()
+        (Xi, Ui), _ = self._index_tables()
         rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
         rows += [Ui[:, 4 * k + j] for j in range(5)]
-        if pr.free_final_time:
-            rows.append(np.full((1, n), tfi))
+        rows += self._global_rows(n)
         return np.vstack(rows), self.mesh.parameters(pr)
 
     def _blocks(self) -> list[Block]:
@@ -167,7 +167,11 @@ class HLGL(Transcription):
         n = self.segments
         variables, params = self._segment_tables()
         z, p, x, u, t, h = self._segment_symbols()
-        f = pr.dynamics
+        P = parameter_vector(pr, z)
+
+        def f(x, u, t):
+            return pr.dynamics(x, u, t, P)
+
         c1, c2, x_a, x_b, _ = hlgl_segment(f, x[0], x[1], x[2], u, t, h)
         sx = pr.state_scale
         defects = ca.Function("hlgl_defects", [z, p], [ca.vertcat(c1 / sx, c2 / sx)])
@@ -176,7 +180,7 @@ class HLGL(Transcription):
 
         if pr.L is not None:
             xs = [x[0], x_a, x[1], x_b, x[2]]
-            quad = h * sum(w * pr.lagrange(xj, uj, tj) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
+            quad = h * sum(w * pr.lagrange(xj, uj, tj, P) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
             fun = ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
 
@@ -189,7 +193,8 @@ class HLGL(Transcription):
         """Path constraints at the five points of each segment: ``t_i, t_a, t_c, t_b`` of every segment (the
         states at ``t_a, t_b`` from the quintic Hermite interpolant), and the final node once."""
         z, p, x, u, t, h = self._segment_symbols()
-        _, _, x_a, x_b, _ = hlgl_segment(self.problem.dynamics, x[0], x[1], x[2], u, t, h)
+        P = parameter_vector(self.problem, z)
+        _, _, x_a, x_b, _ = hlgl_segment(lambda x, u, t: self.problem.dynamics(x, u, t, P), x[0], x[1], x[2], u, t, h)
         variables, params = self._segment_tables()
         mesh = self.mesh
         fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_CONTROL_NODES[None, :4]
@@ -213,20 +218,20 @@ class HLGL(Transcription):
 
     # -- solution ------------------------------------------------------------------------
     def _package(self, result: NLPResult) -> dict:
-        pr = self.problem
-        X, U, tf = self.unpack(result.w)
-        t_x = self._times(tf, self.state_node_fractions())
-        t_u = self._times(tf, self.control_point_fractions())
+        pr, t0, tf = self._result_problem(result)
+        X, U, _ = self.unpack(result.w)
+        t_x = self._times(tf, self.state_node_fractions(), t0)
+        t_u = self._times(tf, self.control_point_fractions(), t0)
         U_nodes = U[0::2] if pr.nu else np.zeros((self.n_state_nodes, 0))
         F = np.asarray(pr.f.map(self.n_state_nodes)(X.T, U_nodes.T, t_x[None, :], pr.parameter_vector())).T
-        breaks = self._times(tf, self.mesh.breaks)
+        breaks = self._times(tf, self.mesh.breaks, t0)
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
         Useg = segment_points(U, self.segments)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
         return dict(
-            t0=pr.t0,
+            t0=t0,
             tf=tf,
             state_times=t_x,
             state_values=X,

@@ -1,16 +1,22 @@
 """The mesh of a transcription: segments of [t0, tf], their points, and the map to physical time.
 
 Every scheme lays its points on segments given as fractions of ``tf - t0``; with a free
-final time the map from normalised time ``s`` in [0, 1] to physical time
-``t0 + (tf - t0) s`` involves the NLP variable ``tf``. This module is the one place
-that map is written, numerically (:meth:`Mesh.times`) and symbolically
-(:func:`segment_clock`, :func:`final_time`).
+initial or final time the map from normalised time ``s`` in [0, 1] to physical time
+``t0 + (tf - t0) s`` involves NLP variables. This module is the one place that map is
+written, numerically (:meth:`Mesh.times`) and symbolically (:func:`segment_clock`,
+:func:`initial_time`, :func:`final_time`).
+
+The problem-wide NLP variables (:func:`n_globals`) close the NLP vector and every block
+that needs them: the free parameters (scaled by their own scaling), then ``t0`` (scaled)
+when free, then ``tf`` (scaled) when free; :func:`parameter_vector` and the two time
+functions read them from the end of a block's variables ``z``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 
@@ -66,9 +72,10 @@ class Mesh:
         return np.concatenate([s, [1.0]])
 
     @staticmethod
-    def times(problem, tf: float, s) -> np.ndarray:
-        """Physical times of normalised times ``s`` for a final time ``tf``."""
-        return problem.t0 + (tf - problem.t0) * np.asarray(s)
+    def times(problem, tf: float, s, t0: float | None = None) -> np.ndarray:
+        """Physical times of normalised times ``s`` for a final time ``tf`` (and ``t0``, default the problem's)."""
+        t0 = problem.t0 if t0 is None else t0
+        return t0 + (tf - t0) * np.asarray(s)
 
     def parameters(self, problem, s=None, fractions=None) -> np.ndarray:
         """The parameter rows of segment (or point) functions: ``[s, fraction, (tf if fixed)]``.
@@ -84,9 +91,30 @@ class Mesh:
         return np.vstack(rows)
 
 
+def n_globals(problem) -> int:
+    """The problem-wide NLP variables: free parameters, then t0 and tf where free."""
+    return len(problem.free_parameters) + int(problem.free_initial_time) + int(problem.free_final_time)
+
+
 def final_time(problem, z, p, index: int):
     """The symbolic final time of a block: the last (scaled) NLP variable of ``z`` when it is free, else ``p[index]``."""
     return z[-1] * problem.tf.scale if problem.free_final_time else p[index]
+
+
+def initial_time(problem, z):
+    """The symbolic initial time of a block: its NLP variable (before a free tf) when free, else the constant."""
+    if not problem.free_initial_time:
+        return problem.t0
+    return z[z.numel() - 1 - int(problem.free_final_time)] * problem.initial_time.scale
+
+
+def parameter_vector(problem, z):
+    """The parameter vector ``P`` of a block: the fixed values, then the free parameters from the end of ``z``."""
+    if not problem.free_parameters:
+        return problem._P
+    k, nf = n_globals(problem), len(problem.free_parameters)
+    free = problem.free_parameter_scaling.from_nlp(z[z.numel() - k : z.numel() - k + nf])
+    return ca.vertcat(ca.DM(problem.parameter_vector()), free) if problem.parameters else free
 
 
 def segment_clock(problem, z, p):
@@ -94,5 +122,6 @@ def segment_clock(problem, z, p):
 
     ``T = tf - t0``, ``t_begin = t0 + T s`` and ``h = T fraction``.
     """
-    T = final_time(problem, z, p, 2) - problem.t0
-    return problem.t0 + T * p[0], T, T * p[1]
+    t0 = initial_time(problem, z)
+    T = final_time(problem, z, p, 2) - t0
+    return t0 + T * p[0], T, T * p[1]

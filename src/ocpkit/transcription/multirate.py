@@ -38,7 +38,7 @@ from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
 from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
-from .mesh import Mesh, segment_clock
+from .mesh import Mesh, n_globals, parameter_vector, segment_clock
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
 
@@ -190,7 +190,7 @@ class MultiRateHLGL(Transcription):
         M = self.ratio
         nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
         free = pr.free_final_time
-        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + 5 * nu + int(free))
+        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + 5 * nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not free))
         xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
         off = 0
@@ -224,6 +224,7 @@ class MultiRateHLGL(Transcription):
         nu = pr.nu
         nxs, nzf = len(self.slow), len(self.fast)
         w, p, X, Z, U, t_start, h = self._segment_symbols()
+        P = parameter_vector(pr, w)
         sx = pr.state_scaling.subset(self.slow).scale
         sz = pr.state_scaling.subset(self.fast).scale
 
@@ -234,7 +235,7 @@ class MultiRateHLGL(Transcription):
             return sum(float(L[j]) * U[j] for j in range(5) if L[j] != 0.0)
 
         def f(x, z, s):
-            return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s)
+            return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
 
         def split(fv):
             return fv[self.slow], fv[self.fast]
@@ -298,7 +299,7 @@ class MultiRateHLGL(Transcription):
         if pr.L is not None:
             pts = [(0.0, X[0], zc[0]), (sa, xa, za), (0.5, X[1], zc[1]), (sb, xb, zb), (1.0, X[2], zc[2])]
             quad = h * sum(
-                wq * pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s)
+                wq * pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
                 for wq, (s, x, z) in zip(nodes.HLGL_QUADRATURE, pts)
             )
         return w, p, ca.vertcat(*defects), quad
@@ -307,12 +308,11 @@ class MultiRateHLGL(Transcription):
         pr = self.problem
         N, M = self.segments, self.ratio
         k = np.arange(N)
-        X, Z, U, tfi = self._indices()
+        X, Z, U, _ = self._indices()
         rows = [X[:, 2 * k + j] for j in range(3)]
         rows += [Z[:, 2 * M * k + j] for j in range(2 * M + 1)]
         rows += [U[:, 4 * k + j] for j in range(5)]
-        if pr.free_final_time:
-            rows.append(np.full((1, N), tfi))
+        rows += self._global_rows(N)
         return np.vstack(rows), self.mesh.parameters(pr)
 
     def _blocks(self) -> list[Block]:
@@ -357,13 +357,13 @@ class MultiRateHLGL(Transcription):
 
     # -- solution ---------------------------------------------------------------------
     def _package(self, result: NLPResult) -> dict:
-        pr = self.problem
-        Xs, Zf, U, tf = self.unpack(result.w)
+        pr, t0, tf = self._result_problem(result)
+        Xs, Zf, U, _ = self.unpack(result.w)
         N, M = self.segments, self.ratio
-        t_c = self._times(tf, self.coarse_node_fractions())
-        t_f = self._times(tf, self.fine_node_fractions())
-        t_u = self._times(tf, self.control_point_fractions())
-        breaks = self._times(tf, self.mesh.breaks)
+        t_c = self._times(tf, self.coarse_node_fractions(), t0)
+        t_f = self._times(tf, self.fine_node_fractions(), t0)
+        t_u = self._times(tf, self.control_point_fractions(), t0)
+        breaks = self._times(tf, self.mesh.breaks, t0)
         h = np.diff(breaks)
 
         ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, N))
@@ -400,7 +400,7 @@ class MultiRateHLGL(Transcription):
             return out
 
         return dict(
-            t0=pr.t0,
+            t0=t0,
             tf=tf,
             state_times=t_f,
             state_values=states(t_f),

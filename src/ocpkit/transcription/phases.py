@@ -114,16 +114,16 @@ class MultiPhase:
         return [(before.state_index(s), after.state_index(s), s) for s in names]
 
     def _time_link_kind(self, link: Link) -> str:
-        """``"none"``, ``"consistent"`` (both times fixed and equal) or ``"constraint"`` (tf of before is free)."""
+        """``"none"``, ``"consistent"`` (both times fixed and equal) or ``"constraint"`` (either is free)."""
         if not link.time:
             return "none"
         before, after = self.phases[link.before].problem, self.phases[link.after].problem
-        if before.free_final_time:
+        if before.free_final_time or after.free_initial_time:
             return "constraint"
         if not np.isclose(before.tf, after.t0, rtol=1e-12, atol=1e-12):
             raise ValueError(
                 f"{link.label}: phase {link.before} ends at tf = {before.tf} but phase {link.after} starts at "
-                f"t0 = {after.t0}; make the times agree, or give phase {link.before} a FreeFinalTime"
+                f"t0 = {after.t0}; make the times agree, or free one of them (FreeFinalTime, FreeInitialTime)"
             )
         return "consistent"
 
@@ -150,17 +150,29 @@ class MultiPhase:
                 )
                 row += m
             if self._time_link_kind(link) == "constraint":
-                tf = pb.problem.tf
-                _, _, tfi = pb._boundary_indices()
-                z = ca.SX.sym("z", 1)
-                q = ca.SX.sym("q", 1)  # t0 of the phase after
-                out = (z[0] * tf.scale - q[0]) / tf.scale
+                # t0_after - tf_before = 0, each a (scaled) variable where free, a constant where fixed
+                _, tfi = pb.time_indices()
+                t0i, _ = pa.time_indices()
+                ends = [(pb.problem.tf, tfi, ob), (pa.problem.initial_time or pa.problem.t0, t0i, oa)]
+                z = ca.SX.sym("z", sum(i is not None for _, i, _ in ends))
+                q = ca.SX.sym("q", sum(i is None for _, i, _ in ends))
+                values, var, par, iz, iq = [], [], [], 0, 0
+                for spec, index, offset in ends:
+                    if index is None:
+                        values.append(q[iq])
+                        par.append(float(spec))
+                        iq += 1
+                    else:
+                        values.append(z[iz] * spec.scale)
+                        var.append(offset + index)
+                        iz += 1
+                scale = max(abs(float(pb.problem.tf_guess)), 1.0)
                 blocks.append(
                     Block(
                         f"link_time_{link.before}_{link.after}",
-                        ca.Function("link_time", [z, q], [out]),
-                        np.array([[ob + tfi]]),
-                        np.array([[pa.problem.t0]]),
+                        ca.Function("link_time", [z, q], [(values[1] - values[0]) / scale]),
+                        np.array(var, dtype=np.int64).reshape(-1, 1),
+                        np.array(par, dtype=float).reshape(-1, 1),
                         np.array([[row]]),
                     )
                 )

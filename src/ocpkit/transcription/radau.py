@@ -30,7 +30,7 @@ from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem
 from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, segment_clock
+from .mesh import Mesh, n_globals, parameter_vector, segment_clock
 
 
 class PiecewiseBarycentric:
@@ -138,7 +138,7 @@ class Radau(Transcription):
         pr = self.problem
         nx, nu = pr.nx, pr.nu
         free = pr.free_final_time
-        (X, U), tfi = self._index_tables()
+        (X, U), _ = self._index_tables()
         rows_all = np.arange(self.n_defects).reshape(self.n_collocation, nx).T  # (nx, points)
         blocks = []
 
@@ -156,13 +156,14 @@ class Radau(Transcription):
 
         # -(T_i / 2) f(x_k, u_k, t_k) / scale at every collocation point
         xs, us = pr.state_scaling, pr.control_scaling
-        z = ca.SX.sym("z", nx + nu + int(free))
+        z = ca.SX.sym("z", nx + nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not free))  # normalised time, interval fraction, (tf)
         x, u = xs.from_nlp(z[:nx]), us.from_nlp(z[nx : nx + nu])
+        P = parameter_vector(pr, z)
         t, _, h = segment_clock(pr, z, p)
         half = h / 2
-        dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t) / ca.DM(xs.scale)])
-        var = np.vstack([X[:, :-1], U] + ([np.full((1, self.n_collocation), tfi)] if free else []))
+        dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t, P) / ca.DM(xs.scale)])
+        var = np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation))
         frac = np.repeat(self.mesh.fractions, self.counts)
         params = self.mesh.parameters(pr, self.collocation_fractions(), frac)
         blocks.append(Block("lgr_dynamics", dyn, var, params, rows_all))
@@ -171,19 +172,19 @@ class Radau(Transcription):
             # parameters [s, fraction, (tf), weight]
             q = ca.SX.sym("q", params.shape[0] + 1)
             tq, Tq, _ = segment_clock(pr, z, q)
-            L = q[-1] * Tq * q[1] / 2 * pr.lagrange(x, u, tq)
+            L = q[-1] * Tq * q[1] / 2 * pr.lagrange(x, u, tq, P)
             fun = ca.Function("lgr_lagrange", [z, q], [L / pr.objective_scale])
             blocks.append(Block("lagrange", fun, var, np.vstack([params, self._collocation_weights()])))
         if pr.phi is not None:
-            blocks.append(self._mayer_block(X[:, 0], X[:, -1], tfi))
+            blocks.append(self._mayer_block(X[:, 0], X[:, -1], None))
         return blocks
 
     def _point_symbols(self, n_controls: int = 1):
-        """Symbols of one point: ``z = [x, u_1..u_n, (tf)]`` (scaled), ``p = [s, fraction, (tf)]``; physical
-        ``x``, the ``n`` controls and ``t`` in them."""
+        """Symbols of one point: ``z = [x, u_1..u_n, problem-wide variables]`` (scaled), ``p = [s, fraction,
+        (tf)]``; physical ``x``, the ``n`` controls and ``t`` in them."""
         pr = self.problem
         nx, nu = pr.nx, pr.nu
-        z = ca.SX.sym("z", nx + n_controls * nu + int(pr.free_final_time))
+        z = ca.SX.sym("z", nx + n_controls * nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not pr.free_final_time))
         us = pr.control_scaling
         u = [us.from_nlp(z[nx + k * nu : nx + (k + 1) * nu]) for k in range(n_controls)]
@@ -193,9 +194,7 @@ class Radau(Transcription):
         """Path constraints at every collocation point, and at the final time with the last interval's control
         polynomial extrapolated there (the control the solution reports at tf)."""
         pr = self.problem
-        free = pr.free_final_time
-        (X, U), tfi = self._index_tables()
-        tf_row = [np.full((1, self.n_collocation), tfi)] if free else []
+        (X, U), _ = self._index_tables()
         z, p, x, u, t = self._point_symbols()
         frac = np.repeat(self.mesh.fractions, self.counts)
         colloc = PathPoints(
@@ -204,7 +203,7 @@ class Radau(Transcription):
             [x],
             u,
             [t],
-            np.vstack([X[:, :-1], U] + tf_row),
+            np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation)),
             self.mesh.parameters(pr, self.collocation_fractions(), frac),
             self.collocation_fractions()[:, None],
         )
@@ -212,7 +211,7 @@ class Radau(Transcription):
         z, p, x, u, t = self._point_symbols(n)
         ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
         u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
-        var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel()] + ([[tfi]] if free else []))
+        var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), self.global_indices()])
         params = self.mesh.parameters(pr, np.array([1.0]), self.mesh.fractions[-1:])
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
         return [colloc, end]
@@ -247,16 +246,16 @@ class Radau(Transcription):
         return lam
 
     def _package(self, result: NLPResult) -> dict:
-        pr = self.problem
-        X, U, tf = self.unpack(result.w)
-        breaks = self._times(tf, self.mesh.breaks)
+        pr, t0, tf = self._result_problem(result)
+        X, U, _ = self.unpack(result.w)
+        breaks = self._times(tf, self.mesh.breaks, t0)
         x_pieces, u_pieces = [], []
         for o, n, tau in zip(self.offsets, self.counts, self.tau):
             x_pieces.append((np.append(tau, 1.0), X[o : o + n + 1]))
             u_pieces.append((tau, U[o : o + n]))
-        t_x = self._times(tf, self.state_point_fractions())
+        t_x = self._times(tf, self.state_point_fractions(), t0)
         return dict(
-            t0=pr.t0,
+            t0=t0,
             tf=tf,
             state_times=t_x,
             state_values=X,
