@@ -8,38 +8,14 @@ import pytest
 
 from ocpkit import HLGL, Constraint, Control, MultiRateHLGL, OptimalControlProblem, Radau, State
 
+from compendium.problems import bryson_denham, bryson_denham_solution
+
 L_MAX = 1.0 / 9.0  # Bryson-Denham: x <= l with l = 1/9 < 1/6, J = 4 / (9 l) = 4
 
 
-def bryson_denham(**kw):
-    """min 1/2 int_0^1 u^2, x' = v, v' = u, (x, v)(0) = (0, 1), (x, v)(1) = (0, -1), x <= 1/9 as a path constraint."""
-    return OptimalControlProblem(
-        "bryson_denham",
-        states=[State("x", initial=0.0, final=0.0), State("v", initial=1.0, final=-1.0)],
-        controls=[Control("u", lower=-20.0, upper=20.0)],
-        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
-        tf=1.0,
-        lagrange=lambda x, u, t: u[0] ** 2 / 2,
-        path_constraints=[Constraint("x_max", lambda x, u, t: x[0], upper=L_MAX)],
-        **kw,
-    )
-
-
 def bryson_denham_exact(t):
-    """States, control and costates (direct adjoining) of the Bryson-Denham problem with l = 1/9 (Bryson & Ho 3.11).
-
-    Boundary arc on [3l, 1 - 3l] = [1/3, 2/3]; lambda_x = 18, 0, -18 on the three arcs; the multiplier of x <= l is
-    two atoms of mass 18 at the junctions.
-    """
-    t = np.asarray(t, dtype=float)
-    s = np.minimum(t, 1 - t)
-    a = np.clip(1 - s / (3 * L_MAX), 0, None)
-    x = L_MAX * (1 - a**3)
-    v = np.sign(0.5 - t) * a**2
-    u = -2 / (3 * L_MAX) * a
-    lam_x = np.where(t < 1 / 3, 18.0, np.where(t > 2 / 3, -18.0, 0.0))
-    lam_v = -u
-    return x, v, u, lam_x, lam_v
+    e = bryson_denham_solution(t, L_MAX)
+    return e["x"], e["v"], e["u"], e["lambda_x"], e["lambda_v"]
 
 
 SCHEMES = {

@@ -83,3 +83,14 @@ def test_sources_are_cited_by_reference_not_by_a_path_outside_the_repository():
     readme = texts["README.md"]
     for cited in ("Desai", "Conway", "Martinon", "Gergaud", "Fuel optimal entry trajectory with Radau", "Herman"):
         assert cited in readme, cited
+
+
+def test_constraints_and_phases_example_runs_and_prints_what_the_readme_shows(tmp_path):
+    """The path-constraint and two-phase example, as printed: J = 4 (Bryson-Denham) and 49/8 (an impulse)."""
+    code, printed = re.findall(
+        r"```(?:python)?\n(.*?)```", _subsection("Constraints, parameters and phases"), flags=re.S
+    )[:2]
+    assert "compendium" not in code, "the example uses the library alone"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == printed.split()

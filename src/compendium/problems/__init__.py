@@ -1,6 +1,8 @@
 """The seeds' test problems, each reading its constants from ``data/problems``."""
 
 from ._data import load_problem_data
+from .bryson_denham import bryson_denham, bryson_denham_solution
+from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants
@@ -14,6 +16,12 @@ from .orbit_transfer import (
 )
 
 __all__ = [
+    "bryson_denham",
+    "bryson_denham_solution",
+    "delta3_constants",
+    "delta3_guesses",
+    "delta3_mass_drops",
+    "delta3_phases",
     "final_longitude",
     "minimum_longitude",
     "orbit_transfer",

@@ -25,7 +25,7 @@ import math
 
 import casadi as ca
 
-from ocpkit.problem import Control, OptimalControlProblem, State
+from ocpkit.problem import Constraint, Control, OptimalControlProblem, State
 
 from ._data import load_problem_data
 
@@ -107,8 +107,20 @@ def entry_landing(
     *,
     speed_cap: bool = True,
     objective: str = "max_final_mass",
+    glide_slope_deg: float | None = None,
+    max_sensed_g: float | None = None,
 ) -> OptimalControlProblem:
-    """The entry-landing problem (see the module docstring for the options)."""
+    """The entry-landing problem (see the module docstring for the options).
+
+    Two path constraints the post left out (notebook 06):
+
+    * ``glide_slope_deg``: the vehicle stays above a cone through the landing site (the final
+      downrange ``downrange_m``, which must then be given) at this elevation angle:
+      ``h >= tan(angle) (s_site - s)``, i.e. ``(r - rf) - tan(angle) (s_site - s) >= 0``;
+    * ``max_sensed_g``: the sensed (non-gravitational) acceleration, thrust plus lift plus
+      drag over mass, at most this many g0: ``((T cos eps + D)^2 + (T sin eps - L)^2) / m^2
+      <= max_sensed_g^2`` (units of g0, the problem's acceleration unit).
+    """
     c = entry_landing_constants()
     k_lift = lift_scale(aero_model)
     if objective not in OBJECTIVES:
@@ -121,13 +133,19 @@ def entry_landing(
     Tmax, Isp, kD = c["Tmax"], c["Isp"], c["drag_to_lift"]
     rated = thrust_angle_rate_deg_s is not None
 
-    def dynamics(x, u, t):
-        r, s, V, gamma, m = (x[i] for i in range(5))
+    def forces(x, u):
+        """Thrust, lift, drag (per m0 g0) and the thrust angle."""
+        V = x[2]
         uL, uT = u[0], u[1]
         eps = x[5] if rated else u[2]
         T = uT * Tmax
         L = uL * k_lift * V**2
         D = kD * L
+        return T, L, D, eps
+
+    def dynamics(x, u, t):
+        r, s, V, gamma, m = (x[i] for i in range(5))
+        T, L, D, eps = forces(x, u)
         xdot = [
             V * ca.sin(gamma),
             V * ca.cos(gamma),
@@ -205,11 +223,31 @@ def entry_landing(
         controls.append(Control("eps_rate", -rate, rate, scale=rate, guess=0.0, description="thrust-angle rate"))
     else:
         controls.append(Control("eps", lo, hi, scale=eps_scale, guess=0.0, unit="rad", description="thrust angle"))
+    path = []
+    if glide_slope_deg is not None:
+        if sf is None:
+            raise ValueError("a glide-slope cone needs the landing site: give downrange_m")
+        if not 0 < glide_slope_deg < 90:
+            raise ValueError(f"glide_slope_deg must lie in (0, 90), got {glide_slope_deg!r}")
+        slope = math.tan(math.radians(glide_slope_deg))
+        path.append(
+            Constraint("glide_slope", lambda x, u, t: (x[0] - c["rf"]) - slope * (sf - x[1]), lower=0.0, scale=h0)
+        )
+    if max_sensed_g is not None:
+        if not (max_sensed_g > 0 and math.isfinite(max_sensed_g)):
+            raise ValueError(f"max_sensed_g must be positive, got {max_sensed_g!r}")
+
+        def sensed_squared(x, u, t):
+            T, L, D, eps = forces(x, u)
+            return ((T * ca.cos(eps) + D) ** 2 + (T * ca.sin(eps) - L) ** 2) / x[4] ** 2
+
+        path.append(Constraint("sensed_acceleration", sensed_squared, upper=max_sensed_g**2, scale=max_sensed_g**2))
     return OptimalControlProblem(
         "entry_landing",
         states,
         controls,
         dynamics,
+        path_constraints=path,
         tf=c["tf"],
         mayer=(lambda x0, xf, t0, tf: -xf[4]) if objective == "max_final_mass" else (lambda x0, xf, t0, tf: xf[1] / h0),
         description=f"Entry-landing, {objective} (aero {aero_model}, downrange "
