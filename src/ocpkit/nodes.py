@@ -8,6 +8,8 @@ indexing: a segment runs from node ``i`` through the centre ``i+1`` to
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 SQRT21 = np.sqrt(21.0)
@@ -186,3 +188,31 @@ def lgr_differentiation_matrix(tau: np.ndarray) -> np.ndarray:
     D[0, 0] = -(n**2 + 1) / 4.0
     D[:, n] = n * (pn - pn1) / (2.0 * (tau - 1.0))
     return D
+
+
+def integration_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Matrix ``A`` with ``(A v)_j = int_{-1}^{points_j} p(s) ds`` for the interpolant ``p`` of ``v`` on ``nodes``.
+
+    ``nodes`` and ``points`` lie in [-1, 1]; built in the Legendre basis (well conditioned on
+    Gauss-type nodes): the Legendre-Vandermonde matrix of the nodes gives the coefficients, and
+    ``int_{-1}^x P_k = (P_{k+1}(x) - P_{k-1}(x)) / (2k + 1)`` their integrals.
+    """
+    leg = np.polynomial.legendre
+    x = np.asarray(nodes, dtype=float)
+    p = np.atleast_1d(np.asarray(points, dtype=float))
+    n = x.size
+    integrals = np.empty((p.size, n))
+    for k in range(n):
+        c = np.zeros(n)
+        c[k] = 1.0
+        integrals[:, k] = leg.legval(p, leg.legint(c, lbnd=-1.0))
+    return integrals @ np.linalg.inv(leg.legvander(x, n - 1))
+
+
+@functools.lru_cache(maxsize=64)
+def lgr_estimate_points(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``n`` LGR points and the integration matrix from -1 to each of them and to +1 (``n + 1`` rows).
+
+    Cached: the arrays are shared, do not modify them."""
+    tau = lgr_nodes(n)
+    return tau, integration_matrix(tau, np.append(tau, 1.0))

@@ -65,6 +65,27 @@ class Solution(Trajectory):
     path_multipliers: np.ndarray | None = field(default=None, repr=False)
     boundary_values: np.ndarray | None = field(default=None, repr=False)
     boundary_multipliers: np.ndarray | None = field(default=None, repr=False)
+    estimate_breakpoints: np.ndarray | None = field(default=None, repr=False)
+    estimate_points: np.ndarray | int | None = field(default=None, repr=False)
+    mesh_history: list | None = field(default=None, repr=False)
+
+    # -- accuracy ---------------------------------------------------------------------
+    @cached_property
+    def interval_errors(self) -> np.ndarray:
+        """Relative state error estimate on each mesh interval (:mod:`ocpkit.accuracy`, Patterson-Hager-Rao)."""
+        from .accuracy import interval_errors
+
+        return interval_errors(self, self.estimate_points, self.estimate_intervals)
+
+    @property
+    def estimate_intervals(self) -> np.ndarray:
+        """The intervals of :attr:`interval_errors` (the scheme's segments, or its fine segments)."""
+        return self.breakpoints if self.estimate_breakpoints is None else self.estimate_breakpoints
+
+    @property
+    def error_estimate(self) -> float:
+        """The largest of :attr:`interval_errors`: the solution's estimated relative discretisation error."""
+        return float(self.interval_errors.max())
 
     # -- the trajectory -------------------------------------------------------------
     def _state(self, t):

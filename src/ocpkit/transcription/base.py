@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import time
+import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from ..accuracy import AccuracyWarning, warn_if_inaccurate
 from ..errors import SolverError
 from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
@@ -33,6 +35,23 @@ def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     lo = np.tile([c.lower for c in controls], (n_points, 1)).reshape(n_points, len(controls))
     hi = np.tile([c.upper for c in controls], (n_points, 1)).reshape(n_points, len(controls))
     return sc.to_nlp(lo), sc.to_nlp(hi)
+
+
+@dataclass(frozen=True)
+class MeshIteration:
+    """One solve of a mesh refinement: the mesh (interval lengths as fractions of ``tf - t0``), its size, the
+    solution's error estimate, IPOPT's iterations and the times (build of this mesh, IPOPT, the whole iteration)."""
+
+    iteration: int
+    transcription: str
+    fractions: np.ndarray
+    collocation_points: int
+    nlp_parameters: int
+    error_estimate: float
+    ipopt_iterations: int
+    build_s: float
+    solve_s: float
+    total_s: float
 
 
 @dataclass
@@ -450,6 +469,9 @@ class Transcription(ABC):
         ipopt_options: dict | None = None,
         allow_acceptable: bool = False,
         raise_on_failure: bool = True,
+        error_threshold: float | None = 1e-3,
+        mesh_tolerance: float | None = None,
+        max_mesh_iterations: int = 10,
     ) -> Solution:
         """Solve with IPOPT from ``guess``.
 
@@ -464,7 +486,29 @@ class Transcription(ABC):
             True (default): a failed solve raises :class:`~ocpkit.SolverError` naming IPOPT's
             status, with the last iterate as ``error.result``. False: the last iterate is
             returned as a :class:`Solution` with ``converged=False``.
+        error_threshold : float or None
+            Warn (:class:`~ocpkit.accuracy.AccuracyWarning`) when the solution's estimated relative
+            state error (:attr:`Solution.error_estimate`, :mod:`ocpkit.accuracy`) exceeds it, naming
+            the interval; None: no estimate at solve time.
+        mesh_tolerance : float or None
+            Refine the mesh (:meth:`refine`) until the error estimate is at most this, at most
+            ``max_mesh_iterations`` solves, each warm-started from the previous solution; the
+            returned solution's ``mesh_history`` lists every iteration (and a warning says so if
+            the tolerance is not met).
         """
+        if mesh_tolerance is not None:
+            return self._solve_refined(
+                guess,
+                mesh_tolerance,
+                max_mesh_iterations,
+                dict(ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure),
+            )
+        solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure)
+        if error_threshold is not None and solution.converged:
+            warn_if_inaccurate(self.label, solution.interval_errors, solution.estimate_intervals, error_threshold)
+        return solution
+
+    def _solve_once(self, guess, ipopt_options, allow_acceptable, raise_on_failure) -> Solution:
         solver = self.solver(ipopt_options)
         lbw, ubw = self._bounds()
         lbg, ubg = self._constraint_bounds()
@@ -479,6 +523,60 @@ class Transcription(ABC):
             detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
             raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
         return solution
+
+    # -- mesh refinement --------------------------------------------------------------------
+    def refine(self, errors: np.ndarray, tolerance: float) -> Transcription:
+        """A transcription of the same problem on a mesh refined where ``errors`` (per interval) exceed ``tolerance``."""
+        raise NotImplementedError(f"{type(self).__name__} does not refine its mesh")
+
+    def _solve_refined(self, guess, tolerance: float, max_iterations: int, options: dict) -> Solution:
+        if not (tolerance > 0 and np.isfinite(tolerance)):
+            raise ValueError(f"mesh_tolerance must be positive, got {tolerance!r}")
+        if max_iterations < 1:
+            raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
+        transcription, history, solution = self, [], None
+        for iteration in range(max_iterations):
+            start = time.perf_counter()
+            solution = transcription._solve_once(
+                guess if solution is None else solution,
+                options["ipopt_options"],
+                options["allow_acceptable"],
+                options["raise_on_failure"],
+            )
+            errors = solution.interval_errors
+            history.append(
+                MeshIteration(
+                    iteration,
+                    transcription.label,
+                    np.diff(solution.estimate_intervals) / (solution.tf - solution.t0),
+                    transcription.n_collocation_points,
+                    solution.nlp_parameters,
+                    float(errors.max()),
+                    solution.iterations,
+                    transcription.build_s,
+                    solution.solve_s,
+                    time.perf_counter() - start,
+                )
+            )
+            if errors.max() <= tolerance or not solution.converged:
+                break
+            if iteration + 1 < max_iterations:
+                transcription = transcription.refine(errors, tolerance)
+        else:
+            warnings.warn(
+                f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
+                f"(estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})",
+                AccuracyWarning,
+                stacklevel=3,
+            )
+        solution.mesh_history = history
+        solution.raw["transcription"] = transcription
+        return solution
+
+    @property
+    def n_collocation_points(self) -> int:
+        """Points at which the dynamics hold (the measure of a mesh's size in the refinement literature)."""
+        return self.n_defects // max(self.problem.nx, 1)
 
     def _solution(self, result: NLPResult, g: np.ndarray | None = None) -> Solution:
         """The :class:`Solution` of an NLP result (``g``: its constraint values, when already evaluated).

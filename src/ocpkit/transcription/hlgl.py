@@ -203,6 +203,13 @@ class HLGL(Transcription):
             PathPoints(z, p, [x[2]], [u[4]], [t[4]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
         ]
 
+    def refine(self, errors: np.ndarray, tolerance: float) -> HLGL:
+        """h-refinement: a segment whose error estimate exceeds ``tolerance`` splits into
+        ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6)."""
+        errors = np.asarray(errors, dtype=float)
+        pieces = np.where(errors > tolerance, np.clip(np.ceil((errors / tolerance) ** (1 / 6)), 2, 6), 1)
+        return HLGL(self.problem, mesh=self.mesh.split(pieces))
+
     # -- bounds and guess -------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
         X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)

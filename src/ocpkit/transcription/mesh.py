@@ -51,6 +51,13 @@ class Mesh:
     def n(self) -> int:
         return self.fractions.size
 
+    def split(self, pieces) -> np.ndarray:
+        """Fractions of this mesh with segment ``k`` split into ``pieces[k]`` equal parts (1: unchanged)."""
+        pieces = np.asarray(pieces, dtype=np.int64)
+        if pieces.shape != self.fractions.shape or np.any(pieces < 1):
+            raise ValueError(f"give a positive number of pieces for each of the {self.n} segments")
+        return np.repeat(self.fractions / pieces, pieces)
+
     @property
     def starts(self) -> np.ndarray:
         """Normalised start times (0..1) of the segments."""

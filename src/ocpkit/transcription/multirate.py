@@ -409,4 +409,18 @@ class MultiRateHLGL(Transcription):
             breakpoints=breaks,
             state_interpolant=states,
             control_interpolant=controls,
+            estimate_breakpoints=fine_breaks,
+        )
+
+    def refine(self, errors: np.ndarray, tolerance: float) -> MultiRateHLGL:
+        """h-refinement of the coarse mesh: ``errors`` are per fine segment (the solution's estimate intervals);
+        a coarse segment whose worst fine segment exceeds ``tolerance`` splits as :meth:`HLGL.refine` does."""
+        coarse = np.asarray(errors, dtype=float).reshape(self.segments, self.ratio).max(axis=1)
+        pieces = np.where(coarse > tolerance, np.clip(np.ceil((coarse / tolerance) ** (1 / 6)), 2, 6), 1)
+        return MultiRateHLGL(
+            self.problem,
+            ratio=self.ratio,
+            slow=[self.problem.state_names[i] for i in self.slow],
+            fast_interpolation=self.fast_interpolation,
+            mesh=self.mesh.split(pieces),
         )

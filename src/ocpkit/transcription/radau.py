@@ -216,6 +216,31 @@ class Radau(Transcription):
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
         return [colloc, end]
 
+    #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015): nodes per interval in [N_MIN, N_MAX]
+    N_MIN, N_MAX = 3, 12
+
+    def refine(self, errors: np.ndarray, tolerance: float) -> Radau:
+        """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4): on an interval of ``N`` nodes whose
+        error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)`` more nodes; if ``N + P`` exceeds
+        :attr:`N_MAX`, the interval splits into ``max(ceil((N + P) / N_MIN), 2)`` intervals of :attr:`N_MIN` nodes
+        instead (the solution is not smooth enough there for a higher degree to pay)."""
+        counts, fractions = [], []
+        for e, n, f in zip(np.asarray(errors, dtype=float), self.counts, self.mesh.fractions):
+            n = int(n)
+            if e <= tolerance:
+                counts.append(n)
+                fractions.append(f)
+                continue
+            wanted = n + max(1, int(np.ceil(np.log(e / tolerance) / np.log(n))))
+            if wanted <= self.N_MAX:
+                counts.append(wanted)
+                fractions.append(f)
+            else:
+                pieces = max(int(np.ceil(wanted / self.N_MIN)), 2)
+                counts += [self.N_MIN] * pieces
+                fractions += [f / pieces] * pieces
+        return Radau(self.problem, counts, mesh=fractions)
+
     # -- bounds, guess, packing ---------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
         X = np.asarray(states(self._times(tf, self.state_point_fractions())), dtype=float)
@@ -268,4 +293,5 @@ class Radau(Transcription):
             ),
             costate_times=t_x,
             costate_values=self.costates(result.lam_g),
+            estimate_points=self.counts + 1,
         )

@@ -1,0 +1,82 @@
+"""How accurate a solution is: the relative discretisation error of its states on each mesh interval.
+
+The estimate of Patterson, Hager & Rao ("A ph mesh refinement method for optimal control",
+Optimal Control Applications and Methods 36, 2015, Sec. 3): on each interval ``[t_a, t_b]``
+between breakpoints, take ``M`` Legendre-Gauss-Radau points ``tau_1 = -1 < ... < tau_M`` and
+``tau_{M+1} = +1``, sample the solution's state ``X`` and control ``U`` there, and integrate the
+dynamics along them with the ``M``-point interpolatory quadrature:
+
+    Xhat_j = X(t_a) + (t_b - t_a) / 2 * sum_l A_jl f(X_l, U_l, t_l),     j = 2 .. M + 1,
+
+``A`` the integration matrix of the Lagrange basis (:func:`ocpkit.nodes.integration_matrix`). The
+relative error of state ``i`` at point ``j`` is ``|Xhat_ij - X_ij| / (1 + max_l |X_il|)``, and the
+interval's error the largest over states and points. With ``M`` at least one more than the
+degree of the scheme's state polynomial (Patterson et al. use ``N + 1`` for ``N`` LGR points;
+HLGL's states are quintic), an interpolant that satisfies the dynamics exactly on a problem the
+quadrature integrates exactly gives an estimate at rounding level. The control is the solution's
+admissible one (within the bounds), as :meth:`~ocpkit.Trajectory.reintegrate` flies it.
+This is the same estimate for every scheme (HLGL's quintic segments, multi-rate coarse segments,
+Radau intervals), so their accuracy compares directly.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .nodes import lgr_estimate_points
+
+#: Estimate points per interval when a scheme does not say (above the degree of HLGL's quintic states)
+DEFAULT_ESTIMATE_POINTS = 8
+
+
+class AccuracyWarning(UserWarning):
+    """A solve succeeded but its estimated discretisation error exceeds the threshold asked for."""
+
+
+def interval_errors(trajectory, points=None, breakpoints=None) -> np.ndarray:
+    """The relative state error estimate on each interval between ``breakpoints`` (module docstring).
+
+    ``points``: LGR points per interval (an int, or one per interval); default
+    :data:`DEFAULT_ESTIMATE_POINTS`. ``breakpoints``: default ``trajectory.breakpoints``.
+    """
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    K = bp.size - 1
+    M = np.full(K, DEFAULT_ESTIMATE_POINTS if points is None else 0, dtype=np.int64)
+    if points is not None:
+        M[:] = np.broadcast_to(np.asarray(points, dtype=np.int64), (K,))
+    if np.any(M < 2):
+        raise ValueError(f"the error estimate needs at least 2 points per interval, got {M.min()}")
+    problem = trajectory.problem
+    P = problem.parameter_vector() if problem.parameters else np.zeros(0)
+    out = np.empty(K)
+    for m in np.unique(M):
+        ks = np.flatnonzero(M == m)
+        tau, A = lgr_estimate_points(int(m))
+        a, b = bp[ks], bp[ks + 1]
+        t = a[:, None] + (b - a)[:, None] * (np.append(tau, 1.0)[None, :] + 1.0) / 2.0  # (k, m + 1)
+        X = trajectory.state(t)  # (k, m + 1, nx)
+        U = trajectory.control(t[:, :m])
+        n = ks.size * int(m)
+        F = np.asarray(problem.f.map(n)(X[:, :m].reshape(n, -1).T, U.reshape(n, -1).T, t[:, :m].reshape(1, n), P)).T
+        F = F.reshape(ks.size, int(m), -1)
+        Xhat = X[:, :1] + ((b - a) / 2.0)[:, None, None] * np.einsum("jl,kli->kji", A, F)
+        denom = 1.0 + np.abs(X).max(axis=1, keepdims=True)
+        out[ks] = (np.abs(Xhat - X) / denom).max(axis=(1, 2))
+    return out
+
+
+def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None) -> None:
+    """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``."""
+    if threshold is None or errors.size == 0:
+        return
+    k = int(np.argmax(errors))
+    if errors[k] > threshold:
+        warnings.warn(
+            f"{label}: estimated relative state error {errors[k]:.1e} on interval {k} "
+            f"[{breakpoints[k]:.6g}, {breakpoints[k + 1]:.6g}] exceeds {threshold:g}; refine the mesh "
+            "(solve(mesh_tolerance=...)) or check the solution (reintegrate())",
+            AccuracyWarning,
+            stacklevel=3,
+        )
