@@ -71,16 +71,9 @@ def test_a_coarse_solve_warns_naming_the_interval():
 
 
 def hyper_sensitive(tf=40.0):
-    """x' = -x^3 + u, min 1/2 int (x^2 + u^2), x(0) = 1.5, x(tf) = 1 (the GPOPS-II and ph-method test problem):
-    boundary layers at both ends, nearly zero in between."""
-    return OptimalControlProblem(
-        "hyper_sensitive",
-        states=[State("x", initial=1.5, final=1.0)],
-        controls=[Control("u")],
-        dynamics=lambda x, u, t: -(x[0] ** 3) + u[0],
-        tf=tf,
-        lagrange=lambda x, u, t: (x[0] ** 2 + u[0] ** 2) / 2,
-    )
+    from compendium.problems import hyper_sensitive as problem
+
+    return problem(tf)
 
 
 @pytest.mark.parametrize("make", [lambda pr: Radau(pr, 4, 8), lambda pr: HLGL(pr, 8)], ids=["radau", "hlgl"])

@@ -20,6 +20,7 @@ import json
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -74,7 +75,12 @@ class Outputs:
 
     @classmethod
     def start(cls, notebook: str, namespace: dict) -> Outputs:
-        """Open the outputs of a run whose parameters are variables of ``namespace`` (a notebook's ``globals()``)."""
+        """Open the outputs of a run whose parameters are variables of ``namespace`` (a notebook's ``globals()``).
+
+        Also shows warnings as ``Category: message``, without the file path Python prints by default: a
+        stored notebook must not carry the paths of the machine that ran it.
+        """
+        warnings.formatwarning = _format_warning
         out = cls(notebook, {k: namespace[k] for k in published_parameters(notebook) if k in namespace})
         print(out.describe())
         return out
@@ -157,6 +163,10 @@ class Outputs:
         self.published = True
         figures = sum(f.startswith("figures/") for f in self.files)
         print(f"wrote {figures} figure files and {len(self.files) - figures} tables to {self._display(self.root)}")
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    return f"{category.__name__}: {message}\n"
 
 
 def _plain(value):
