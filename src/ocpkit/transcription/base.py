@@ -18,6 +18,21 @@ from ..solution import Solution
 from .mesh import Mesh, final_time, initial_time, n_globals, parameter_vector
 
 
+def settle(result: NLPResult, package, raise_on_failure: bool):
+    """The solution of an IPOPT result (``package(result)``), or :class:`SolverError` naming the status.
+
+    A failed solve raises, with the last iterate attached, unless ``raise_on_failure`` is False
+    (then the last iterate is returned, ``converged=False``); a non-finite iterate always raises.
+    """
+    solution = package(result) if np.all(np.isfinite(result.w)) else None
+    if result.success:
+        return solution
+    if raise_on_failure or solution is None:
+        detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
+        raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
+    return solution
+
+
 def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_nodes, len(states)) of states on a node set, with the boundary conditions at both ends."""
     sc = AffineScaling.of(states)
@@ -514,15 +529,7 @@ class Transcription(ABC):
         lbg, ubg = self._constraint_bounds()
         w0 = self.initial_point(guess)
         result = solve_nlp(solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
-        solution = None
-        if np.all(np.isfinite(result.w)):
-            solution = self._solution(result)
-        if result.success:
-            return solution
-        if raise_on_failure or solution is None:
-            detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
-            raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
-        return solution
+        return settle(result, self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
     def refine(self, errors: np.ndarray, tolerance: float) -> Transcription:

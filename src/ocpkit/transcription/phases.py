@@ -25,11 +25,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import SolverError
-from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
+from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
 from ..solution import Solution
 from ..trajectory import Trajectory
-from .base import Transcription
+from .base import Transcription, settle
 
 
 @dataclass(frozen=True)
@@ -250,13 +249,7 @@ class MultiPhase:
         result = solve_nlp(
             self._solver, self.initial_point(guesses), lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable
         )
-        solution = self._solution(result) if np.all(np.isfinite(result.w)) else None
-        if result.success:
-            return solution
-        if raise_on_failure or solution is None:
-            detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
-            raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
-        return solution
+        return settle(result, self._solution, raise_on_failure)
 
     # -- the solution ------------------------------------------------------------------------
     def _phase_objective(self, k: int, w: np.ndarray) -> float:
