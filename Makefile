@@ -67,6 +67,7 @@ bench: setup
 	$(PY) benchmarks/bench_shooting.py
 	$(PY) benchmarks/bench_orbit_transfer.py
 	$(PY) benchmarks/bench_constraints.py
+	$(PY) benchmarks/bench_refinement.py
 
 # stored outputs use the default parameters; where those are a notebook's published ones its figures and tables
 # are the published record (identical when nothing changed: review `git status`), otherwise they go to build/runs/

@@ -61,14 +61,14 @@ def best_of(make_transcription, ipopt_options: dict, repeat: int) -> dict:
     return min(runs, key=lambda r: r["end_to_end_s"])
 
 
-def report(rows: list[dict], columns: list[str], output: str, title: str) -> pd.DataFrame:
+def report(rows: list[dict], columns: list[str], output: str, title: str, formats: dict | None = None) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     os.makedirs(os.path.dirname(output) or ".", exist_ok=True)
     df.to_csv(output, index=False)
     print()
     print(f"{title}; casadi {casadi.__version__}, {platform.machine()}, {os.cpu_count()} cores")
     print()
-    fmt = {c: ".3f" for c in columns if c.endswith("_s")}
+    fmt = {c: ".3f" for c in columns if c.endswith("_s")} | dict(formats or {})
     print(markdown_table(df[columns], fmt))
     print(f"\nwritten {output}")
     return df
