@@ -13,31 +13,13 @@ from __future__ import annotations
 
 import time
 
-from _harness import ipopt_overrides, parser, report
+from _harness import best_of, ipopt_overrides, parser, report
 
 from ocpkit import HLGL, Link, MultiPhase, Radau
 
 from compendium.paths import build_dir
 from compendium.problems import bryson_denham, delta3_guesses, delta3_mass_drops, delta3_phases
 from compendium.problems.entry_landing import entry_landing
-
-
-def single(label, make, opts):
-    t0 = time.perf_counter()
-    tr = make()
-    tr.solver(opts)
-    sol = tr.solve(ipopt_options=opts)
-    return {
-        "problem": label,
-        "nlp_parameters": sol.nlp_parameters,
-        "constraints": sol.constraints,
-        "jacobian_nnz": tr.nlp.nnz_jacobian,
-        "hessian_nnz": tr.nlp.nnz_hessian,
-        "build_s": tr.build_s,
-        "solve_s": sol.solve_s,
-        "end_to_end_s": time.perf_counter() - t0,
-        "iterations": sol.iterations,
-    }
 
 
 def delta3(opts):
@@ -71,10 +53,10 @@ def main() -> None:
     ap = parser(__doc__.split("\n")[0], str(build_dir() / "bench" / "constraints.csv"))
     args = ap.parse_args()
     opts = ipopt_overrides(args.ipopt)
-    single("warm-up", CASES[2][1], opts)
+    best_of(CASES[2][1], opts, 1)  # warm-up
     rows = []
     for label, make in CASES:
-        row = min((single(label, make, opts) for _ in range(args.repeat)), key=lambda r: r["end_to_end_s"])
+        row = {"problem": label, **best_of(make, opts, args.repeat)}
         rows.append(row)
         print(f"{label}: end to end {row['end_to_end_s']:.3f} s", flush=True)
     row = min((delta3(opts) for _ in range(args.repeat)), key=lambda r: r["end_to_end_s"])

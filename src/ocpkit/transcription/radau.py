@@ -136,8 +136,7 @@ class Radau(Transcription):
     # -- NLP blocks ---------------------------------------------------------------------
     def _blocks(self) -> list[Block]:
         pr = self.problem
-        nx, nu = pr.nx, pr.nu
-        free = pr.free_final_time
+        nx = pr.nx
         (X, U), _ = self._index_tables()
         rows_all = np.arange(self.n_defects).reshape(self.n_collocation, nx).T  # (nx, points)
         blocks = []
@@ -155,12 +154,9 @@ class Radau(Transcription):
             blocks.append(Block(f"lgr_differentiation_{n}", fun, var, np.zeros((0, which.size)), rows, linear))
 
         # -(T_i / 2) f(x_k, u_k, t_k) / scale at every collocation point
-        xs, us = pr.state_scaling, pr.control_scaling
-        z = ca.SX.sym("z", nx + nu + n_globals(pr))
-        p = ca.SX.sym("p", 2 + int(not free))  # normalised time, interval fraction, (tf)
-        x, u = xs.from_nlp(z[:nx]), us.from_nlp(z[nx : nx + nu])
+        xs = pr.state_scaling
+        z, p, x, (u,), t, h = self._point_symbols()
         P = parameter_vector(pr, z)
-        t, _, h = segment_clock(pr, z, p)
         half = h / 2
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t, P) / ca.DM(xs.scale)])
         var = np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation))
@@ -181,21 +177,22 @@ class Radau(Transcription):
 
     def _point_symbols(self, n_controls: int = 1):
         """Symbols of one point: ``z = [x, u_1..u_n, problem-wide variables]`` (scaled), ``p = [s, fraction,
-        (tf)]``; physical ``x``, the ``n`` controls and ``t`` in them."""
+        (tf)]``; physical ``x``, the ``n`` controls, ``t`` and its interval's length ``h`` in them."""
         pr = self.problem
         nx, nu = pr.nx, pr.nu
         z = ca.SX.sym("z", nx + n_controls * nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not pr.free_final_time))
         us = pr.control_scaling
         u = [us.from_nlp(z[nx + k * nu : nx + (k + 1) * nu]) for k in range(n_controls)]
-        return z, p, pr.state_scaling.from_nlp(z[:nx]), u, segment_clock(pr, z, p)[0]
+        t, _, h = segment_clock(pr, z, p)
+        return z, p, pr.state_scaling.from_nlp(z[:nx]), u, t, h
 
     def _path_points(self) -> list[PathPoints]:
         """Path constraints at every collocation point, and at the final time with the last interval's control
         polynomial extrapolated there (the control the solution reports at tf)."""
         pr = self.problem
         (X, U), _ = self._index_tables()
-        z, p, x, u, t = self._point_symbols()
+        z, p, x, u, t, _ = self._point_symbols()
         frac = np.repeat(self.mesh.fractions, self.counts)
         colloc = PathPoints(
             z,
@@ -208,7 +205,7 @@ class Radau(Transcription):
             self.collocation_fractions()[:, None],
         )
         n, o = int(self.counts[-1]), int(self.offsets[-1])
-        z, p, x, u, t = self._point_symbols(n)
+        z, p, x, u, t, _ = self._point_symbols(n)
         ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
         u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
         var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), self.global_indices()])
