@@ -67,6 +67,58 @@ def interval_errors(trajectory, points=None, breakpoints=None) -> np.ndarray:
     return out
 
 
+#: Samples per interval, and the distance to a bound (a fraction of the bounds' range) that counts as on it
+SWITCH_SAMPLES, SWITCH_BAND = 64, 1e-3
+
+
+def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, band: float = SWITCH_BAND):
+    """Where a bounded control switches inside each interval: cuts (fractions in (0, 1)) around it, or none.
+
+    A bang-bang switch or the junction of a bound arc with an interior (singular, or
+    smooth) arc is a jump or a corner of the control, which no polynomial degree on the
+    interval resolves: the refinement cuts there instead (in the spirit of the
+    nonsmoothness detection of Liu, Hager & Rao, J. Franklin Inst. 352, 2015). On each
+    interval the admissible control is sampled at ``samples`` midpoints; each bounded
+    control is on its lower bound, on its upper bound, or between them (within ``band``
+    times the range, or of a one-sided bound's scale). Where that status changes, a
+    polynomial smears a jump across the interval, with overshoot near its
+    ends: the switch is placed where the control that switches (the one moving most, if
+    several) crosses the middle of its range on the interval, at its steepest such
+    crossing, and bracketed by two cuts a sample either side (one where the other would
+    fall on an end). Each mesh iteration narrows the bracket by about ``samples / 2``.
+    """
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    controls = trajectory.problem.controls
+    K = bp.size - 1
+    if not controls or K < 1:
+        return [np.zeros(0) for _ in range(K)]
+    lo = np.array([c.lower for c in controls], dtype=float)
+    hi = np.array([c.upper for c in controls], dtype=float)
+    bounded = np.isfinite(lo) | np.isfinite(hi)
+    if not bounded.any():
+        return [np.zeros(0) for _ in range(K)]
+    width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, [c.scale for c in controls])
+    s = (np.arange(samples) + 0.5) / samples
+    t = bp[:-1, None] + np.diff(bp)[:, None] * s[None, :]
+    U = trajectory.control(t)  # (K, samples, nu)
+    status = np.where(U <= lo + band * width, -1, 0) + np.where(U >= hi - band * width, 1, 0)
+    switching = np.any(status[:, 1:] != status[:, :-1], axis=1) & bounded  # (K, nu): controls that switch
+    changes = switching.any(axis=1)
+    # the switching control that moves most; where it crosses the middle of its range on the interval
+    spread = np.where(switching, (U.max(axis=1) - U.min(axis=1)) / width, -1.0)  # (K, nu)
+    i = np.argmax(spread, axis=1)
+    V = np.take_along_axis(U, i[:, None, None], axis=2)[:, :, 0]  # (K, samples)
+    side = V > (V.max(axis=1, keepdims=True) + V.min(axis=1, keepdims=True)) / 2
+    crossing = side[:, 1:] != side[:, :-1]  # (K, samples - 1): between samples j and j + 1
+    steps = np.where(crossing, np.abs(np.diff(V, axis=1)), -1.0)
+    j = np.argmax(steps, axis=1)
+    out = []
+    for jk, change in zip(j, changes):
+        cuts = np.array([jk, jk + 2]) / samples if change else np.zeros(0)
+        out.append(cuts[(cuts > 0.0) & (cuts < 1.0)])
+    return out
+
+
 def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None) -> None:
     """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``."""
     if threshold is None or errors.size == 0:

@@ -93,15 +93,15 @@ def barycentric_weights(nodes: np.ndarray) -> np.ndarray:
     return w / np.abs(w).max()
 
 
-def lagrange_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
+def lagrange_matrix(nodes: np.ndarray, points: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """Matrix ``P`` with ``P[i, j] = l_j(points[i])``, the Lagrange basis of ``nodes``.
 
     Evaluated in barycentric form, exact (to rounding) where a point coincides
-    with a node.
+    with a node. ``weights``: the nodes' :func:`barycentric_weights`, if already at hand.
     """
     x = np.asarray(nodes, dtype=float)
     p = np.atleast_1d(np.asarray(points, dtype=float))
-    w = barycentric_weights(x)
+    w = barycentric_weights(x) if weights is None else weights
     diff = p[:, None] - x[None, :]
     exact = diff == 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -148,6 +148,12 @@ def lgr_nodes(n: int) -> np.ndarray:
         raise TypeError(f"the number of LGR nodes must be an integer, got {n!r}")
     if n < 2:
         raise ValueError(f"LGR collocation needs at least 2 nodes per interval, got {n}")
+    return _lgr_nodes(int(n))
+
+
+@functools.lru_cache(maxsize=64)
+def _lgr_nodes(n: int) -> np.ndarray:
+    """Cached for mesh refinement, which asks for the same few degrees many times; read-only."""
     c = np.zeros(n + 1)
     c[n - 1] = c[n] = 1.0
     r = np.sort(np.polynomial.legendre.legroots(c).real)
@@ -156,6 +162,7 @@ def lgr_nodes(n: int) -> np.ndarray:
     for _ in range(3):
         step = np.polynomial.legendre.legval(r[1:], c) / np.polynomial.legendre.legval(r[1:], dc)
         r[1:] -= step
+    r.flags.writeable = False
     return r
 
 

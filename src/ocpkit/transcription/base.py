@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..accuracy import AccuracyWarning, warn_if_inaccurate
+from ..accuracy import AccuracyWarning, control_switches, warn_if_inaccurate
 from ..errors import SolverError
 from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
@@ -532,8 +532,9 @@ class Transcription(ABC):
         return settle(result, self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
-    def refine(self, errors: np.ndarray, tolerance: float) -> Transcription:
-        """A transcription of the same problem on a mesh refined where ``errors`` (per interval) exceed ``tolerance``."""
+    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Transcription:
+        """A transcription of the same problem on a mesh refined where ``errors`` (per interval) exceed ``tolerance``;
+        ``switches``: per interval, where the control switches inside it (:func:`ocpkit.accuracy.control_switches`)."""
         raise NotImplementedError(f"{type(self).__name__} does not refine its mesh")
 
     def _solve_refined(self, guess, tolerance: float, max_iterations: int, options: dict) -> Solution:
@@ -568,7 +569,8 @@ class Transcription(ABC):
             if errors.max() <= tolerance or not solution.converged:
                 break
             if iteration + 1 < max_iterations:
-                transcription = transcription.refine(errors, tolerance)
+                switches = control_switches(solution, solution.estimate_intervals)
+                transcription = transcription.refine(errors, tolerance, switches)
         else:
             warnings.warn(
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "

@@ -28,7 +28,7 @@ from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
 from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, n_globals, parameter_vector, segment_clock
+from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
 
 def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
@@ -203,12 +203,12 @@ class HLGL(Transcription):
             PathPoints(z, p, [x[2]], [u[4]], [t[4]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
         ]
 
-    def refine(self, errors: np.ndarray, tolerance: float) -> HLGL:
+    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> HLGL:
         """h-refinement: a segment whose error estimate exceeds ``tolerance`` splits into
-        ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6)."""
-        errors = np.asarray(errors, dtype=float)
-        pieces = np.where(errors > tolerance, np.clip(np.ceil((errors / tolerance) ** (1 / 6)), 2, 6), 1)
-        return HLGL(self.problem, mesh=self.mesh.split(pieces))
+        ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6), or,
+        where ``switches`` (per segment, :func:`ocpkit.accuracy.control_switches`) finds the control switching
+        inside, at the switches."""
+        return HLGL(self.problem, mesh=h_refined(self.mesh, errors, tolerance, switches))
 
     # -- bounds and guess -------------------------------------------------------------
     def _initial_point(self, tf, states, controls):

@@ -58,6 +58,17 @@ class Mesh:
             raise ValueError(f"give a positive number of pieces for each of the {self.n} segments")
         return np.repeat(self.fractions / pieces, pieces)
 
+    def split_at(self, cuts) -> tuple[np.ndarray, np.ndarray]:
+        """Fractions of this mesh with segment ``k`` cut at the positions ``cuts[k]`` (in (0, 1) of the segment;
+        empty: unchanged), and the index of the original segment of each new one."""
+        fractions, origin = [], []
+        for k, (f, c) in enumerate(zip(self.fractions, cuts)):
+            edges = np.concatenate([[0.0], np.sort(np.asarray(c, dtype=float)), [1.0]])
+            parts = np.diff(edges) * f
+            fractions.append(parts)
+            origin.append(np.full(parts.size, k))
+        return np.concatenate(fractions), np.concatenate(origin)
+
     @property
     def starts(self) -> np.ndarray:
         """Normalised start times (0..1) of the segments."""
@@ -132,3 +143,19 @@ def segment_clock(problem, z, p):
     t0 = initial_time(problem, z)
     T = final_time(problem, z, p, 2) - t0
     return t0 + T * p[0], T, T * p[1]
+
+
+def h_refined(mesh: Mesh, errors, tolerance: float, switches=None) -> np.ndarray:
+    """The fractions of HLGL's h-refinement of ``mesh``: a segment over ``tolerance`` is cut at its control
+    ``switches`` when it has any, else split into ``ceil((error / tolerance)^(1/6))`` equal parts (2 to 6;
+    HLGL's states converge at about h^6)."""
+    errors = np.asarray(errors, dtype=float)
+    over = errors > tolerance
+    pieces = np.where(over, np.clip(np.ceil((errors / tolerance) ** (1 / 6)), 2, 6), 1).astype(np.int64)
+    cuts = []
+    for k in range(mesh.n):
+        if over[k] and switches is not None and len(switches[k]):
+            cuts.append(np.asarray(switches[k], dtype=float))
+        else:
+            cuts.append(np.arange(1, pieces[k]) / pieces[k])
+    return mesh.split_at(cuts)[0]

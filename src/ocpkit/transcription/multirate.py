@@ -38,7 +38,7 @@ from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem
 from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
-from .mesh import Mesh, n_globals, parameter_vector, segment_clock
+from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
 FAST_INTERPOLATIONS = ("coarse", "fine")
 
@@ -412,15 +412,21 @@ class MultiRateHLGL(Transcription):
             estimate_breakpoints=fine_breaks,
         )
 
-    def refine(self, errors: np.ndarray, tolerance: float) -> MultiRateHLGL:
-        """h-refinement of the coarse mesh: ``errors`` are per fine segment (the solution's estimate intervals);
-        a coarse segment whose worst fine segment exceeds ``tolerance`` splits as :meth:`HLGL.refine` does."""
+    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> MultiRateHLGL:
+        """h-refinement of the coarse mesh: ``errors`` (and ``switches``) are per fine segment (the solution's
+        estimate intervals); a coarse segment whose worst fine segment exceeds ``tolerance`` refines as
+        :meth:`HLGL.refine` does."""
         coarse = np.asarray(errors, dtype=float).reshape(self.segments, self.ratio).max(axis=1)
-        pieces = np.where(coarse > tolerance, np.clip(np.ceil((coarse / tolerance) ** (1 / 6)), 2, 6), 1)
+        coarse_switches = None
+        if switches is not None:
+            coarse_switches = [
+                np.concatenate([(j + np.asarray(switches[k * self.ratio + j])) / self.ratio for j in range(self.ratio)])
+                for k in range(self.segments)
+            ]
         return MultiRateHLGL(
             self.problem,
             ratio=self.ratio,
             slow=[self.problem.state_names[i] for i in self.slow],
             fast_interpolation=self.fast_interpolation,
-            mesh=self.mesh.split(pieces),
+            mesh=h_refined(self.mesh, coarse, tolerance, coarse_switches),
         )

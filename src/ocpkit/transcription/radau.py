@@ -54,9 +54,9 @@ class PiecewiseBarycentric:
         for i in np.unique(idx):
             sel = idx == i
             a, b = self.breaks[i], self.breaks[i + 1]
-            tau, vals, _ = self.pieces[i]
+            tau, vals, w = self.pieces[i]
             s = 2.0 * (flat[sel] - a) / (b - a) - 1.0
-            out[sel] = lagrange_matrix(tau, s) @ vals
+            out[sel] = lagrange_matrix(tau, s, w) @ vals
         return out.reshape(t.shape + (self.dim,))
 
 
@@ -216,27 +216,45 @@ class Radau(Transcription):
     #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015): nodes per interval in [N_MIN, N_MAX]
     N_MIN, N_MAX = 3, 12
 
-    def refine(self, errors: np.ndarray, tolerance: float) -> Radau:
+    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Radau:
         """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4): on an interval of ``N`` nodes whose
         error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)`` more nodes; if ``N + P`` exceeds
         :attr:`N_MAX`, the interval splits into ``max(ceil((N + P) / N_MIN), 2)`` intervals of :attr:`N_MIN` nodes
-        instead (the solution is not smooth enough there for a higher degree to pay)."""
-        counts, fractions = [], []
-        for e, n, f in zip(np.asarray(errors, dtype=float), self.counts, self.mesh.fractions):
-            n = int(n)
+        instead (the solution is not smooth enough there for a higher degree to pay).
+
+        ``switches`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
+        interval over the tolerance with a control switching inside is cut there into intervals of
+        :attr:`N_MIN` nodes, since no degree resolves a corner or a jump."""
+        errors = np.asarray(errors, dtype=float)
+        over = errors > tolerance
+        cuts = (
+            [np.zeros(0)] * self.intervals
+            if switches is None
+            else [c if o else np.zeros(0) for c, o in zip(switches, over)]
+        )
+        fractions, origin = self.mesh.split_at(cuts)
+        counts, out = [], []
+        for k in range(self.intervals):
+            pieces = fractions[origin == k]
+            e, n = errors[k], int(self.counts[k])
+            if pieces.size > 1:
+                counts += [self.N_MIN] * pieces.size
+                out += list(pieces)
+                continue
+            f = pieces[0]
             if e <= tolerance:
                 counts.append(n)
-                fractions.append(f)
+                out.append(f)
                 continue
             wanted = n + max(1, int(np.ceil(np.log(e / tolerance) / np.log(n))))
             if wanted <= self.N_MAX:
                 counts.append(wanted)
-                fractions.append(f)
+                out.append(f)
             else:
                 pieces = max(int(np.ceil(wanted / self.N_MIN)), 2)
                 counts += [self.N_MIN] * pieces
-                fractions += [f / pieces] * pieces
-        return Radau(self.problem, counts, mesh=fractions)
+                out += [f / pieces] * pieces
+        return Radau(self.problem, counts, mesh=out)
 
     # -- bounds, guess, packing ---------------------------------------------------------------
     def _initial_point(self, tf, states, controls):
