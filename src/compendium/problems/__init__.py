@@ -5,6 +5,7 @@ from .bryson_denham import bryson_denham, bryson_denham_solution
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
+from .goddard import goddard_constants, goddard_rocket
 from .hyper_sensitive import hyper_sensitive
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants
 from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
@@ -35,6 +36,8 @@ __all__ = [
     "entry_landing_constants",
     "minimum_downrange_bound",
     "flat_moon_ascent",
+    "goddard_constants",
+    "goddard_rocket",
     "hyper_sensitive",
     "linear_tangent_solution",
     "load_problem_data",

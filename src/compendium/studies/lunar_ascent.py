@@ -1,4 +1,5 @@
-"""Lunar ascent studies (notebook 01): the minimum time against the smoothing of the speed."""
+"""Lunar ascent studies: the minimum time against the smoothing of the speed (notebook 01); the flown position
+error of a solution (notebook 07)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import pandas as pd
 
 from ocpkit import HLGL
 
-from ..problems.lunar_ascent import lunar_ascent
+from ..problems.lunar_ascent import lunar_ascent, lunar_ascent_constants
 
 
 def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None):
@@ -30,3 +31,9 @@ def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None =
     ref = df.loc[df["speed_smoothing"].idxmin(), "tf"]
     df.insert(2, "tf_minus_smallest_eps", df["tf"] - ref)
     return df
+
+
+def ascent_position_error_m(solution, controls: str = "bounded") -> float:
+    """Largest position error (m) of the re-integrated ascent (X or Y), flying the admissible control."""
+    e = solution.reintegrate(controls=controls).max_error_by_state
+    return max(e["X"], e["Y"]) * lunar_ascent_constants()["length_unit_m"]

@@ -45,18 +45,32 @@ class PiecewiseBarycentric:
         self.breaks = np.asarray(breaks, dtype=float)
         self.pieces = [(np.asarray(tau, float), np.asarray(v, float), barycentric_weights(tau)) for tau, v in pieces]
         self.dim = self.pieces[0][1].shape[1]
+        # pieces on the same support points are evaluated together: one Lagrange matrix per group
+        groups: dict[bytes, list[int]] = {}
+        for i, (tau, _, _) in enumerate(self.pieces):
+            groups.setdefault(tau.tobytes(), []).append(i)
+        self._group = np.empty(len(self.pieces), dtype=np.int64)
+        self._slot = np.empty(len(self.pieces), dtype=np.int64)
+        self._groups = []
+        for g, members in enumerate(groups.values()):
+            self._group[members] = g
+            self._slot[members] = np.arange(len(members))
+            tau, _, w = self.pieces[members[0]]
+            self._groups.append((tau, w, np.stack([self.pieces[i][1] for i in members])))
 
     def __call__(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         flat = np.clip(t.ravel(), self.breaks[0], self.breaks[-1])
         out = np.empty((flat.size, self.dim))
         idx = np.clip(np.searchsorted(self.breaks, flat, side="right") - 1, 0, len(self.pieces) - 1)
-        for i in np.unique(idx):
-            sel = idx == i
-            a, b = self.breaks[i], self.breaks[i + 1]
-            tau, vals, w = self.pieces[i]
-            s = 2.0 * (flat[sel] - a) / (b - a) - 1.0
-            out[sel] = lagrange_matrix(tau, s, w) @ vals
+        a, b = self.breaks[idx], self.breaks[idx + 1]
+        s = 2.0 * (flat - a) / (b - a) - 1.0
+        group = self._group[idx]
+        for g, (tau, w, values) in enumerate(self._groups):
+            sel = group == g
+            if sel.any():
+                P = lagrange_matrix(tau, s[sel], w)  # (points, n)
+                out[sel] = np.einsum("pj,pjd->pd", P, values[self._slot[idx[sel]]])
         return out.reshape(t.shape + (self.dim,))
 
 

@@ -1,0 +1,57 @@
+"""The Goddard rocket, maximum altitude (COPS 3.0; constants in ``data/problems/goddard.toml``).
+
+    maximise h(t_f)   subject to   h' = v,   v' = (T - D) / m - g,   m' = -T / c,
+    D = D_c v^2 exp(-h_c (h - h0) / h0),   g = g0 (h0 / h)^2,   0 <= T <= T_max,
+
+from h = h0, v = v0, m = m0 to the final mass m_c m0, t_f free. The optimal thrust is full, then
+singular (a drag-balancing thrust, where the Hamiltonian is linear in T and T is not determined by
+its minimisation), then zero: the classical test of how a transcription treats a singular arc.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+
+from ._data import load_problem_data
+
+
+def goddard_constants() -> dict:
+    """The COPS constants and the derived ones: ``c``, ``D_c``, ``T_max``, ``m_f``."""
+    d = load_problem_data("goddard")
+    c = dict(d["constants"])
+    c["c"] = 0.5 * (c["g0"] * c["h0"]) ** 0.5
+    c["D_c"] = 0.5 * c["v_c"] * c["m0"] / c["g0"]
+    c["T_max"] = c["T_c"] * c["g0"] * c["m0"]
+    c["m_f"] = c["m_c"] * c["m0"]
+    c["tf_bounds"] = tuple(d["bounds"]["tf"])
+    c["tf_guess"] = d["guess"]["tf"]
+    return c
+
+
+def goddard_rocket() -> OptimalControlProblem:
+    c = goddard_constants()
+
+    def dynamics(x, u, t):
+        h, v, m = x[0], x[1], x[2]
+        drag = c["D_c"] * v**2 * ca.exp(-c["h_c"] * (h - c["h0"]) / c["h0"])
+        gravity = c["g0"] * (c["h0"] / h) ** 2
+        return ca.vertcat(v, (u[0] - drag) / m - gravity, -u[0] / c["c"])
+
+    lo, hi = c["tf_bounds"]
+    return OptimalControlProblem(
+        "goddard_rocket",
+        states=[
+            State("h", c["h0"], 2 * c["h0"], initial=c["h0"], guess=(c["h0"], 1.01 * c["h0"]), description="altitude"),
+            State("v", 0.0, 1.0, initial=c["v0"], scale=0.1, guess=0.05, description="velocity"),
+            State(
+                "m", c["m_f"], c["m0"], initial=c["m0"], final=c["m_f"], guess=(c["m0"], c["m_f"]), description="mass"
+            ),
+        ],
+        controls=[Control("T", 0.0, c["T_max"], scale=c["T_max"], guess=c["T_max"] / 2, description="thrust")],
+        dynamics=dynamics,
+        tf=FreeFinalTime(lo, hi, c["tf_guess"], scale=0.1),
+        mayer=lambda x0, xf, t0, tf: -xf[0],
+        description="Goddard rocket, maximum altitude (COPS 3.0)",
+    )
