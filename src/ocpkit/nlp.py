@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse as sps
 
 #: Instances per block above which the mapped evaluations use two threads.
 THREAD_THRESHOLD = 256
@@ -114,10 +113,10 @@ def _map(fun: ca.Function, count: int) -> ca.Function:
 def _assembly(keys: np.ndarray, weights: np.ndarray):
     """Unique sorted keys and the sparse matrix that sums entries into them."""
     ukeys, inverse = np.unique(keys, return_inverse=True)
-    A = sps.csc_matrix((weights, (inverse, np.arange(keys.size))), shape=(ukeys.size, keys.size))
-    A.sum_duplicates()
-    dm = ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data)
-    return ukeys, dm
+    # one entry per column (column j adds entry j into row inverse[j]): the CSC arrays are direct
+    n = keys.size
+    sparsity = ca.Sparsity(ukeys.size, n, np.arange(n + 1).tolist(), np.asarray(inverse).ravel().tolist())
+    return ukeys, ca.DM(sparsity, np.asarray(weights, dtype=float))
 
 
 class SeparableNLP:
