@@ -42,6 +42,19 @@ DEFAULT_IPOPT_OPTIONS = {
 }
 """IPOPT options used unless overridden (exact Hessian, MUMPS)."""
 
+WARM_START = {
+    "warm_start_init_point": "yes",
+    "mu_init": 1e-6,
+    "warm_start_bound_push": 1e-9,
+    "warm_start_bound_frac": 1e-9,
+    "warm_start_slack_bound_push": 1e-9,
+    "warm_start_slack_bound_frac": 1e-9,
+    "warm_start_mult_bound_push": 1e-9,
+}
+"""IPOPT options of a start from a previous solution of the same NLP with its multipliers: the iterate is kept
+(almost) where it is instead of being pushed into the interior, and the barrier starts small. From its own
+solution, the entry landing (Radau 4 x 20) takes 1 iteration instead of 15."""
+
 
 @dataclass
 class Block:
@@ -263,11 +276,14 @@ class NLPResult:
 ACCEPTABLE = "Solved_To_Acceptable_Level"
 
 
-def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: bool = False) -> NLPResult:
+def solve_nlp(
+    solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: bool = False, lam_w0=None, lam_g0=None
+) -> NLPResult:
     """Run IPOPT and return its last iterate; ``success`` says whether IPOPT succeeded.
 
     Success is ``Solve_Succeeded``, or ``Solved_To_Acceptable_Level`` with
-    ``allow_acceptable``, and a finite iterate.
+    ``allow_acceptable``, and a finite iterate. ``lam_w0``, ``lam_g0``: starting multipliers
+    (with :data:`WARM_START` options).
     """
     for name, arr in (("lower bounds", lbw), ("upper bounds", ubw)):
         if np.any(np.isnan(arr)):
@@ -278,7 +294,8 @@ def solve_nlp(solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: 
     if not np.all(np.isfinite(w0)):
         raise ValueError("the initial guess contains NaN or infinite values")
     t = time.perf_counter()
-    res = solver(x0=w0, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
+    start = {} if lam_w0 is None else {"lam_x0": lam_w0, "lam_g0": lam_g0}
+    res = solver(x0=w0, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg, **start)
     elapsed = time.perf_counter() - t
     stats = solver.stats()
     status = stats.get("return_status", "unknown")

@@ -109,8 +109,13 @@ def entry_landing(
     objective: str = "max_final_mass",
     glide_slope_deg: float | None = None,
     max_sensed_g: float | None = None,
+    initial_speed_m_s: float | None = None,
+    initial_flight_path_deg: float | None = None,
 ) -> OptimalControlProblem:
     """The entry-landing problem (see the module docstring for the options).
+
+    ``initial_speed_m_s``, ``initial_flight_path_deg``: another initial speed or flight-path angle
+    than the data file's (the speed cap, when on, follows the initial speed).
 
     Two path constraints the post left out (notebook 06):
 
@@ -122,6 +127,14 @@ def entry_landing(
       <= max_sensed_g^2`` (units of g0, the problem's acceleration unit).
     """
     c = entry_landing_constants()
+    if initial_speed_m_s is not None:
+        if not (math.isfinite(initial_speed_m_s) and initial_speed_m_s > 0):
+            raise ValueError(f"initial_speed_m_s must be a positive speed, got {initial_speed_m_s!r}")
+        c["V0"] = initial_speed_m_s / c["velocity_unit_m_s"]
+    if initial_flight_path_deg is not None:
+        if not (math.isfinite(initial_flight_path_deg) and -90 <= initial_flight_path_deg <= 90):
+            raise ValueError(f"initial_flight_path_deg must lie in [-90, 90], got {initial_flight_path_deg!r}")
+        c["gamma0"] = initial_flight_path_deg * math.pi / 180
     k_lift = lift_scale(aero_model)
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")

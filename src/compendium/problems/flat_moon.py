@@ -43,8 +43,13 @@ def flat_moon_constants() -> dict:
     }
 
 
-def flat_moon_ascent() -> OptimalControlProblem:
-    """The flat-moon ascent in SI units (scaled internally)."""
+def flat_moon_ascent(*, thrust_as_parameter: bool = False) -> OptimalControlProblem:
+    """The flat-moon ascent in SI units (scaled internally).
+
+    ``thrust_as_parameter``: the thrust-to-weight ratio is the problem parameter
+    ``"thrust_to_weight"`` (``a = thrust_to_weight * g``), so that one transcription solves for
+    many values (``solve(parameters={"thrust_to_weight": 2.5})``).
+    """
     import casadi as ca
 
     c = flat_moon_constants()
@@ -52,8 +57,9 @@ def flat_moon_ascent() -> OptimalControlProblem:
     sc, gs = c["scaling"], c["guess"]
     L, V, T = sc["position_m"], sc["velocity_m_s"], sc["time_s"]
 
-    def dynamics(x, u, t):
-        return ca.vertcat(x[2], x[3], a * ca.cos(u[0]), a * ca.sin(u[0]) - g)
+    def dynamics(x, u, t, P=None):
+        acc = a if P is None else P["thrust_to_weight"] * g
+        return ca.vertcat(x[2], x[3], acc * ca.cos(u[0]), acc * ca.sin(u[0]) - g)
 
     states = [
         State("x", initial=0.0, scale=L, unit="m", guess=tuple(gs["x_m"])),
@@ -70,9 +76,10 @@ def flat_moon_ascent() -> OptimalControlProblem:
         controls,
         dynamics,
         tf=FreeFinalTime(tlo, thi, gs["tf_s"], scale=T),
-        mayer=lambda x0, xf, t0, tf: tf,
+        mayer=lambda x0, xf, t0, tf, P=None: tf,
         objective_scale=T,
         description="Flat-moon minimum-time ascent (Bryson & Ho 2.7)",
+        parameters={"thrust_to_weight": a / g} if thrust_as_parameter else None,
     )
 
 
@@ -121,10 +128,12 @@ class LinearTangentSolution:
         return np.stack([x, y, vx, vy], axis=-1)
 
 
-def linear_tangent_solution(tol: float = 1e-14) -> LinearTangentSolution:
-    """Solve the three terminal conditions for (tan theta_0, c, tf) with scipy's MINPACK hybrid method."""
+def linear_tangent_solution(tol: float = 1e-14, thrust_to_weight: float | None = None) -> LinearTangentSolution:
+    """Solve the three terminal conditions for (tan theta_0, c, tf) with scipy's MINPACK hybrid method
+    (``thrust_to_weight``: another ratio than the data file's)."""
     k = flat_moon_constants()
-    a, g = k["a"], k["g"]
+    g = k["g"]
+    a = k["a"] if thrust_to_weight is None else float(thrust_to_weight) * g
     target = np.array([k["y_f"], k["vx_f"], k["vy_f"]])
     scale = np.array([k["scaling"]["position_m"], k["scaling"]["velocity_m_s"], k["scaling"]["velocity_m_s"]])
 
@@ -133,8 +142,9 @@ def linear_tangent_solution(tol: float = 1e-14) -> LinearTangentSolution:
         sol = LinearTangentSolution(a, g, s0, c, tf)
         return (sol.state(tf)[1:] - target) / scale
 
-    z0 = np.array([1.0, 0.5, k["guess"]["tf_s"] / 100.0])
+    z0 = np.array([1.0, 0.5, k["guess"]["tf_s"] * (k["a"] / a) / 100.0])  # t_f roughly inverse to the thrust
     res = root(residual, z0, method="hybr", tol=tol)
-    if not res.success or np.max(np.abs(res.fun)) > 1e-10:
+    # MINPACK may stop at "no further improvement" on a root already as exact as its arithmetic allows
+    if np.max(np.abs(res.fun)) > 1e-10:
         raise RuntimeError(f"linear-tangent boundary-value problem did not converge: {res.message}")
     return LinearTangentSolution(a, g, float(res.x[0]), float(res.x[1]) / 100.0, float(res.x[2]) * 100.0)

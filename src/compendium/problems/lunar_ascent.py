@@ -36,12 +36,14 @@ def lunar_ascent_constants() -> dict:
     }
 
 
-def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
+def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: bool = False) -> OptimalControlProblem:
     """Minimum-time lunar ascent, Eqs. (8)-(11) of Desai & Conway.
 
     ``sqrt(U^2 + V^2)`` is replaced by ``sqrt(U^2 + V^2 + eps^2)``, eps =
     ``speed_smoothing`` (default from the data file), so the dynamics are
-    twice differentiable at the initial rest state.
+    twice differentiable at the initial rest state. ``thrust_as_parameter``: the thrust
+    acceleration ``a`` (the thrust-to-weight ratio, g = 1) is the problem parameter ``"a"``,
+    so that one transcription solves for many values (``solve(parameters={"a": 2.5})``).
     """
     c = lunar_ascent_constants()
     eps = c["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing)
@@ -49,7 +51,8 @@ def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
         raise ValueError(f"speed_smoothing must be positive and finite, got {speed_smoothing!r}")
     g, a = c["g"], c["a"]
 
-    def dynamics(x, u, t):
+    def dynamics(x, u, t, P=None):
+        a_ = a if P is None else P["a"]
         X, Y, U, V = ca.vertsplit(x)
         theta = u[0]
         speed = ca.sqrt(U**2 + V**2 + eps**2)
@@ -57,8 +60,8 @@ def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
         return ca.vertcat(
             U,
             V,
-            a * ca.cos(theta) - 0.5 * g * speed / radius,
-            a * ca.sin(theta) - g * speed / radius,
+            a_ * ca.cos(theta) - 0.5 * g * speed / radius,
+            a_ * ca.sin(theta) - g * speed / radius,
         )
 
     ini, fin, guess = c["initial"], c["final"], c["guess"]
@@ -83,6 +86,7 @@ def lunar_ascent(speed_smoothing: float | None = None) -> OptimalControlProblem:
         controls,
         dynamics,
         tf=FreeFinalTime(tlo, thi, guess["tf"]),
-        mayer=lambda x0, xf, t0, tf: tf,
+        mayer=lambda x0, xf, t0, tf, P=None: tf,
         description="Desai & Conway lunar ascent, minimum time (Eqs. 8-11)",
+        parameters={"a": a} if thrust_as_parameter else None,
     )

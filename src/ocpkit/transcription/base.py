@@ -12,7 +12,7 @@ import numpy as np
 
 from ..accuracy import AccuracyWarning, control_switches, warn_if_inaccurate
 from ..errors import SolverError
-from ..nlp import Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
+from ..nlp import WARM_START, Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
 from .mesh import Mesh, final_time, initial_time, n_globals, parameter_vector
@@ -136,8 +136,7 @@ class Transcription(ABC):
             raise TypeError(f"expected an OptimalControlProblem, got {type(problem).__name__}")
         self.problem = problem
         self._nlp: SeparableNLP | None = None
-        self._solver = None
-        self._solver_options = None
+        self._solvers = {}
         self._nlp_build_s = 0.0
         self._solver_build_s = 0.0
 
@@ -176,7 +175,8 @@ class Transcription(ABC):
         return sum(g.size for g in self._groups()) + n_globals(self.problem)
 
     def global_indices(self) -> np.ndarray:
-        """NLP indices of the problem-wide variables (free parameters, then t0 and tf where free), last in ``w``."""
+        """NLP indices of the problem-wide variables (pinned and free parameters, then t0 and tf where free), last
+        in ``w``."""
         k = n_globals(self.problem)
         return np.arange(self.n_variables - k, self.n_variables, dtype=np.int64)
 
@@ -189,18 +189,29 @@ class Transcription(ABC):
         """NLP indices of t0 and tf (None where fixed)."""
         g = self.global_indices()
         pr = self.problem
-        i0 = int(g[len(pr.free_parameters)]) if pr.free_initial_time else None
+        i0 = int(g[len(pr.parameters) + len(pr.free_parameters)]) if pr.free_initial_time else None
         return i0, (int(g[-1]) if pr.free_final_time else None)
 
     def global_values(self, w) -> dict:
-        """``{"parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector."""
+        """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector
+        (``pinned``: the problem's parameters as solved with; ``parameters``: the free ones)."""
         pr = self.problem
         z = np.asarray(w, dtype=float).ravel()[self.global_indices()]
-        nf = len(pr.free_parameters)
-        values = pr.free_parameter_scaling.from_nlp(z[:nf]) if nf else np.zeros(0)
-        t0 = float(z[nf] * pr.initial_time.scale) if pr.free_initial_time else pr.t0
+        n_pinned, nf = len(pr.parameters), len(pr.free_parameters)
+        values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
+        t0 = float(z[n_pinned + nf] * pr.initial_time.scale) if pr.free_initial_time else pr.t0
         tf = float(z[-1] * pr.tf.scale) if pr.free_final_time else pr.tf
-        return {"parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())), "t0": t0, "tf": tf}
+        return {
+            "pinned": dict(zip(pr.parameters, z[:n_pinned].tolist())),
+            "parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())),
+            "t0": t0,
+            "tf": tf,
+        }
+
+    def parameter_values(self, parameters=None) -> np.ndarray:
+        """The values the problem's parameters are pinned to in a solve: the problem's, with ``parameters``
+        (a mapping of some names to values) replacing some; each name checked."""
+        return self.problem.parameter_vector(parameters) if parameters is not None else self.problem.parameter_vector()
 
     def _index_tables(self) -> tuple[list[np.ndarray], int | None]:
         """Global NLP indices of each group, shaped (variables, points), and of tf (None if fixed)."""
@@ -210,13 +221,15 @@ class Transcription(ABC):
             offset += g.size
         return tables, (offset if self.problem.free_final_time else None)
 
-    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Scaled bounds of the NLP variables; state groups carry the boundary conditions."""
+    def _bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled bounds of the NLP variables; state groups carry the boundary conditions, the problem's parameters
+        are pinned to their values (``parameters``: some replaced)."""
         return self._stack_bounds(
             [
                 node_bounds(g.variables, g.points) if g.is_state else point_bounds(g.variables, g.points)
                 for g in self._groups()
-            ]
+            ],
+            parameters,
         )
 
     def pack(self, *values, tf: float | None = None, t0: float | None = None, parameters=None) -> np.ndarray:
@@ -234,8 +247,11 @@ class Transcription(ABC):
                 raise ValueError(f"{g.name} have shape {v.shape}, expected ({g.points}, {len(g.variables)})")
             parts.append(g.scaling.to_nlp(v).ravel() if g.variables else np.zeros(0))
         pr = self.problem
+        given = dict(parameters or {})
+        if pr.parameters:
+            parts.append(self.parameter_values({k: v for k, v in given.items() if k in pr.parameters}))
         if pr.free_parameters:
-            values = {v.name: v.guess_value for v in pr.free_parameters} | dict(parameters or {})
+            values = {v.name: v.guess_value for v in pr.free_parameters} | given
             parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
         if pr.free_initial_time:
             parts.append([(pr.t0 if t0 is None else t0) / pr.initial_time.scale])
@@ -265,16 +281,26 @@ class Transcription(ABC):
         return Mesh.times(self.problem, tf, s, t0)
 
     def _result_problem(self, result: NLPResult):
-        """The problem of a result: with the free parameters fixed at their solved values; and ``(t0, tf)``."""
+        """The problem of a result: with the parameter values it was solved with (sharing the functions) and the
+        free parameters fixed at their solved values; and ``(t0, tf)``."""
         g = self.global_values(result.w)
-        pr = self.problem.fix_parameters(g["parameters"]) if self.problem.free_parameters else self.problem
+        pr = self.problem
+        if g["pinned"] != pr.parameters:
+            pr = pr.replace(parameters=g["pinned"])
+        if pr.free_parameters:
+            pr = pr.fix_parameters(g["parameters"])
         return pr, g["t0"], g["tf"]
 
-    def _stack_bounds(self, parts) -> tuple[np.ndarray, np.ndarray]:
-        """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds."""
+    def _stack_bounds(self, parts, parameters=None) -> tuple[np.ndarray, np.ndarray]:
+        """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds
+        (the parameters pinned to :meth:`parameter_values`)."""
         pr = self.problem
         lb = [np.ravel(lo) for lo, _ in parts]
         ub = [np.ravel(hi) for _, hi in parts]
+        if pr.parameters:
+            pinned = self.parameter_values(parameters)
+            lb.append(pinned)
+            ub.append(pinned)
         if pr.free_parameters:
             sc = pr.free_parameter_scaling
             lb.append(sc.to_nlp([v.lower for v in pr.free_parameters]))
@@ -435,14 +461,14 @@ class Transcription(ABC):
         return self.build()._nlp
 
     def solver(self, ipopt_options: dict | None = None):
+        """The IPOPT instance for these option overrides: created once per set of options, then reused."""
         key = tuple(sorted((ipopt_options or {}).items()))
-        if self._solver is None or key != self._solver_options:
+        if key not in self._solvers:
             self.build()
             t = time.perf_counter()
-            self._solver = self.nlp.solver({**self.ipopt_defaults, **(ipopt_options or {})})
+            self._solvers[key] = self.nlp.solver({**self.ipopt_defaults, **(ipopt_options or {})})
             self._solver_build_s = time.perf_counter() - t
-            self._solver_options = key
-        return self._solver
+        return self._solvers[key]
 
     def initial_point(self, guess=None) -> np.ndarray:
         """Scaled NLP start vector from a :class:`~ocpkit.Guess`, a :class:`~ocpkit.Solution` or the defaults."""
@@ -470,8 +496,8 @@ class Transcription(ABC):
                 }
             else:
                 values = guess.parameter_values(self.problem)
-            nf = len(self.problem.free_parameters)
-            w0[self.global_indices()[:nf]] = self.problem.free_parameter_scaling.to_nlp(
+            n_pinned, nf = len(self.problem.parameters), len(self.problem.free_parameters)
+            w0[self.global_indices()[n_pinned : n_pinned + nf]] = self.problem.free_parameter_scaling.to_nlp(
                 [values[v.name] for v in self.problem.free_parameters]
             )
         lb, ub = self._bounds()
@@ -487,12 +513,16 @@ class Transcription(ABC):
         error_threshold: float | None = 1e-3,
         mesh_tolerance: float | None = None,
         max_mesh_iterations: int = 10,
+        parameters=None,
     ) -> Solution:
         """Solve with IPOPT from ``guess``.
 
         Parameters
         ----------
         guess : Guess, Solution or None
+            A :class:`~ocpkit.Solution` of this same transcription object is an exact warm start: its NLP
+            vector and IPOPT's multipliers, with IPOPT's warm-start options (:data:`WARM_START`); another
+            Solution is interpolated onto this mesh.
         ipopt_options : dict
             Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
         allow_acceptable : bool
@@ -510,25 +540,45 @@ class Transcription(ABC):
             ``max_mesh_iterations`` solves, each warm-started from the previous solution; the
             returned solution's ``mesh_history`` lists every iteration (and a warning says so if
             the tolerance is not met).
+        parameters : mapping, optional
+            New values of some of the problem's parameters (:attr:`OptimalControlProblem.parameters`) for
+            this solve. They are NLP variables pinned by their bounds, so the NLP and the IPOPT instance are
+            built once and reused for any values: a study of many values builds once. The solution's
+            problem carries the values solved with.
         """
+        if parameters is not None:
+            self.parameter_values(parameters)  # names checked before anything is built
         if mesh_tolerance is not None:
             return self._solve_refined(
                 guess,
                 mesh_tolerance,
                 max_mesh_iterations,
-                dict(ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure),
+                dict(
+                    ipopt_options=ipopt_options,
+                    allow_acceptable=allow_acceptable,
+                    raise_on_failure=raise_on_failure,
+                    parameters=parameters,
+                ),
             )
-        solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure)
+        solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         if error_threshold is not None and solution.converged:
             warn_if_inaccurate(self.label, solution.interval_errors, solution.estimate_intervals, error_threshold)
         return solution
 
-    def _solve_once(self, guess, ipopt_options, allow_acceptable, raise_on_failure) -> Solution:
-        solver = self.solver(ipopt_options)
-        lbw, ubw = self._bounds()
+    def _solve_once(self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None) -> Solution:
+        lbw, ubw = self._bounds(parameters)
         lbg, ubg = self._constraint_bounds()
-        w0 = self.initial_point(guess)
-        result = solve_nlp(solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
+        lam_w0 = lam_g0 = None
+        if isinstance(guess, Solution) and guess.raw.get("transcription") is self and "lam_g" in guess.raw:
+            w0 = np.clip(guess.raw["w"], lbw, ubw)
+            lam_w0, lam_g0 = guess.raw["lam_w"], guess.raw["lam_g"]
+            ipopt_options = {**WARM_START, **(ipopt_options or {})}
+        else:
+            w0 = np.clip(self.initial_point(guess), lbw, ubw)
+        solver = self.solver(ipopt_options)
+        result = solve_nlp(
+            solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable, lam_w0=lam_w0, lam_g0=lam_g0
+        )
         return settle(result, self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
@@ -550,6 +600,7 @@ class Transcription(ABC):
                 options["ipopt_options"],
                 options["allow_acceptable"],
                 options["raise_on_failure"],
+                options["parameters"],
             )
             errors = solution.interval_errors
             history.append(
@@ -583,6 +634,11 @@ class Transcription(ABC):
         return solution
 
     @property
+    def n_decision_variables(self) -> int:
+        """The NLP's free variables (the paper's "NLP parameters"): all but the pinned problem parameters."""
+        return self.n_variables - len(self.problem.parameters)
+
+    @property
     def n_collocation_points(self) -> int:
         """Points at which the dynamics hold (the measure of a mesh's size in the refinement literature)."""
         return self.n_defects // max(self.problem.nx, 1)
@@ -603,12 +659,18 @@ class Transcription(ABC):
             status=result.status,
             iterations=result.iterations,
             objective=result.objective * self.problem.objective_scale,
-            nlp_parameters=self.n_variables,
+            nlp_parameters=self.n_decision_variables,
             defect_equations=self.n_defects,
             constraints=self.n_constraints,
             build_s=self.build_s,
             solve_s=result.solve_s,
-            raw={"w": result.w, "lam_g": result.lam_g, "lam_w": result.lam_w, "stats": result.stats},
+            raw={
+                "w": result.w,
+                "lam_g": result.lam_g,
+                "lam_w": result.lam_w,
+                "stats": result.stats,
+                "transcription": self,
+            },
             converged=result.success,
             **fields,
         )

@@ -7,9 +7,12 @@ written, numerically (:meth:`Mesh.times`) and symbolically (:func:`segment_clock
 :func:`initial_time`, :func:`final_time`).
 
 The problem-wide NLP variables (:func:`n_globals`) close the NLP vector and every block
-that needs them: the free parameters (scaled by their own scaling), then ``t0`` (scaled)
-when free, then ``tf`` (scaled) when free; :func:`parameter_vector` and the two time
-functions read them from the end of a block's variables ``z``.
+that needs them: the problem's (fixed) parameters, pinned by their bounds to the values of
+the solve (unscaled; IPOPT treats a variable whose bounds are equal as a constant, so they
+add nothing to the KKT system, and a new value is a new bound, not a new NLP), then the free
+parameters (scaled by their own scaling), then ``t0`` (scaled) when free, then ``tf``
+(scaled) when free; :func:`parameter_vector` and the two time functions read them from the
+end of a block's variables ``z``.
 """
 
 from __future__ import annotations
@@ -110,8 +113,13 @@ class Mesh:
 
 
 def n_globals(problem) -> int:
-    """The problem-wide NLP variables: free parameters, then t0 and tf where free."""
-    return len(problem.free_parameters) + int(problem.free_initial_time) + int(problem.free_final_time)
+    """The problem-wide NLP variables: pinned parameters, free parameters, then t0 and tf where free."""
+    return (
+        len(problem.parameters)
+        + len(problem.free_parameters)
+        + int(problem.free_initial_time)
+        + int(problem.free_final_time)
+    )
 
 
 def final_time(problem, z, p, index: int):
@@ -127,12 +135,15 @@ def initial_time(problem, z):
 
 
 def parameter_vector(problem, z):
-    """The parameter vector ``P`` of a block: the fixed values, then the free parameters from the end of ``z``."""
-    if not problem.free_parameters:
+    """The parameter vector ``P`` of a block: the pinned values, then the free parameters, from the end of ``z``."""
+    n_pinned, nf = len(problem.parameters), len(problem.free_parameters)
+    if not n_pinned + nf:
         return problem._P
-    k, nf = n_globals(problem), len(problem.free_parameters)
-    free = problem.free_parameter_scaling.from_nlp(z[z.numel() - k : z.numel() - k + nf])
-    return ca.vertcat(ca.DM(problem.parameter_vector()), free) if problem.parameters else free
+    start = z.numel() - n_globals(problem)
+    parts = [z[start : start + n_pinned]] if n_pinned else []
+    if nf:
+        parts.append(problem.free_parameter_scaling.from_nlp(z[start + n_pinned : start + n_pinned + nf]))
+    return ca.vertcat(*parts)
 
 
 def segment_clock(problem, z, p):

@@ -290,7 +290,7 @@ class MultiPhase:
             status=result.status,
             iterations=result.iterations,
             objective=float(sum(p.objective for p in phases)),
-            nlp_parameters=self.n_variables,
+            nlp_parameters=self.n_variables - sum(len(ph.problem.parameters) for ph in self.phases),
             constraints=self.n_constraints,
             build_s=self.build_s,
             solve_s=result.solve_s,

@@ -1,0 +1,59 @@
+"""Sweep tasks (notebook 09, benchmarks/bench_sweep.py): one point of a study each, importable by Dask workers.
+
+Each task is a module-level function of keyword arguments returning a dict (see :mod:`compendium.sweep`).
+A worker process builds a transcription once (:func:`functools.lru_cache`) and solves it for every point it
+is given, with the point's values as the problem's parameters: no NLP or IPOPT instance is rebuilt. Each
+point starts from the default guess, so its result does not depend on which worker ran it or in what order.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+
+from ocpkit import HLGL, Radau
+from ocpkit.accuracy import AccuracyWarning
+
+from ..problems import entry_landing, flat_moon_ascent, linear_tangent_solution
+from .entry_landing import landing_summary
+
+
+@functools.lru_cache(maxsize=8)
+def flat_moon_transcription(segments: int) -> HLGL:
+    """The flat-moon ascent with its thrust-to-weight ratio as a parameter, built once per process."""
+    return HLGL(flat_moon_ascent(thrust_as_parameter=True), segments).build()
+
+
+def flat_moon_point(thrust_to_weight: float, segments: int = 20) -> dict:
+    """Minimum time to orbit at one thrust-to-weight ratio, against the linear-tangent closed form."""
+    tr = flat_moon_transcription(segments)
+    sol = tr.solve(parameters={"thrust_to_weight": thrust_to_weight}, error_threshold=None)
+    exact = linear_tangent_solution(thrust_to_weight=thrust_to_weight)
+    return {
+        "tf_s": sol.tf,
+        "tf_exact_s": exact.tf,
+        "tf_relative_error": abs(sol.tf / exact.tf - 1),
+        "error_estimate": sol.error_estimate,
+        "iterations": sol.iterations,
+        "solve_s": sol.solve_s,
+    }
+
+
+def entry_landing_point(speed_m_s: float, flight_path_deg: float, intervals: int = 20, max_iter: int = 500) -> dict:
+    """Fuel of the entry landing from one initial speed and flight-path angle (Radau, 4 nodes per interval).
+
+    The initial state fixes the NLP's bounds and boundary conditions, so each point builds its own
+    transcription (about 30 ms here); a failed solve raises :class:`ocpkit.SolverError`, recorded by the sweep.
+    """
+    problem = entry_landing(initial_speed_m_s=speed_m_s, initial_flight_path_deg=flight_path_deg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)  # the estimate is a result column
+        sol = Radau(problem, 4, intervals).solve(ipopt_options={"max_iter": max_iter})
+    summary = landing_summary(sol)
+    return {
+        "fuel_kg": summary["fuel_kg"],
+        "final_downrange_m": summary["final_downrange_m"],
+        "error_estimate": sol.error_estimate,
+        "iterations": sol.iterations,
+        "solve_s": sol.solve_s,
+    }
