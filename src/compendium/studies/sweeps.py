@@ -57,3 +57,23 @@ def entry_landing_point(speed_m_s: float, flight_path_deg: float, intervals: int
         "iterations": sol.iterations,
         "solve_s": sol.solve_s,
     }
+
+
+def isolated_failures(table, x: str, y: str) -> list[tuple]:
+    """Failed points of a grid sweep not connected to the grid's edge through failed neighbours.
+
+    On a grid of ``x`` by ``y`` values, a failure region that reaches the edge is where the problem stops
+    being solvable; a failed point surrounded by solved ones is more likely the solver's failure than the
+    problem's. Returns the ``(x, y)`` of such points (neighbours: one grid step in ``x`` or ``y``).
+    """
+    xs, ys = sorted(table[x].unique()), sorted(table[y].unique())
+    failed = {(xs.index(a), ys.index(b)) for a, b in zip(table[x][~table.ok], table[y][~table.ok])}
+    edge = [p for p in failed if p[0] in (0, len(xs) - 1) or p[1] in (0, len(ys) - 1)]
+    reached, stack = set(edge), list(edge)
+    while stack:
+        i, j = stack.pop()
+        for n in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if n in failed and n not in reached:
+                reached.add(n)
+                stack.append(n)
+    return sorted((xs[i], ys[j]) for i, j in failed - reached)
