@@ -68,6 +68,9 @@ bench: setup
 	$(PY) benchmarks/bench_orbit_transfer.py
 	$(PY) benchmarks/bench_constraints.py
 	$(PY) benchmarks/bench_refinement.py
+	$(PY) benchmarks/bench_process.py
+	$(PY) benchmarks/bench_many_solves.py
+	$(PY) benchmarks/bench_sweep.py
 
 # stored outputs use the default parameters; where those are a notebook's published ones its figures and tables
 # are the published record (identical when nothing changed: review `git status`), otherwise they go to build/runs/
