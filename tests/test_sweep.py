@@ -84,3 +84,29 @@ def test_bad_sweeps_are_refused():
         sweep(flat_moon_point, [{"thrust_to_weight": 2.0}] * 2)
     with pytest.raises(ValueError, match="clash"):
         sweep(flat_moon_point, [{"status": 1}])
+
+
+def test_boundary_values_given_as_parameters_need_no_rebuild():
+    """Rest to rest over a distance d in t = 1 (minimum energy): u = d (6 - 12 t), J = 6 d^2, for any d."""
+    import casadi as ca
+
+    from ocpkit import Constraint, Control, OptimalControlProblem, State
+
+    problem = OptimalControlProblem(
+        "rest_to_rest",
+        [State("x", initial=0.0), State("v", initial=0.0, final=0.0)],
+        [Control("u")],
+        lambda x, u, t, P: ca.vertcat(x[1], u[0]),
+        tf=1.0,
+        lagrange=lambda x, u, t, P: u[0] ** 2 / 2,
+        parameters={"d": 1.0},
+        boundary_constraints=[Constraint("arrive", lambda x0, xf, t0, tf, P: xf[0] - P["d"], 0.0, 0.0)],
+    )
+    tr = HLGL(problem, 6)
+    nlp = None
+    for d in (1.0, 2.0, -0.5):
+        sol = tr.solve(parameters={"d": d})
+        nlp = nlp or tr.nlp
+        assert tr.nlp is nlp
+        assert sol.objective == pytest.approx(6 * d**2, rel=1e-9)
+        assert sol.state(1.0)[0] == pytest.approx(d, abs=1e-9)
