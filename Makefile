@@ -71,6 +71,7 @@ bench: setup
 	$(PY) benchmarks/bench_process.py
 	$(PY) benchmarks/bench_many_solves.py
 	$(PY) benchmarks/bench_sweep.py
+	$(PY) benchmarks/bench_quasi_newton.py
 
 # stored outputs use the default parameters; where those are a notebook's published ones its figures and tables
 # are the published record (identical when nothing changed: review `git status`), otherwise they go to build/runs/

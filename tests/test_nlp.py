@@ -73,3 +73,29 @@ def test_block_shape_errors_are_clear():
         Block("b", fun, np.zeros((2, 3), int), np.zeros((2, 3)), np.zeros((1, 3), int))
     with pytest.raises(ValueError, match="outside"):
         SeparableNLP(1, 1, [Block("b", fun, np.array([[0], [5]]), np.zeros((1, 1)), np.array([[0]]))])
+
+
+def test_quasi_newton_solvers_reach_the_exact_hessian_optimum():
+    """IPOPT with L-BFGS and SciPy's SLSQP on a transcription's NLP (nlp_bounds + package), as notebook 02 uses."""
+    import casadi as ca
+
+    from ocpkit import HLGL, Control, OptimalControlProblem, State
+    from ocpkit.nlp import solve_nlp_slsqp
+
+    problem = OptimalControlProblem(
+        "min_energy",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -10.0, 10.0)],
+        lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=1.0,
+        lagrange=lambda x, u, t: u[0] ** 2 / 2,
+    )
+    tr = HLGL(problem, 4)
+    exact = tr.solve()
+    lbfgs = tr.solve(ipopt_options={"hessian_approximation": "limited-memory", "tol": 1e-9})
+    assert lbfgs.iterations > exact.iterations and lbfgs.objective == pytest.approx(6.0, rel=1e-7)
+    lbw, ubw, lbg, ubg = tr.nlp_bounds()
+    sol = tr.package(solve_nlp_slsqp(tr.nlp, tr.initial_point(), lbw, ubw, lbg, ubg))
+    assert sol.status.startswith("SLSQP") and sol.objective == pytest.approx(6.0, rel=1e-8)
+    with pytest.raises(ValueError, match="hessian_approximation"):
+        tr.solve(ipopt_options={"hessian_approximation": "bfgs"})

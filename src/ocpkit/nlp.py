@@ -244,17 +244,17 @@ class SeparableNLP:
 
     # ------------------------------------------------------------------------------
     def solver(self, ipopt_options: dict | None = None) -> ca.Function:
-        """CasADi ``nlpsol`` (IPOPT, exact Hessian) for this NLP."""
+        """CasADi ``nlpsol`` (IPOPT) for this NLP: the assembled exact Hessian, or, with the option
+        ``hessian_approximation="limited-memory"``, IPOPT's L-BFGS approximation instead (a quasi-Newton
+        method, for comparisons with solvers of that class)."""
         ip = dict(DEFAULT_IPOPT_OPTIONS)
         ip.update(ipopt_options or {})
-        if ip.get("hessian_approximation", "exact") != "exact":
-            raise ValueError("ocpkit builds exact Hessians; hessian_approximation must be 'exact'")
-        opts = {
-            "ipopt": ip,
-            "print_time": False,
-            "jac_g": self.jac_g,
-            "hess_lag": self.hess_lag,
-        }
+        approximation = ip.get("hessian_approximation", "exact")
+        if approximation not in ("exact", "limited-memory"):
+            raise ValueError(f"hessian_approximation must be 'exact' or 'limited-memory', got {approximation!r}")
+        opts = {"ipopt": ip, "print_time": False, "jac_g": self.jac_g}
+        if approximation == "exact":
+            opts["hess_lag"] = self.hess_lag
         return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
 
 
@@ -312,6 +312,63 @@ def solve_nlp(
         solve_s=elapsed,
         success=ok,
         stats={k: v for k, v in stats.items() if isinstance(v, (bool, int, float, str))},
+    )
+
+
+def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int = 2000, ftol: float = 1e-12):
+    """Solve with SciPy's SLSQP (Kraft's sequential least squares: an SQP method with a dense BFGS
+    approximation of the Lagrangian Hessian, exact gradients from CasADi): the class of solver of the
+    1990s-2000s trajectory-optimisation literature (NPSOL, SNOPT's dense cousins). Dense: for NLPs of a few
+    hundred variables. Returns an :class:`NLPResult` (no multipliers: SLSQP does not return them)."""
+    from scipy.optimize import Bounds, minimize
+
+    w = nlp.w
+    f = ca.Function("f", [w], [nlp.f])
+    grad = ca.Function("grad_f", [w], [ca.gradient(nlp.f, w)])
+    g = nlp.constraint_function
+    jac = ca.Function("jac_g", [w], [ca.densify(ca.jacobian(nlp.g, w))])
+    lbg, ubg = np.asarray(lbg, dtype=float), np.asarray(ubg, dtype=float)
+    eq = lbg == ubg
+    constraints = []
+    if eq.any():
+        constraints.append(
+            {
+                "type": "eq",
+                "fun": lambda x: np.asarray(g(x)).ravel()[eq] - lbg[eq],
+                "jac": lambda x: np.asarray(jac(x))[eq],
+            }
+        )
+    for bound, sign in ((lbg, 1.0), (ubg, -1.0)):
+        rows = ~eq & np.isfinite(bound)
+        if rows.any():
+            constraints.append(
+                {
+                    "type": "ineq",
+                    "fun": lambda x, r=rows, b=bound, s=sign: s * (np.asarray(g(x)).ravel()[r] - b[r]),
+                    "jac": lambda x, r=rows, s=sign: s * np.asarray(jac(x))[r],
+                }
+            )
+    t = time.perf_counter()
+    res = minimize(
+        lambda x: float(f(x)),
+        np.asarray(w0, dtype=float),
+        jac=lambda x: np.asarray(grad(x)).ravel(),
+        method="SLSQP",
+        bounds=Bounds(lbw, ubw),
+        constraints=constraints,
+        options={"maxiter": maxiter, "ftol": ftol},
+    )
+    elapsed = time.perf_counter() - t
+    x = np.asarray(res.x, dtype=float)
+    return NLPResult(
+        w=x,
+        objective=float(res.fun),
+        lam_g=np.zeros(nlp.n_constraints),
+        lam_w=np.zeros(nlp.n_variables),
+        status=f"SLSQP: {res.message}",
+        iterations=int(res.nit),
+        solve_s=elapsed,
+        success=bool(res.success) and bool(np.all(np.isfinite(x))),
     )
 
 

@@ -241,3 +241,54 @@ def overlay_figure(problem: OptimalControlProblem, standard, two, title: str, n:
         ax.set_xlabel("t (non-dimensional)")
     fig.suptitle(title)
     return fig
+
+
+#: The NLP solvers of the iteration study: IPOPT with its exact (assembled) Hessian, IPOPT with an L-BFGS
+#: approximation, and SciPy's SLSQP (dense SQP with a BFGS Hessian: the class of the paper's era)
+QUASI_NEWTON_SOLVERS = ("IPOPT, exact Hessian", "IPOPT, L-BFGS Hessian", "SLSQP, BFGS Hessian")
+
+
+def solve_with(transcription, solver: str, tol: float):
+    """One solve of ``transcription`` from the data file's guess with one of :data:`QUASI_NEWTON_SOLVERS`.
+
+    ``tol``: IPOPT's ``tol`` (exact Hessian); the quasi-Newton solvers stop at ``max(tol, 1e-8)`` (IPOPT) or
+    an objective change of ``1e-12`` (SLSQP), as tight as they converge.
+    """
+    from ocpkit.nlp import solve_nlp_slsqp
+
+    if solver == QUASI_NEWTON_SOLVERS[0]:
+        return transcription.solve(ipopt_options={"tol": tol}, error_threshold=None)
+    if solver == QUASI_NEWTON_SOLVERS[1]:
+        options = {"tol": max(tol, 1e-8), "hessian_approximation": "limited-memory", "max_iter": 5000}
+        return transcription.solve(ipopt_options=options, error_threshold=None)
+    if solver == QUASI_NEWTON_SOLVERS[2]:
+        lbw, ubw, lbg, ubg = transcription.nlp_bounds()
+        result = solve_nlp_slsqp(transcription.nlp, transcription.initial_point(), lbw, ubw, lbg, ubg)
+        return transcription.package(result)
+    raise ValueError(f"solver must be one of {QUASI_NEWTON_SOLVERS}, got {solver!r}")
+
+
+def iteration_study(problem, rows, solvers=QUASI_NEWTON_SOLVERS, tol: float = 1e-13) -> pd.DataFrame:
+    """Iterations and solve time of each of Tables 1-2's rows under each solver, from the same guess.
+
+    ``rows``: ``(table, scheme, segments_label, make_transcription)``. Columns: the row, ``nlp_parameters``,
+    ``solver``, ``iterations``, ``solve_s`` and ``tf`` (every row must reach the same optimum as the exact
+    Newton solve of its NLP).
+    """
+    out = []
+    for table, scheme, segments, make in rows:
+        for solver in solvers:
+            sol = solve_with(make(), solver, tol)
+            out.append(
+                {
+                    "table": table,
+                    "scheme": scheme,
+                    "segments": segments,
+                    "nlp_parameters": sol.nlp_parameters,
+                    "solver": solver,
+                    "iterations": sol.iterations,
+                    "solve_s": sol.solve_s,
+                    "tf": sol.tf,
+                }
+            )
+    return pd.DataFrame(out)

@@ -565,6 +565,16 @@ class Transcription(ABC):
             warn_if_inaccurate(self.label, solution.interval_errors, solution.estimate_intervals, error_threshold)
         return solution
 
+    def nlp_bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(lbw, ubw, lbg, ubg)``: the bounds of the scaled NLP variables and constraints, for solving
+        :attr:`nlp` with another NLP solver (then :meth:`package` its result)."""
+        return (*self._bounds(parameters), *self._constraint_bounds())
+
+    def package(self, result: NLPResult, raise_on_failure: bool = True) -> Solution:
+        """The :class:`~ocpkit.Solution` of an NLP result from any solver (a failed one raises
+        :class:`~ocpkit.SolverError` naming its status, unless ``raise_on_failure`` is False)."""
+        return settle(result, self._solution, raise_on_failure)
+
     def _solve_once(self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None) -> Solution:
         lbw, ubw = self._bounds(parameters)
         lbg, ubg = self._constraint_bounds()
