@@ -163,3 +163,36 @@ def test_mesh_split_at_cuts_segments_where_asked():
 
     fractions, origin = Mesh.from_spec(2, None).split_at([np.array([0.25]), np.zeros(0)])
     assert np.allclose(fractions, [0.125, 0.375, 0.5]) and origin.tolist() == [0, 0, 1]
+
+
+def test_control_switches_bracket_a_corner_where_the_control_leaves_its_bound():
+    """u = 1 until x nears 2, then leaves the bound continuously: a corner, not a jump. On 4 intervals the coarse
+    solution's corner lies inside the third (measured: t = 1.66, bracketed by cuts at 1.652 and 1.676)."""
+    for lower in (-1.0, -np.inf):
+        problem = OptimalControlProblem(
+            "saturate",
+            [State("x", initial=0.0)],
+            [Control("u", lower, 1.0)],
+            lambda x, u, t: u[0],
+            tf=3.0,
+            lagrange=lambda x, u, t: (x[0] - 2) ** 2 + 0.1 * u[0] ** 2,
+        )
+        sol = Radau(problem, 4, 4).solve(error_threshold=None)
+        t = np.linspace(0, 3, 3001)
+        corner = t[np.argmax(sol.control(t)[:, 0] < 0.999)]
+        bp = sol.estimate_intervals
+        cuts = [bp[k] + c * (bp[k + 1] - bp[k]) for k, cs in enumerate(control_switches(sol, bp)) for c in cs]
+        assert any(a < corner < b for a, b in zip(cuts[:-1], cuts[1:]) if b - a < 0.75 / 16), (corner, cuts)
+
+
+def test_control_switches_ignore_controls_with_equal_bounds():
+    problem = OptimalControlProblem(
+        "pinned_control",
+        [State("x", initial=0.0, final=1.0)],
+        [Control("u", 1.0, 1.0), Control("w")],
+        lambda x, u, t: u[0] + u[1],
+        tf=1.0,
+        lagrange=lambda x, u, t: u[1] ** 2,
+    )
+    sol = HLGL(problem, 2).solve()
+    assert all(c.size == 0 for c in control_switches(sol, sol.estimate_intervals))

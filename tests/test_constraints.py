@@ -239,6 +239,11 @@ def test_a_free_initial_time():
         sol = tr.solve()
         assert sol.t0 == pytest.approx(1.0, abs=1e-8) and sol.objective == pytest.approx(24.0, rel=1e-9)
         assert sol.state_times[0] == pytest.approx(1.0, abs=1e-8)
+        # a solution is a guess on another mesh, at its own t0 (not the problem's guess of t0)
+        again = HLGL(pr, 8).solve(sol)
+        assert again.t0 == pytest.approx(1.0, abs=1e-8) and again.iterations <= sol.iterations
+    refined = HLGL(pr, 2).solve(mesh_tolerance=1e-10)
+    assert refined.error_estimate <= 1e-10 and refined.t0 == pytest.approx(1.0, abs=1e-8)
 
 
 def test_free_times_and_parameters_are_checked():

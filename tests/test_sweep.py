@@ -110,3 +110,35 @@ def test_boundary_values_given_as_parameters_need_no_rebuild():
         assert tr.nlp is nlp
         assert sol.objective == pytest.approx(6 * d**2, rel=1e-9)
         assert sol.state(1.0)[0] == pytest.approx(d, abs=1e-9)
+
+
+def crash_at_one(x):
+    """A task that kills its worker process at x = 1 (as a segfault in a solver would)."""
+    import os
+
+    if x == 1:
+        os._exit(1)
+    return {"y": 2.0 * x}
+
+
+def test_a_point_that_kills_its_worker_is_a_failed_point():
+    table = sweep(crash_at_one, [{"x": 0}, {"x": 1}, {"x": 2}], workers=2, progress=False)
+    assert table.ok.tolist() == [True, False, True]
+    assert table.status[1] == "KilledWorker" and np.isnan(table.y[1]) and table.y[2] == 4.0
+
+
+def test_multithreaded_workers_each_build_their_own_transcription():
+    from distributed import Client, LocalCluster
+
+    ratios = [1.8, 2.2, 2.6, 3.0, 3.4, 3.8, 4.2, 4.6]
+    with (
+        LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster,
+        Client(cluster) as client,
+    ):
+        table = sweep(flat_moon_point, [{"thrust_to_weight": r} for r in ratios], client=client, progress=False)
+    assert table.ok.all() and (table.tf_relative_error < 1e-9).all()
+
+
+def test_results_may_not_overwrite_the_sweeps_columns():
+    row = run_point(lambda x: {"status": "converged"}, {"x": 1})
+    assert not row["ok"] and "clash" in row["error"]

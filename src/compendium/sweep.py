@@ -18,7 +18,9 @@ point's columns, the task's results, and ``status`` (``"ok"``, IPOPT's status of
 the exception's type), ``ok`` and ``error`` (the message). A failed point is recorded, never dropped
 and never given results: plot ``table[table.ok]`` and mark the others. With ``cache`` (a CSV file),
 each finished point is appended as it arrives, and a re-run skips the points already there (failed
-ones too, unless ``retry_failed``): an interrupted sweep resumes where it stopped.
+ones too, unless ``retry_failed``): an interrupted sweep resumes where it stopped. A point that kills
+its worker (a crash, memory) is a failed point too, with the exception's type as its status. The cache is
+CSV: results come back as numbers or strings as pandas reads them (a string like ``"007"`` as a number).
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ def point_key(point: Mapping) -> str:
 def _plain(value):
     if hasattr(value, "item"):  # numpy scalars
         value = value.item()
+    if isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)  # 2 and 2.0 are the same point
     if isinstance(value, float) and not math.isfinite(value):
         return repr(value)
     return value
@@ -65,6 +69,9 @@ def run_point(task: Callable, point: Mapping) -> dict:
         result = task(**point)
         if not isinstance(result, Mapping):
             raise TypeError(f"a sweep task returns a dict of results, got {type(result).__name__}")
+        clash = sorted(set(result) & {*STATUS_COLUMNS, "key"})
+        if clash:
+            raise ValueError(f"the task's results {clash} clash with the columns the sweep adds")
         row.update(result)
     except SolverError as exc:
         row.update(status=exc.status, ok=False, error=str(exc))
@@ -149,7 +156,10 @@ def _gather(client, task, todo, progress):
         bar = progress(total=len(futures), desc="sweep", unit="point")
     try:
         for future in as_completed(futures):
-            row = future.result()
+            try:
+                row = future.result()
+            except Exception as exc:  # noqa: BLE001 - the task killed its worker (a crash, memory): a failed point
+                row = {"status": type(exc).__name__, "ok": False, "error": str(exc), "worker": "", "wall_s": math.nan}
             row["key"] = futures[future]
             if bar is not None:
                 bar.update(1)
@@ -168,6 +178,7 @@ def _read_cache(cache, retry_failed: bool) -> dict:
     rows = {}
     for row in table.to_dict("records"):
         row["ok"] = bool(row["ok"])
+        row["worker"] = "" if isinstance(row.get("worker"), float) else str(row.get("worker", ""))
         row["error"] = "" if isinstance(row.get("error"), float) else row.get("error", "")
         if row["ok"] or not retry_failed:
             rows[row["key"]] = {k: v for k, v in row.items() if not (isinstance(v, float) and math.isnan(v))}
@@ -183,4 +194,6 @@ def _append_cache(cache, row: dict) -> None:
     if path.is_file():
         old = pd.read_csv(path)
         new = pd.concat([old, new], ignore_index=True)
-    new.to_csv(path, index=False)
+    partial = path.with_name(path.name + ".partial")
+    new.to_csv(partial, index=False)
+    os.replace(partial, path)  # an interrupted write never leaves a damaged cache

@@ -81,11 +81,15 @@ def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES
     interval the admissible control is sampled at ``samples`` midpoints; each bounded
     control is on its lower bound, on its upper bound, or between them (within ``band``
     times the range, or of a one-sided bound's scale). Where that status changes, a
-    polynomial smears a jump across the interval, with overshoot near its
-    ends: the switch is placed where the control that switches (the one moving most, if
-    several) crosses the middle of its range on the interval, at its steepest such
-    crossing, and bracketed by two cuts a sample either side (one where the other would
-    fall on an end). Each mesh iteration narrows the bracket by about ``samples / 2``.
+    polynomial smears a jump across the interval, with overshoot near its ends, so a jump is
+    placed where the control that switches (the one moving most, if several) crosses the
+    middle of its range on the interval, at its steepest such crossing. From one bound to the
+    other that is all; between a bound and the interior the control may instead meet or
+    leave its bound continuously (a corner), which is where its status changes (the change
+    nearest the crossing: overshoot near the interval's ends changes it too), so that place
+    is bracketed too. Each place is bracketed by two cuts a sample either side (one
+    where the other would fall on an end); each mesh iteration narrows a bracket by about
+    ``samples / 2``. Controls with equal bounds are ignored.
     """
     bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
     controls = trajectory.problem.controls
@@ -94,27 +98,41 @@ def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES
         return [np.zeros(0) for _ in range(K)]
     lo = np.array([c.lower for c in controls], dtype=float)
     hi = np.array([c.upper for c in controls], dtype=float)
-    bounded = np.isfinite(lo) | np.isfinite(hi)
+    width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, [c.scale for c in controls])
+    bounded = (np.isfinite(lo) | np.isfinite(hi)) & (width > 0)
     if not bounded.any():
         return [np.zeros(0) for _ in range(K)]
-    width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, [c.scale for c in controls])
+    width = np.where(width > 0, width, 1.0)
     s = (np.arange(samples) + 0.5) / samples
     t = bp[:-1, None] + np.diff(bp)[:, None] * s[None, :]
     U = trajectory.control(t)  # (K, samples, nu)
     status = np.where(U <= lo + band * width, -1, 0) + np.where(U >= hi - band * width, 1, 0)
-    switching = np.any(status[:, 1:] != status[:, :-1], axis=1) & bounded  # (K, nu): controls that switch
-    changes = switching.any(axis=1)
+    changed = status[:, 1:] != status[:, :-1]  # (K, samples - 1, nu): between samples j and j + 1
+    switching = changed.any(axis=1) & bounded  # (K, nu): controls that switch
     # the switching control that moves most; where it crosses the middle of its range on the interval
     spread = np.where(switching, (U.max(axis=1) - U.min(axis=1)) / width, -1.0)  # (K, nu)
     i = np.argmax(spread, axis=1)
     V = np.take_along_axis(U, i[:, None, None], axis=2)[:, :, 0]  # (K, samples)
+    step = np.abs(np.diff(V, axis=1))
     side = V > (V.max(axis=1, keepdims=True) + V.min(axis=1, keepdims=True)) / 2
-    crossing = side[:, 1:] != side[:, :-1]  # (K, samples - 1): between samples j and j + 1
-    steps = np.where(crossing, np.abs(np.diff(V, axis=1)), -1.0)
-    j = np.argmax(steps, axis=1)
+    crossing = side[:, 1:] != side[:, :-1]
+    j_cross = np.argmax(np.where(crossing, step, -1.0), axis=1)
+    # the status change nearest the crossing (overshoot near the interval's ends changes the status too)
+    Vc = np.take_along_axis(changed, i[:, None, None], axis=2)[:, :, 0]  # (K, samples - 1)
+    distance = np.abs(np.arange(samples - 1)[None, :] - j_cross[:, None])
+    j_status = np.argmin(np.where(Vc, distance, samples), axis=1)
+    Vs = np.take_along_axis(status, i[:, None, None], axis=2)[:, :, 0]  # (K, samples)
     out = []
-    for jk, change in zip(j, changes):
-        cuts = np.array([jk, jk + 2]) / samples if change else np.zeros(0)
+    for k in range(K):
+        if not switching[k].any():
+            out.append(np.zeros(0))
+            continue
+        # from one bound to the other: a jump, at the mid-range crossing; between a bound and the interior: a
+        # jump there or a corner where the status changes, so both are bracketed
+        centres = [j_cross[k]]
+        if not ((Vs[k] == -1).any() and (Vs[k] == 1).any()):
+            centres.append(j_status[k])
+        cuts = np.unique(np.concatenate([np.array([j, j + 2]) / samples for j in centres]))
         out.append(cuts[(cuts > 0.0) & (cuts < 1.0)])
     return out
 

@@ -1,14 +1,15 @@
 """Sweep tasks (notebook 09, benchmarks/bench_sweep.py): one point of a study each, importable by Dask workers.
 
 Each task is a module-level function of keyword arguments returning a dict (see :mod:`compendium.sweep`).
-A worker process builds a transcription once (:func:`functools.lru_cache`) and solves it for every point it
-is given, with the point's values as the problem's parameters: no NLP or IPOPT instance is rebuilt. Each
-point starts from the default guess, so its result does not depend on which worker ran it or in what order.
+A worker builds a transcription once (per thread: CasADi functions and IPOPT instances must not be shared
+between threads, and a cluster's workers may run several) and solves it for every point it is given, with the
+point's values as the problem's parameters: no NLP or IPOPT instance is rebuilt. Each point starts from the
+default guess, so its result does not depend on which worker ran it or in what order.
 """
 
 from __future__ import annotations
 
-import functools
+import threading
 import warnings
 
 from ocpkit import HLGL, Radau
@@ -17,11 +18,15 @@ from ocpkit.accuracy import AccuracyWarning
 from ..problems import entry_landing, flat_moon_ascent, linear_tangent_solution
 from .entry_landing import landing_summary
 
+_local = threading.local()
 
-@functools.lru_cache(maxsize=8)
+
 def flat_moon_transcription(segments: int) -> HLGL:
-    """The flat-moon ascent with its thrust-to-weight ratio as a parameter, built once per process."""
-    return HLGL(flat_moon_ascent(thrust_as_parameter=True), segments).build()
+    """The flat-moon ascent with its thrust-to-weight ratio as a parameter, built once per thread."""
+    cache = _local.__dict__.setdefault("flat_moon", {})
+    if segments not in cache:
+        cache[segments] = HLGL(flat_moon_ascent(thrust_as_parameter=True), segments).build()
+    return cache[segments]
 
 
 def flat_moon_point(thrust_to_weight: float, segments: int = 20) -> dict:

@@ -211,10 +211,10 @@ class HLGL(Transcription):
         return HLGL(self.problem, mesh=h_refined(self.mesh, errors, tolerance, switches))
 
     # -- bounds and guess -------------------------------------------------------------
-    def _initial_point(self, tf, states, controls):
-        X = np.asarray(states(self._times(tf, self.state_node_fractions())), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
-        return self.pack(X, U, tf)
+    def _initial_point(self, tf, states, controls, t0=None):
+        X = np.asarray(states(self._times(tf, self.state_node_fractions(), t0)), dtype=float)
+        U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
+        return self.pack(X, U, tf, t0=t0)
 
     def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
         """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""

@@ -339,11 +339,11 @@ class MultiRateHLGL(Transcription):
         return first, last, tfi
 
     # -- bounds, guess, packing -----------------------------------------------------------
-    def _initial_point(self, tf, states, controls):
-        Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions())), dtype=float)
-        Xf = np.asarray(states(self._times(tf, self.fine_node_fractions())), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.control_point_fractions())), dtype=float)
-        return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf)
+    def _initial_point(self, tf, states, controls, t0=None):
+        Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions(), t0)), dtype=float)
+        Xf = np.asarray(states(self._times(tf, self.fine_node_fractions(), t0)), dtype=float)
+        U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
+        return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf, t0=t0)
 
     def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
         """All defects (physical units), in NLP row order, at given parameter values."""

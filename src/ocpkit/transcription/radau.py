@@ -271,10 +271,10 @@ class Radau(Transcription):
         return Radau(self.problem, counts, mesh=out)
 
     # -- bounds, guess, packing ---------------------------------------------------------------
-    def _initial_point(self, tf, states, controls):
-        X = np.asarray(states(self._times(tf, self.state_point_fractions())), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.collocation_fractions())), dtype=float)
-        return self.pack(X, U, tf)
+    def _initial_point(self, tf, states, controls, t0=None):
+        X = np.asarray(states(self._times(tf, self.state_point_fractions(), t0)), dtype=float)
+        U = np.asarray(controls(self._times(tf, self.collocation_fractions(), t0)), dtype=float)
+        return self.pack(X, U, tf, t0=t0)
 
     def defects(self, X, U, tf=None) -> np.ndarray:
         """Defects (collocation points, nx) in physical units, in d/dtau form, at given values."""
