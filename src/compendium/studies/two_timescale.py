@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 import pandas as pd
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
@@ -292,3 +293,35 @@ def iteration_study(problem, rows, solvers=QUASI_NEWTON_SOLVERS, tol: float = 1e
                 }
             )
     return pd.DataFrame(out)
+
+
+def partition_study(problem, partitions, coarse_segments, ratio: int, reference, *, ipopt_options=None, n: int = 2001):
+    """Where the order is lost: the control and state errors against ``reference`` on refined coarse meshes, for
+    several partitions into fast and slow states (``partitions``: label -> fast state names), at one ratio.
+
+    One row per partition: the errors (absolute, max over the grid) per coarse mesh and their least-squares orders.
+    """
+    from ocpkit.analysis import convergence_order
+
+    rows = []
+    t = np.linspace(0.0, 1.0, n)
+    for label, fast in partitions.items():
+        du, dx = [], []
+        for segments in coarse_segments:
+            if len(fast) == 0:
+                tr = HLGL(problem, segments * ratio)
+            else:
+                tr = MultiRateHLGL(problem, segments, ratio=ratio, fast=fast)
+            sol = tr.solve(ipopt_options=ipopt_options, error_threshold=None)
+            du.append(float(np.abs(sol.control(t * sol.tf) - reference.control(t * reference.tf)).max()))
+            dx.append(float(np.abs(sol.state(t * sol.tf) - reference.state(t * reference.tf)).max()))
+        rows.append(
+            {
+                "partition": label,
+                "fast": ", ".join(fast) if fast else "(standard, fine mesh)",
+                **{f"control_error_{s}": e for s, e in zip(coarse_segments, du)},
+                "control_order": convergence_order(coarse_segments, du),
+                "state_order": convergence_order(coarse_segments, dx),
+            }
+        )
+    return pd.DataFrame(rows)
