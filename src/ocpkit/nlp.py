@@ -243,6 +243,42 @@ class SeparableNLP:
         self.objective_function = ca.Function("f", [w], [f])
 
     # ------------------------------------------------------------------------------
+    def multiplier_estimate(self, w, lbw, ubw) -> tuple[np.ndarray, np.ndarray]:
+        """First-order multiplier estimates ``(lam_g, lam_w)`` at a point ``w`` (scaled, within its bounds).
+
+        ``lam_g`` minimises the Lagrangian's gradient over the variables not at a bound, ``J_F^T lam_g =
+        -grad_F f`` in the least-squares sense (sparse normal equations); ``lam_w`` takes what remains of the
+        gradient at the variables on a bound. With :data:`WARM_START`, an interpolated point and these
+        estimates start IPOPT near the central path's end (mesh refinement: the entry landing's later meshes
+        take 6 to 10 IPOPT iterations instead of 26 to 31).
+        """
+        import scipy.sparse as sps
+        from scipy.sparse.linalg import spsolve
+
+        w = np.asarray(w, dtype=float)
+        lbw, ubw = np.asarray(lbw, dtype=float), np.asarray(ubw, dtype=float)
+        _, jac = self.jac_g(w, [])
+        jac = ca.DM(jac)
+        rows, cols = jac.sparsity().get_triplet()
+        J = sps.csc_matrix((np.asarray(jac.nonzeros()), (rows, cols)), shape=jac.shape)
+        grad = np.asarray(self._objective_gradient(w)).ravel()
+        with np.errstate(invalid="ignore"):
+            near_lower = np.isfinite(lbw) & ((w - lbw) <= 1e-9 * np.maximum(1.0, np.abs(lbw)))
+            near_upper = np.isfinite(ubw) & ((ubw - w) <= 1e-9 * np.maximum(1.0, np.abs(ubw)))
+        on_bound = near_lower | near_upper
+        A = J[:, ~on_bound]
+        normal = (A @ A.T + 1e-12 * sps.identity(A.shape[0], format="csc")).tocsc()
+        lam_g = np.atleast_1d(spsolve(normal, -(A @ grad[~on_bound])))
+        residual = grad + J.T @ lam_g
+        lam_w = np.where(on_bound, -residual, 0.0)
+        return lam_g, lam_w
+
+    @property
+    def _objective_gradient(self) -> ca.Function:
+        if not hasattr(self, "_grad_f"):
+            self._grad_f = ca.Function("grad_f", [self.w], [ca.gradient(self.f, self.w)])
+        return self._grad_f
+
     def solver(self, ipopt_options: dict | None = None) -> ca.Function:
         """CasADi ``nlpsol`` (IPOPT) for this NLP: the assembled exact Hessian, or, with the option
         ``hessian_approximation="limited-memory"``, IPOPT's L-BFGS approximation instead (a quasi-Newton

@@ -577,20 +577,48 @@ class Transcription(ABC):
         :class:`~ocpkit.SolverError` naming its status, unless ``raise_on_failure`` is False)."""
         return settle(result, self._solution, raise_on_failure)
 
-    def _solve_once(self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None) -> Solution:
+    def _solve_once(
+        self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
+    ) -> Solution:
+        """One IPOPT solve. From a Solution of this transcription: its exact warm start. From one of another
+        mesh with ``estimate_multipliers``: the interpolated point with first-order multiplier estimates
+        (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`) and :data:`WARM_START`, falling back to the
+        interpolated point alone if that solve fails."""
         lbw, ubw = self._bounds(parameters)
         lbg, ubg = self._constraint_bounds()
-        lam_w0 = lam_g0 = None
         if isinstance(guess, Solution) and guess.raw.get("transcription") is self and "lam_g" in guess.raw:
             w0 = np.clip(guess.raw["w"], lbw, ubw)
-            lam_w0, lam_g0 = guess.raw["lam_w"], guess.raw["lam_g"]
-            ipopt_options = {**WARM_START, **(ipopt_options or {})}
-        else:
-            w0 = np.clip(self.initial_point(guess), lbw, ubw)
-        solver = self.solver(ipopt_options)
-        result = solve_nlp(
-            solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable, lam_w0=lam_w0, lam_g0=lam_g0
-        )
+            options = {**WARM_START, **(ipopt_options or {})}
+            result = solve_nlp(
+                self.solver(options),
+                w0,
+                lbw,
+                ubw,
+                lbg,
+                ubg,
+                allow_acceptable=allow_acceptable,
+                lam_w0=guess.raw["lam_w"],
+                lam_g0=guess.raw["lam_g"],
+            )
+            return settle(result, self._solution, raise_on_failure)
+        w0 = np.clip(self.initial_point(guess), lbw, ubw)
+        if estimate_multipliers and isinstance(guess, Solution):
+            lam_g0, lam_w0 = self.nlp.multiplier_estimate(w0, lbw, ubw)
+            options = {**WARM_START, **(ipopt_options or {})}
+            result = solve_nlp(
+                self.solver(options),
+                w0,
+                lbw,
+                ubw,
+                lbg,
+                ubg,
+                allow_acceptable=allow_acceptable,
+                lam_w0=lam_w0,
+                lam_g0=lam_g0,
+            )
+            if result.success:
+                return settle(result, self._solution, raise_on_failure)
+        result = solve_nlp(self.solver(ipopt_options), w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
         return settle(result, self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
@@ -613,6 +641,7 @@ class Transcription(ABC):
                 options["allow_acceptable"],
                 options["raise_on_failure"],
                 options["parameters"],
+                estimate_multipliers=True,
             )
             errors = solution.interval_errors
             history.append(
