@@ -586,26 +586,10 @@ class Transcription(ABC):
         interpolated point alone if that solve fails."""
         lbw, ubw = self._bounds(parameters)
         lbg, ubg = self._constraint_bounds()
-        if isinstance(guess, Solution) and guess.raw.get("transcription") is self and "lam_g" in guess.raw:
-            w0 = np.clip(guess.raw["w"], lbw, ubw)
-            options = {**WARM_START, **(ipopt_options or {})}
-            result = solve_nlp(
-                self.solver(options),
-                w0,
-                lbw,
-                ubw,
-                lbg,
-                ubg,
-                allow_acceptable=allow_acceptable,
-                lam_w0=guess.raw["lam_w"],
-                lam_g0=guess.raw["lam_g"],
-            )
-            return settle(result, self._solution, raise_on_failure)
-        w0 = np.clip(self.initial_point(guess), lbw, ubw)
-        if estimate_multipliers and isinstance(guess, Solution):
-            lam_g0, lam_w0 = self.nlp.multiplier_estimate(w0, lbw, ubw)
-            options = {**WARM_START, **(ipopt_options or {})}
-            result = solve_nlp(
+
+        def run(w0, options, multipliers=None):
+            lam_g0, lam_w0 = multipliers if multipliers is not None else (None, None)
+            return solve_nlp(
                 self.solver(options),
                 w0,
                 lbw,
@@ -616,10 +600,17 @@ class Transcription(ABC):
                 lam_w0=lam_w0,
                 lam_g0=lam_g0,
             )
+
+        warm_options = {**WARM_START, **(ipopt_options or {})}
+        if isinstance(guess, Solution) and guess.raw.get("transcription") is self and "lam_g" in guess.raw:
+            result = run(np.clip(guess.raw["w"], lbw, ubw), warm_options, (guess.raw["lam_g"], guess.raw["lam_w"]))
+            return settle(result, self._solution, raise_on_failure)
+        w0 = np.clip(self.initial_point(guess), lbw, ubw)
+        if estimate_multipliers and isinstance(guess, Solution):
+            result = run(w0, warm_options, self.nlp.multiplier_estimate(w0, lbw, ubw))
             if result.success:
                 return settle(result, self._solution, raise_on_failure)
-        result = solve_nlp(self.solver(ipopt_options), w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable)
-        return settle(result, self._solution, raise_on_failure)
+        return settle(run(w0, ipopt_options), self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
     def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Transcription:
