@@ -98,7 +98,7 @@ def sweep(
     points = [dict(p) for p in points]
     if not points:
         raise ValueError("a sweep needs at least one point")
-    clash = sorted({k for p in points for k in p} & set(STATUS_COLUMNS))
+    clash = sorted({k for p in points for k in p} & {*STATUS_COLUMNS, "key"})
     if clash:
         raise ValueError(f"point names {clash} clash with the columns the sweep adds")
     if workers < 1:
