@@ -358,11 +358,11 @@ def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int =
     hundred variables. Returns an :class:`NLPResult` (no multipliers: SLSQP does not return them)."""
     from scipy.optimize import Bounds, minimize
 
-    w = nlp.w
-    f = ca.Function("f", [w], [nlp.f])
-    grad = ca.Function("grad_f", [w], [ca.gradient(nlp.f, w)])
-    g = nlp.constraint_function
-    jac = ca.Function("jac_g", [w], [ca.densify(ca.jacobian(nlp.g, w))])
+    f, grad, g = nlp.objective_function, nlp._objective_gradient, nlp.constraint_function
+
+    def jac(x):  # the NLP's own assembled Jacobian, densified for SLSQP
+        return np.asarray(ca.DM(nlp.jac_g(x, [])[1]).full())
+
     lbg, ubg = np.asarray(lbg, dtype=float), np.asarray(ubg, dtype=float)
     eq = lbg == ubg
     constraints = []
@@ -371,7 +371,7 @@ def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int =
             {
                 "type": "eq",
                 "fun": lambda x: np.asarray(g(x)).ravel()[eq] - lbg[eq],
-                "jac": lambda x: np.asarray(jac(x))[eq],
+                "jac": lambda x: jac(x)[eq],
             }
         )
     for bound, sign in ((lbg, 1.0), (ubg, -1.0)):
@@ -381,7 +381,7 @@ def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int =
                 {
                     "type": "ineq",
                     "fun": lambda x, r=rows, b=bound, s=sign: s * (np.asarray(g(x)).ravel()[r] - b[r]),
-                    "jac": lambda x, r=rows, s=sign: s * np.asarray(jac(x))[r],
+                    "jac": lambda x, r=rows, s=sign: s * jac(x)[r],
                 }
             )
     t = time.perf_counter()
