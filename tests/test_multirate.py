@@ -135,3 +135,77 @@ def test_bad_ratio(ratio, exc):
 def test_unknown_fast_interpolation():
     with pytest.raises(ValueError, match="fast_interpolation"):
         MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation="cubic")
+
+
+# -- couplings beyond the paper and controls on the fine mesh ---------------------------------------------------
+
+
+@pytest.mark.parametrize("ratio", [1, 2, 3, 4, 5])
+def test_fine_quadrature_weights_integrate_polynomials_over_each_half(ratio):
+    from ocpkit.nodes import HLGL_CONTROL_NODES
+    from ocpkit.transcription.multirate import fine_quadrature_weights
+
+    W = fine_quadrature_weights(ratio)
+    s = np.concatenate([(j + HLGL_CONTROL_NODES[:4]) / ratio for j in range(ratio)] + [[1.0]])
+    exact_to = 7 if ratio % 2 == 0 else 4  # whole Gauss-Lobatto segments, or a quartic cut at the centre
+    for k in range(exact_to + 1):
+        assert W[0] @ s**k == pytest.approx(0.5 ** (k + 1) / (k + 1), abs=1e-14)
+        assert W[1] @ s**k == pytest.approx((1 - 0.5 ** (k + 1)) / (k + 1), abs=1e-14)
+
+
+@pytest.mark.parametrize(
+    "coupling, controls", [("coarse", "coarse"), ("fine", "coarse"), ("quadrature", "coarse"), ("quadrature", "fine")]
+)
+def test_every_coupling_represents_the_min_energy_solution(coupling, controls):
+    """u = 6 - 12 t, v = 6t - 6t^2, x = 3t^2 - 2t^3 are represented exactly, and the running cost is integrated
+    exactly on the fine grid: J = 12 whatever the coupling and the control mesh."""
+    pr = min_energy_double_integrator()
+    tr = MultiRateHLGL(pr, 3, ratio=3, fast=["x2"], fast_interpolation=coupling, control_mesh=controls)
+    sol = tr.solve()
+    t = np.linspace(0, 1, 51)
+    assert sol.objective == pytest.approx(12.0, abs=1e-8)
+    assert np.abs(sol.control(t)[:, 0] - (6 - 12 * t)).max() < 1e-7
+    assert np.abs(sol.state(t)[:, 1] - (6 * t - 6 * t**2)).max() < 1e-9
+
+
+def test_quadrature_coupling_with_ratio_one_is_the_collocation_scheme():
+    """With M = 1 the two integral defects are HLGL's: the quintic's slope is the quartic through f."""
+    pr = lunar_ascent()
+    ipopt = {"tol": 1e-12}
+    col = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"]).solve(ipopt_options=ipopt)
+    quad = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"], fast_interpolation="quadrature").solve(ipopt_options=ipopt)
+    assert quad.tf == pytest.approx(col.tf, abs=1e-11)
+    d = quad.difference(col)
+    assert d["states"] < 1e-8 and d["controls"] < 1e-6
+
+
+def test_every_state_fast_with_fine_controls_is_standard_hlgl_on_the_fine_mesh():
+    pr = lunar_ascent()
+    ipopt = {"tol": 1e-12}
+    std = HLGL(pr, 20).solve(ipopt_options=ipopt)
+    mr = MultiRateHLGL(
+        pr, 10, ratio=2, fast=pr.state_names, fast_interpolation="quadrature", control_mesh="fine"
+    ).solve(ipopt_options=ipopt)
+    assert mr.nlp_parameters == std.nlp_parameters
+    assert mr.tf == pytest.approx(std.tf, abs=1e-10)  # the controls' points differ (equispaced, HLGL's)
+    d = mr.difference(std)
+    assert d["states"] < 1e-9 and d["controls"] < 1e-7
+
+
+@pytest.mark.parametrize("ratio", [2, 3])
+def test_sizes_with_controls_on_the_fine_mesh(ratio):
+    pr = lunar_ascent()
+    N = 5
+    tr = MultiRateHLGL(pr, N, ratio=ratio, fast=["V"], fast_interpolation="quadrature", control_mesh="fine")
+    assert tr.n_control_points == 4 * ratio * N + 1
+    assert tr.n_variables == 3 * (2 * N + 1) + (2 * ratio * N + 1) + (4 * ratio * N + 1) + 1
+    assert np.allclose(tr.control_point_fractions(), np.linspace(0, 1, 4 * ratio * N + 1))
+    assert "controls on the fine mesh" in tr.label
+
+
+def test_unknown_control_mesh_and_fine_controls_with_a_collocation_coupling():
+    with pytest.raises(ValueError, match="control_mesh"):
+        MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], control_mesh="finest")
+    for coupling in ("coarse", "fine"):
+        with pytest.raises(ValueError, match='needs fast_interpolation="quadrature"'):
+            MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation=coupling, control_mesh="fine")

@@ -155,6 +155,7 @@ class SeparableNLP:
         lam_g = ca.MX.sym("lam_g", M)
 
         f_terms, g_vals, g_rows = [], [], []
+        hessian_instructions = 0
         j_vals, j_rows, j_cols = [], [], []
         h_vals, h_rows, h_cols, h_wts = [], [], [], []
 
@@ -199,6 +200,7 @@ class SeparableNLP:
                 lam_in = ca.reshape(lam_g[b.rows.ravel(order="F").tolist()], nout, count)
             if hr.size:
                 hfun = ca.Function(f"{b.name}_hess", [z, q, lam], [_nonzeros(H)])
+                hessian_instructions += hfun.n_instructions() * count
                 h_vals.append(ca.vec(_map(hfun, count)(Z, P, lam_in)))
                 gr = b.variables[hr, :]
                 gc = b.variables[hc, :]
@@ -239,6 +241,8 @@ class SeparableNLP:
         )
         self.nnz_jacobian = sp_j.nnz()
         self.nnz_hessian = sp_h.nnz()
+        #: CasADi instructions of one evaluation of the blocks' Hessians (the work of ``hess_lag`` before assembly)
+        self.hessian_instructions = int(hessian_instructions)
         self.constraint_function = ca.Function("g", [w], [g])
         self.objective_function = ca.Function("f", [w], [f])
 

@@ -10,19 +10,29 @@ The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
   3/4, 1`` (ends shared) defining a quartic; every other control value the
   defects need is that quartic evaluated there ("two-to-one" and "four-to-one"
   architectures: for M = 2 the five points are the fine nodes, for M = 4 every
-  other fine node).
-* Coarse defects (Eqs. 6-7 for ``x``) use ``x``, ``z`` and ``u`` at the coarse
-  nodes (all NLP parameters) and the quartic for ``u_a, u_b``. The full state at
-  the coarse collocation points comes from the coarse quintic Hermite
-  interpolant of ``(x, z)``; with ``fast_interpolation="fine"`` the fast part is
-  taken from the fine Hermite interpolant of ``z`` instead (an option beyond the
-  paper, same NLP size).
+  other fine node). With ``control_mesh="fine"`` (beyond the paper, for controls
+  that drive the fast states at their rate; with the ``"quadrature"`` coupling only)
+  there is one quartic per fine segment: ``4M + 1`` control parameters per coarse segment.
 * Fine defects (Eqs. 6-7 for ``z`` on each fine segment) need ``x`` at the fine
   centres and fine collocation points: the coarse quintic Hermite polynomial of
   ``x`` (values and slopes at the three coarse nodes), as the paper does.
+* The slow defects, by ``fast_interpolation`` (the coupling; the NLP's size is the same for all three):
 
-NLP size: ``nx (2N+1) + nz (2MN+1) + nu (4N+1) (+1 for a free tf)`` parameters
-and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
+  ``"coarse"`` (the paper's reading)
+      Eqs. 6-7 for ``x`` on the coarse segment. The full state at the coarse collocation points is the coarse
+      quintic Hermite interpolant of ``(x, z)`` (values and slopes at the coarse nodes).
+  ``"fine"``
+      The same, with the fast part at the coarse collocation points from the fine Hermite of ``z``.
+  ``"quadrature"``
+      Integral defects ``x(t_c) - x(t_i) = int f_x`` and ``x(t_{i+2}) - x(t_c) = int f_x``, the integrals by
+      :func:`fine_quadrature_weights` over every fine node and fine collocation point, so the slow dynamics
+      see the fast states wherever the fine defects do. With ``M = 1`` this is HLGL again (the quintic's
+      slope is the quartic through ``f`` at the five points).
+
+* A Lagrange cost is integrated on the fine grid (:func:`fine_quadrature_weights`), whatever the coupling.
+
+NLP size: ``nx (2N+1) + nz (2MN+1) + nu (4N+1) (+1 for a free tf)`` parameters (``nu (4MN+1)`` controls on
+the fine mesh) and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
 """
 
 from __future__ import annotations
@@ -40,7 +50,8 @@ from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
-FAST_INTERPOLATIONS = ("coarse", "fine")
+FAST_INTERPOLATIONS = ("coarse", "fine", "quadrature")
+CONTROL_MESHES = ("coarse", "fine")
 
 
 def state_partition(problem: OptimalControlProblem, slow=None, fast=None) -> tuple[list[int], list[int]]:
@@ -76,6 +87,29 @@ def state_partition(problem: OptimalControlProblem, slow=None, fast=None) -> tup
     return [names.index(n) for n in groups["slow"]], [names.index(n) for n in groups["fast"]]
 
 
+def fine_quadrature_weights(ratio: int) -> np.ndarray:
+    """Weights (2, 4M + 1) of the integrals over the two halves of a coarse segment (``s`` in [0, 1/2] and
+    [1/2, 1], times the coarse length ``h``) of the piecewise quartic through a function's values at every fine
+    node and fine collocation point, in the order node, ``a``, centre, ``b`` of each fine segment, then the last node.
+
+    For even ``M`` the halves are whole fine segments and the weights are the composite five-point Gauss-Lobatto
+    rule (exact to degree 7 on each fine segment).
+    """
+    M = int(ratio)
+    C = nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES)  # values -> monomial coefficients on [0, 1]
+    powers = np.arange(5)
+
+    def integral(lo, hi):  # of each Lagrange basis polynomial over [lo, hi] of the fine segment
+        return ((hi ** (powers + 1) - lo ** (powers + 1)) / (powers + 1)) @ C
+
+    W = np.zeros((2, 4 * M + 1))
+    for j in range(M):
+        cut = min(max(M / 2 - j, 0.0), 1.0)  # the coarse centre in this fine segment's local time
+        W[0, 4 * j : 4 * j + 5] += integral(0.0, cut) / M
+        W[1, 4 * j : 4 * j + 5] += integral(cut, 1.0) / M
+    return W
+
+
 def _hermite(b, x_i, d_i, x_c, d_c, x_e, d_e):
     """Quintic Hermite value from basis weights ``b`` (6,) and node values/slopes (slopes times h)."""
     return b[0] * x_i + b[1] * d_i + b[2] * x_c + b[3] * d_c + b[4] * x_e + b[5] * d_e
@@ -93,8 +127,10 @@ class MultiRateHLGL(Transcription):
         Fine segments per coarse segment, ``M >= 1``.
     slow, fast : sequences of state names
         The partition; give either (the other is its complement) or both.
-    fast_interpolation : ``"coarse"`` (default, the paper's reading) or ``"fine"``
-        How the fast states are evaluated at the coarse collocation points.
+    fast_interpolation : ``"coarse"`` (default, the paper's reading), ``"fine"`` or ``"quadrature"``
+        How the slow defects see the fast states (module docstring).
+    control_mesh : ``"coarse"`` (default, the paper's: one quartic per coarse segment) or ``"fine"`` (one quartic
+        per fine segment; with ``fast_interpolation="quadrature"`` only).
     mesh : positive fractions of the coarse segments, optional.
 
     NLP variable layout: slow states node by node on the coarse nodes, fast
@@ -110,6 +146,7 @@ class MultiRateHLGL(Transcription):
         slow: Sequence[str] | None = None,
         fast: Sequence[str] | None = None,
         fast_interpolation: str = "coarse",
+        control_mesh: str = "coarse",
         mesh=None,
     ):
         super().__init__(problem)
@@ -119,8 +156,17 @@ class MultiRateHLGL(Transcription):
             raise ValueError(f"ratio must be at least 1, got {ratio}")
         if fast_interpolation not in FAST_INTERPOLATIONS:
             raise ValueError(f"fast_interpolation must be one of {FAST_INTERPOLATIONS}, got {fast_interpolation!r}")
+        if control_mesh not in CONTROL_MESHES:
+            raise ValueError(f"control_mesh must be one of {CONTROL_MESHES}, got {control_mesh!r}")
+        if control_mesh == "fine" and fast_interpolation != "quadrature":
+            raise ValueError(
+                'control_mesh="fine" needs fast_interpolation="quadrature": the collocation couplings see the fast '
+                "states through Hermite slopes at the coarse nodes, where a fine control is free to differ from the "
+                "fast trajectory it drives (the NLP then exploits the difference)"
+            )
         self.ratio = int(ratio)
         self.fast_interpolation = fast_interpolation
+        self.control_mesh = control_mesh
         self.slow, self.fast = state_partition(problem, slow, fast)
         self.mesh = Mesh.from_spec(segments, mesh)
         self.segments = self.mesh.n
@@ -130,7 +176,9 @@ class MultiRateHLGL(Transcription):
     def label(self) -> str:
         names = self.problem.state_names
         fast = ",".join(names[i] for i in self.fast)
-        return f"MultiRateHLGL(segments={self.segments}, ratio={self.ratio}, fast=[{fast}])"
+        extra = "" if self.fast_interpolation == "coarse" else f", coupling={self.fast_interpolation}"
+        extra += ", controls on the fine mesh" if self.control_mesh == "fine" else ""
+        return f"MultiRateHLGL(segments={self.segments}, ratio={self.ratio}, fast=[{fast}]{extra})"
 
     @property
     def n_coarse_nodes(self) -> int:
@@ -141,8 +189,13 @@ class MultiRateHLGL(Transcription):
         return 2 * self.ratio * self.segments + 1
 
     @property
+    def control_quartics(self) -> int:
+        """Control quartics per coarse segment: 1, or ``M`` with the controls on the fine mesh."""
+        return self.ratio if self.control_mesh == "fine" else 1
+
+    @property
     def n_control_points(self) -> int:
-        return 4 * self.segments + 1
+        return 4 * self.control_quartics * self.segments + 1
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
@@ -165,8 +218,9 @@ class MultiRateHLGL(Transcription):
         return self.mesh.points(np.arange(2 * self.ratio) / (2 * self.ratio))
 
     def control_point_fractions(self) -> np.ndarray:
-        """Normalised times (0..1) of the 4N+1 control points."""
-        return self.mesh.points(nodes.EQUISPACED_CONTROL_NODES[:4])
+        """Normalised times (0..1) of the control points (4N+1, or 4MN+1 on the fine mesh)."""
+        q = self.control_quartics
+        return self.mesh.points(np.arange(4 * q) / (4 * q))
 
     def _indices(self):
         """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
@@ -185,12 +239,14 @@ class MultiRateHLGL(Transcription):
 
     def _segment_symbols(self):
         """Symbols of one coarse segment, ``w`` (its NLP variables, the layout of :meth:`_segment_tables`) and
-        ``p``, and in them the slow nodes ``X`` (3), fast nodes ``Z`` (2M + 1), controls ``U`` (5), start and length."""
+        ``p``, and in them the slow nodes ``X`` (3), fast nodes ``Z`` (2M + 1), controls ``U`` (4q + 1, q quartics),
+        start and length."""
         pr = self.problem
         M = self.ratio
         nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
         free = pr.free_final_time
-        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + 5 * nu + n_globals(pr))
+        nup = 4 * self.control_quartics + 1
+        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + nup * nu + n_globals(pr))
         p = ca.SX.sym("p", 2 + int(not free))
         xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
         off = 0
@@ -198,7 +254,7 @@ class MultiRateHLGL(Transcription):
         off += 3 * nxs
         Z = [zsc.from_nlp(w[off + k * nzf : off + (k + 1) * nzf]) for k in range(2 * M + 1)]
         off += (2 * M + 1) * nzf
-        U = [pr.control_scaling.from_nlp(w[off + k * nu : off + (k + 1) * nu]) for k in range(5)]
+        U = [pr.control_scaling.from_nlp(w[off + k * nu : off + (k + 1) * nu]) for k in range(nup)]
         t_start, _, h = segment_clock(pr, w, p)
         return w, p, X, Z, U, t_start, h
 
@@ -208,14 +264,33 @@ class MultiRateHLGL(Transcription):
         M = self.ratio
         w, p, X, Z, U, t_start, h = self._segment_symbols()
         full = [self._full_state(ca.vertsplit(X[k]), ca.vertsplit(Z[k * M])) for k in range(3)]
+        c = 2 * self.control_quartics  # the control point at the coarse centre
         t = [t_start + h * s for s in nodes.HLGL_STATE_NODES]
         variables, params = self._segment_tables()
         mesh = self.mesh
         fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_STATE_NODES[None, :2]
         return [
-            PathPoints(w, p, full[:2], [U[0], U[2]], t[:2], variables, params, fractions),
-            PathPoints(w, p, [full[2]], [U[4]], [t[2]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
+            PathPoints(w, p, full[:2], [U[0], U[c]], t[:2], variables, params, fractions),
+            PathPoints(w, p, [full[2]], [U[2 * c]], [t[2]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
         ]
+
+    def _fast_at_coarse_collocation(self, Z, zc, fz_nodes, fz_c, h):
+        """The fast states at a coarse collocation point ``s``: the coarse Hermite of their values and slopes at the
+        coarse nodes (``"coarse"``, the paper's reading) or the Hermite of the fine segment holding ``s``."""
+        M = self.ratio
+        hf = h / M
+
+        def z_fine_at(s):
+            j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
+            b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
+            i = 2 * j
+            return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
+
+        def z_coarse_at(s):
+            b = nodes.hermite_quintic_basis(np.array([s]))[0]
+            return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
+
+        return z_coarse_at if self.fast_interpolation == "coarse" else z_fine_at
 
     def _segment_expressions(self):
         """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
@@ -228,11 +303,14 @@ class MultiRateHLGL(Transcription):
         sx = pr.state_scaling.subset(self.slow).scale
         sz = pr.state_scaling.subset(self.fast).scale
 
+        q = self.control_quartics
+
         def u_at(s):
-            L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s]))[0]
             if nu == 0:
                 return ca.SX(0, 1)
-            return sum(float(L[j]) * U[j] for j in range(5) if L[j] != 0.0)
+            j = min(int(np.floor(s * q)), q - 1)  # the quartic containing s
+            L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s * q - j]))[0]
+            return sum(float(L[k]) * U[4 * j + k] for k in range(5) if L[k] != 0.0)
 
         def f(x, z, s):
             return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
@@ -253,55 +331,76 @@ class MultiRateHLGL(Transcription):
         # fine nodes: x from the coarse Hermite where it is not a parameter
         hf = h / M
         fine_s = np.arange(2 * M + 1) / (2 * M)
-        fz_nodes = []
-        for k, s in enumerate(fine_s):
-            if k % M == 0:
-                fz_nodes.append(fz_c[k // M])
-            else:
-                fz_nodes.append(split(f(x_at(s), Z[k], s))[1])
+        F_nodes = [Fc[k // M] if k % M == 0 else f(x_at(s), Z[k], s) for k, s in enumerate(fine_s)]
+        fz_nodes = [split(F)[1] for F in F_nodes]
 
-        def z_fine_at(s):
-            j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
-            b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
-            i = 2 * j
-            return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
-
-        def z_coarse_at(s):
-            b = nodes.hermite_quintic_basis(np.array([s]))[0]
-            return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
-
-        z_at_coarse_colloc = z_coarse_at if self.fast_interpolation == "coarse" else z_fine_at
-
-        # coarse defects for x
+        # fine collocation points: z from each fine segment's Hermite, x from the coarse one
         sa, sb = nodes.HLGL_COLLOCATION
-        xa, xb = x_at(sa), x_at(sb)
-        za, zb = z_at_coarse_colloc(sa), z_at_coarse_colloc(sb)
-        Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
+        fine_colloc = []  # per fine segment: (z_a, F_a, z_b, F_b)
+        for j in range(M):
+            i = 2 * j
+            za_f, zb_f = hlgl_collocation_states(
+                Z[i], Z[i + 1], Z[i + 2], fz_nodes[i], fz_nodes[i + 1], fz_nodes[i + 2], hf
+            )
+            s_a, s_b = (j + sa) / M, (j + sb) / M
+            fine_colloc.append((za_f, f(x_at(s_a), za_f, s_a), zb_f, f(x_at(s_b), zb_f, s_b)))
+
         defects = []
-        if nxs:
-            c1, c2 = hlgl_defects(X[0], X[1], X[2], fx_c[0], split(Fa)[0], fx_c[1], split(Fb)[0], fx_c[2], h)
-            defects += [c1 / sx, c2 / sx]
+        if self.fast_interpolation == "quadrature":
+            # slow states: integral defects over each half of the coarse segment, the slow dynamics
+            # integrated with every fine node and collocation point (fine_quadrature_weights)
+            F_all = []
+            for j in range(M):
+                F_all += [F_nodes[2 * j], fine_colloc[j][1], F_nodes[2 * j + 1], fine_colloc[j][3]]
+            F_all.append(F_nodes[2 * M])
+            W = fine_quadrature_weights(M)
+            if nxs:
+                fx_all = [split(F)[0] for F in F_all]
+                for half in range(2):
+                    integral = sum(float(W[half, k]) * fx_all[k] for k in range(4 * M + 1))
+                    defects.append((X[half + 1] - X[half] - h * integral) / sx)
+        else:
+            z_at_coarse_colloc = self._fast_at_coarse_collocation(Z, zc, fz_nodes, fz_c, h)
+            xa, xb = x_at(sa), x_at(sb)
+            za, zb = z_at_coarse_colloc(sa), z_at_coarse_colloc(sb)
+            Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
+            if nxs:
+                c1, c2 = hlgl_defects(X[0], X[1], X[2], fx_c[0], split(Fa)[0], fx_c[1], split(Fb)[0], fx_c[2], h)
+                defects += [c1 / sx, c2 / sx]
         # fine defects for z
         if nzf:
             for j in range(M):
                 i = 2 * j
-                s0 = j / M
-                zi, zm, ze = Z[i], Z[i + 1], Z[i + 2]
-                fi, fm, fe = fz_nodes[i], fz_nodes[i + 1], fz_nodes[i + 2]
-                za_f, zb_f = hlgl_collocation_states(zi, zm, ze, fi, fm, fe, hf)
-                s_a, s_b = s0 + sa / M, s0 + sb / M
-                fa = split(f(x_at(s_a), za_f, s_a))[1]
-                fb = split(f(x_at(s_b), zb_f, s_b))[1]
-                c1, c2 = hlgl_defects(zi, zm, ze, fi, fa, fm, fb, fe, hf)
+                _, Fa_j, _, Fb_j = fine_colloc[j]
+                c1, c2 = hlgl_defects(
+                    Z[i],
+                    Z[i + 1],
+                    Z[i + 2],
+                    fz_nodes[i],
+                    split(Fa_j)[1],
+                    fz_nodes[i + 1],
+                    split(Fb_j)[1],
+                    fz_nodes[i + 2],
+                    hf,
+                )
                 defects += [c1 / sz, c2 / sz]
 
         quad = None
         if pr.L is not None:
-            pts = [(0.0, X[0], zc[0]), (sa, xa, za), (0.5, X[1], zc[1]), (sb, xb, zb), (1.0, X[2], zc[2])]
-            quad = h * sum(
-                wq * pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
-                for wq, (s, x, z) in zip(nodes.HLGL_QUADRATURE, pts)
-            )
+
+            def lagrange(s, x, z):
+                return pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
+
+            # on the fine grid, whatever the coupling: the running cost sees the fast states and the controls at
+            # every fine node and collocation point (composite five-point Lobatto rule on each fine segment)
+            W = fine_quadrature_weights(M).sum(axis=0)
+            pts = []
+            for j in range(M):
+                za_f, _, zb_f, _ = fine_colloc[j]
+                s0, sm, s_a, s_b = j / M, (j + 0.5) / M, (j + sa) / M, (j + sb) / M
+                pts += [(s0, Z[2 * j]), (s_a, za_f), (sm, Z[2 * j + 1]), (s_b, zb_f)]
+            pts.append((1.0, Z[2 * M]))
+            quad = h * sum(float(wq) * lagrange(s, x_at(s), z) for wq, (s, z) in zip(W, pts))
         return w, p, ca.vertcat(*defects), quad
 
     def _segment_tables(self):
@@ -311,7 +410,8 @@ class MultiRateHLGL(Transcription):
         X, Z, U, _ = self._indices()
         rows = [X[:, 2 * k + j] for j in range(3)]
         rows += [Z[:, 2 * M * k + j] for j in range(2 * M + 1)]
-        rows += [U[:, 4 * k + j] for j in range(5)]
+        q = self.control_quartics
+        rows += [U[:, 4 * q * k + j] for j in range(4 * q + 1)]
         rows += self._global_rows(N)
         return np.vstack(rows), self.mesh.parameters(pr)
 
@@ -366,8 +466,10 @@ class MultiRateHLGL(Transcription):
         breaks = self._times(tf, self.mesh.breaks, t0)
         h = np.diff(breaks)
 
-        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, N))
-        controls = PiecewiseEvaluator(piecewise_polynomial(breaks, ucoef))
+        nq = N * self.control_quartics
+        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, nq))
+        control_breaks = breaks if self.control_quartics == 1 else t_u[::4]
+        controls = PiecewiseEvaluator(piecewise_polynomial(control_breaks, ucoef))
 
         def rhs(times, full):
             return np.asarray(pr.f.map(times.size)(full.T, controls(times).T, times[None, :], pr.parameter_vector())).T
@@ -428,5 +530,6 @@ class MultiRateHLGL(Transcription):
             ratio=self.ratio,
             slow=[self.problem.state_names[i] for i in self.slow],
             fast_interpolation=self.fast_interpolation,
+            control_mesh=self.control_mesh,
             mesh=h_refined(self.mesh, coarse, tolerance, coarse_switches),
         )
