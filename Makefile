@@ -63,6 +63,7 @@ lab: setup
 bench: setup
 	$(PY) benchmarks/bench_hlgl.py
 	$(PY) benchmarks/bench_multirate.py
+	$(PY) benchmarks/bench_fast_slow.py
 	$(PY) benchmarks/bench_radau.py
 	$(PY) benchmarks/bench_shooting.py
 	$(PY) benchmarks/bench_orbit_transfer.py

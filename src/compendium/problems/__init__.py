@@ -1,6 +1,7 @@
 """The seeds' test problems, each reading its constants from ``data/problems``."""
 
 from ._data import load_problem_data
+from .attitude_ascent import attitude_ascent
 from .bryson_denham import bryson_denham, bryson_denham_solution
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
@@ -18,6 +19,7 @@ from .orbit_transfer import (
 )
 
 __all__ = [
+    "attitude_ascent",
     "bryson_denham",
     "bryson_denham_solution",
     "delta3_constants",

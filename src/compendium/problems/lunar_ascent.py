@@ -36,6 +36,32 @@ def lunar_ascent_constants() -> dict:
     }
 
 
+def ascent_rates(X, Y, U, V, theta, a, g, eps):
+    """Eqs. (8)-(11): the rates of ``X, Y, U, V`` at thrust angle ``theta``, with the smoothed speed
+    ``sqrt(U^2 + V^2 + eps^2)``."""
+    speed = ca.sqrt(U**2 + V**2 + eps**2)
+    radius = ca.sqrt(X**2 + Y**2)
+    return U, V, a * ca.cos(theta) - 0.5 * g * speed / radius, a * ca.sin(theta) - g * speed / radius
+
+
+def ascent_states(c: dict) -> list[State]:
+    """The states ``X, Y, U, V`` with the initial state, target and straight-line guesses of the constants ``c``
+    (:func:`lunar_ascent_constants`)."""
+    ini, fin, guess = c["initial"], c["final"], c["guess"]
+
+    def end_guess(name):
+        return guess.get(name, (ini[name], fin.get(name, ini[name])))
+
+    return [
+        State("X", initial=ini["X"], guess=end_guess("X"), description="horizontal position / R"),
+        State("Y", initial=ini["Y"], final=fin["Y"], guess=end_guess("Y"), description="vertical position / R"),
+        State(
+            "U", initial=ini["U"], final=fin["U"], guess=end_guess("U"), description="horizontal velocity / sqrt(g R)"
+        ),
+        State("V", initial=ini["V"], final=fin["V"], guess=end_guess("V"), description="vertical velocity / sqrt(g R)"),
+    ]
+
+
 def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: bool = False) -> OptimalControlProblem:
     """Minimum-time lunar ascent, Eqs. (8)-(11) of Desai & Conway.
 
@@ -52,31 +78,11 @@ def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: b
     g, a = c["g"], c["a"]
 
     def dynamics(x, u, t, P=None):
-        a_ = a if P is None else P["a"]
         X, Y, U, V = ca.vertsplit(x)
-        theta = u[0]
-        speed = ca.sqrt(U**2 + V**2 + eps**2)
-        radius = ca.sqrt(X**2 + Y**2)
-        return ca.vertcat(
-            U,
-            V,
-            a_ * ca.cos(theta) - 0.5 * g * speed / radius,
-            a_ * ca.sin(theta) - g * speed / radius,
-        )
+        return ca.vertcat(*ascent_rates(X, Y, U, V, u[0], a if P is None else P["a"], g, eps))
 
-    ini, fin, guess = c["initial"], c["final"], c["guess"]
-
-    def end_guess(name):
-        return guess.get(name, (ini[name], fin.get(name, ini[name])))
-
-    states = [
-        State("X", initial=ini["X"], guess=end_guess("X"), description="horizontal position / R"),
-        State("Y", initial=ini["Y"], final=fin["Y"], guess=end_guess("Y"), description="vertical position / R"),
-        State(
-            "U", initial=ini["U"], final=fin["U"], guess=end_guess("U"), description="horizontal velocity / sqrt(g R)"
-        ),
-        State("V", initial=ini["V"], final=fin["V"], guess=end_guess("V"), description="vertical velocity / sqrt(g R)"),
-    ]
+    guess = c["guess"]
+    states = ascent_states(c)
     lo, hi = c["theta_bounds"]
     controls = [Control("theta", lower=lo, upper=hi, guess=guess["theta"], unit="rad", description="thrust angle")]
     tlo, thi = c["tf_bounds"]
