@@ -295,33 +295,76 @@ def iteration_study(problem, rows, solvers=QUASI_NEWTON_SOLVERS, tol: float = 1e
     return pd.DataFrame(out)
 
 
-def partition_study(problem, partitions, coarse_segments, ratio: int, reference, *, ipopt_options=None, n: int = 2001):
-    """Where the order is lost: the control and state errors against ``reference`` on refined coarse meshes, for
-    several partitions into fast and slow states (``partitions``: label -> fast state names), at one ratio.
+def order_study(problem, cases, coarse_segments, reference, *, ipopt_options=None, n: int = 2001) -> pd.DataFrame:
+    """Control and state errors against ``reference`` on refined coarse meshes, and their least-squares orders.
 
-    One row per partition: the errors (absolute, max over the grid) per coarse mesh and their least-squares orders.
+    ``cases``: label -> ``dict(fast=..., ratio=..., fast_interpolation=...)`` of :class:`ocpkit.MultiRateHLGL`;
+    an empty ``fast`` is standard HLGL on the same fine mesh (``segments * ratio``). One row per case: the
+    errors (absolute, max over the normalised grid) per coarse mesh and the orders.
     """
     from ocpkit.analysis import convergence_order
 
     rows = []
     t = np.linspace(0.0, 1.0, n)
-    for label, fast in partitions.items():
+    for label, case in cases.items():
+        fast, ratio = list(case["fast"]), int(case["ratio"])
         du, dx = [], []
         for segments in coarse_segments:
-            if len(fast) == 0:
+            if not fast:
                 tr = HLGL(problem, segments * ratio)
             else:
-                tr = MultiRateHLGL(problem, segments, ratio=ratio, fast=fast)
+                coupling = case.get("fast_interpolation", "coarse")
+                tr = MultiRateHLGL(problem, segments, ratio=ratio, fast=fast, fast_interpolation=coupling)
             sol = tr.solve(ipopt_options=ipopt_options, error_threshold=None)
             du.append(float(np.abs(sol.control(t * sol.tf) - reference.control(t * reference.tf)).max()))
             dx.append(float(np.abs(sol.state(t * sol.tf) - reference.state(t * reference.tf)).max()))
         rows.append(
             {
-                "partition": label,
-                "fast": ", ".join(fast) if fast else "(standard, fine mesh)",
+                "case": label,
                 **{f"control_error_{s}": e for s, e in zip(coarse_segments, du)},
+                **{f"state_error_{s}": e for s, e in zip(coarse_segments, dx)},
                 "control_order": convergence_order(coarse_segments, du),
                 "state_order": convergence_order(coarse_segments, dx),
             }
         )
     return pd.DataFrame(rows)
+
+
+def partition_study(problem, partitions, coarse_segments, ratio: int, reference, *, ipopt_options=None, n: int = 2001):
+    """Where the order is lost: :func:`order_study` of several partitions into fast and slow states
+    (``partitions``: label -> fast state names; none: standard HLGL), at one ratio, the paper's coupling.
+
+    One row per partition: the control errors per coarse mesh and the control and state orders.
+    """
+    cases = {label: {"fast": fast, "ratio": ratio} for label, fast in partitions.items()}
+    out = order_study(problem, cases, coarse_segments, reference, ipopt_options=ipopt_options, n=n)
+    out.insert(1, "fast", [", ".join(f) if f else "(standard, fine mesh)" for f in partitions.values()])
+    out = out.rename(columns={"case": "partition"})
+    return out.drop(columns=[c for c in out.columns if c.startswith("state_error_")])
+
+
+def coupling_study(
+    problem,
+    fast,
+    ratios,
+    couplings,
+    coarse_segments,
+    reference,
+    *,
+    standard_ratio: int = 2,
+    ipopt_options=None,
+    n: int = 2001,
+) -> pd.DataFrame:
+    """:func:`order_study` of one partition (``fast``) under each coupling (``fast_interpolation``) and ratio,
+    and of standard HLGL on the fine meshes of ``standard_ratio``. Columns ``coupling`` and ``ratio`` name the
+    case (``"standard"`` for HLGL)."""
+    cases = {"standard": {"fast": [], "ratio": standard_ratio}}
+    keys = [("standard", standard_ratio)]
+    for ratio in ratios:
+        for coupling in couplings:
+            cases[f"{coupling}, M = {ratio}"] = {"fast": fast, "ratio": ratio, "fast_interpolation": coupling}
+            keys.append((coupling, ratio))
+    out = order_study(problem, cases, coarse_segments, reference, ipopt_options=ipopt_options, n=n)
+    out.insert(1, "coupling", [k[0] for k in keys])
+    out.insert(2, "ratio", [k[1] for k in keys])
+    return out.drop(columns="case")
