@@ -154,7 +154,15 @@ def test_fine_quadrature_weights_integrate_polynomials_over_each_half(ratio):
 
 
 @pytest.mark.parametrize(
-    "coupling, controls", [("coarse", "coarse"), ("fine", "coarse"), ("quadrature", "coarse"), ("quadrature", "fine")]
+    "coupling, controls",
+    [
+        ("coarse", "coarse"),
+        ("fine", "coarse"),
+        ("quadrature", "coarse"),
+        ("quadrature", "fine"),
+        ("galerkin", "coarse"),
+        ("galerkin", "fine"),
+    ],
 )
 def test_every_coupling_represents_the_min_energy_solution(coupling, controls):
     """u = 6 - 12 t, v = 6t - 6t^2, x = 3t^2 - 2t^3 are represented exactly, and the running cost is integrated
@@ -168,15 +176,54 @@ def test_every_coupling_represents_the_min_energy_solution(coupling, controls):
     assert np.abs(sol.state(t)[:, 1] - (6 * t - 6 * t**2)).max() < 1e-9
 
 
-def test_quadrature_coupling_with_ratio_one_is_the_collocation_scheme():
-    """With M = 1 the two integral defects are HLGL's: the quintic's slope is the quartic through f."""
+@pytest.mark.parametrize("coupling", ["quadrature", "galerkin"])
+def test_weak_couplings_with_ratio_one_are_the_collocation_scheme(coupling):
+    """With M = 1 the two weak defects are HLGL's: the quintic's slope is the quartic through f."""
     pr = lunar_ascent()
     ipopt = {"tol": 1e-12}
     col = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"]).solve(ipopt_options=ipopt)
-    quad = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"], fast_interpolation="quadrature").solve(ipopt_options=ipopt)
-    assert quad.tf == pytest.approx(col.tf, abs=1e-11)
-    d = quad.difference(col)
+    weak = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"], fast_interpolation=coupling).solve(ipopt_options=ipopt)
+    assert weak.tf == pytest.approx(col.tf, abs=1e-11)
+    d = weak.difference(col)
     assert d["states"] < 1e-8 and d["controls"] < 1e-6
+
+
+@pytest.mark.parametrize("ratio", [1, 2, 3, 4])
+def test_legendre_weights_integrate_against_p0_and_p1(ratio):
+    from ocpkit.nodes import HLGL_CONTROL_NODES, hermite_quintic_basis
+    from ocpkit.transcription.multirate import legendre_weights
+
+    W, B = legendre_weights(ratio)
+    s = np.concatenate([(j + HLGL_CONTROL_NODES[:4]) / ratio for j in range(ratio)] + [[1.0]])
+    for k in range(7):
+        assert W[0] @ s**k == pytest.approx(1 / (k + 1), abs=1e-14)
+        assert W[1] @ s**k == pytest.approx(2 / (k + 2) - 1 / (k + 1), abs=1e-14)
+    # B integrates the quintic Hermite interpolant: exact for a quintic
+    p = np.polynomial.Polynomial([0.3, -1.0, 0.5, 2.0, -0.7, 0.4])
+    dp = p.deriv()
+    values = [p(0.0), dp(0.0), p(0.5), dp(0.5), p(1.0), dp(1.0)]
+    assert B @ values == pytest.approx(p.integ()(1.0) - p.integ()(0.0), abs=1e-14)
+    assert np.allclose(hermite_quintic_basis(np.array([0.25]))[0] @ values, p(0.25))
+
+
+@pytest.mark.parametrize("fast, ratio", [(["U", "V"], 2), (["V"], 3)])
+def test_galerkin_coupling_keeps_the_standard_order_where_the_papers_loses_it(fast, ratio):
+    """Control error against a converged reference on 10 and 20 coarse segments: the paper's coupling gains a
+    factor of about 4 (second order), the Galerkin coupling more than 12 (fourth order or better)."""
+    pr = lunar_ascent()
+    ipopt = {"tol": 1e-13}
+    ref = HLGL(pr, 200).solve(ipopt_options=ipopt)
+    t = np.linspace(0.0, 1.0, 2001)
+
+    def gain(coupling):
+        e = []
+        for n in (10, 20):
+            sol = MultiRateHLGL(pr, n, ratio=ratio, fast=fast, fast_interpolation=coupling).solve(ipopt_options=ipopt)
+            e.append(np.abs(sol.control(t * sol.tf) - ref.control(t * ref.tf)).max())
+        return e[0] / e[1]
+
+    assert gain("coarse") < 6
+    assert gain("galerkin") > 12
 
 
 def test_every_state_fast_with_fine_controls_is_standard_hlgl_on_the_fine_mesh():
@@ -207,5 +254,5 @@ def test_unknown_control_mesh_and_fine_controls_with_a_collocation_coupling():
     with pytest.raises(ValueError, match="control_mesh"):
         MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], control_mesh="finest")
     for coupling in ("coarse", "fine"):
-        with pytest.raises(ValueError, match='needs fast_interpolation="quadrature"'):
+        with pytest.raises(ValueError, match="needs fast_interpolation in"):
             MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation=coupling, control_mesh="fine")

@@ -11,7 +11,7 @@ The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
   defects need is that quartic evaluated there ("two-to-one" and "four-to-one"
   architectures: for M = 2 the five points are the fine nodes, for M = 4 every
   other fine node). With ``control_mesh="fine"`` (beyond the paper, for controls
-  that drive the fast states at their rate; with the ``"quadrature"`` coupling only)
+  that drive the fast states at their rate; with the couplings of :data:`WEAK_COUPLINGS` only)
   there is one quartic per fine segment: ``4M + 1`` control parameters per coarse segment.
 * Fine defects (Eqs. 6-7 for ``z`` on each fine segment) need ``x`` at the fine
   centres and fine collocation points: the coarse quintic Hermite polynomial of
@@ -28,6 +28,13 @@ The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
       :func:`fine_quadrature_weights` over every fine node and fine collocation point, so the slow dynamics
       see the fast states wherever the fine defects do. With ``M = 1`` this is HLGL again (the quintic's
       slope is the quartic through ``f`` at the five points).
+  ``"galerkin"``
+      Weak defects ``int_0^1 P_m(s) (dx/ds - h f_x) ds = 0`` for the Legendre polynomials ``P_0 = 1`` and
+      ``P_1 = 2s - 1`` on the coarse segment, ``x`` its quintic Hermite polynomial, the integrals over every
+      fine point by the composite rule of :func:`fine_quadrature_weights`. The multipliers of the two defects
+      then stand for a slow costate linear on each coarse segment where ``"quadrature"``'s stand for one
+      constant on each half: the fast costate equations see it to high order (notebook 02). With ``M = 1``
+      this is HLGL again.
 
 * A Lagrange cost is integrated on the fine grid (:func:`fine_quadrature_weights`), whatever the coupling.
 
@@ -50,7 +57,9 @@ from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
-FAST_INTERPOLATIONS = ("coarse", "fine", "quadrature")
+FAST_INTERPOLATIONS = ("coarse", "fine", "quadrature", "galerkin")
+#: the couplings whose slow defects see the fast states at every fine point (the ones fine controls need)
+WEAK_COUPLINGS = ("quadrature", "galerkin")
 CONTROL_MESHES = ("coarse", "fine")
 
 
@@ -110,6 +119,19 @@ def fine_quadrature_weights(ratio: int) -> np.ndarray:
     return W
 
 
+def legendre_weights(ratio: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``"galerkin"`` coupling's weights: ``(W, B)`` with ``W`` (2, 4M + 1) the integrals over the coarse
+    segment of ``P_m(s) g(s)`` (``P_0 = 1``, ``P_1 = 2s - 1``) from ``g``'s values at the fine points (the order
+    of :func:`fine_quadrature_weights`), and ``B`` (6,) the integral of the quintic Hermite polynomial from its
+    node values and scaled slopes (the order of :func:`ocpkit.nodes.hermite_quintic_basis`)."""
+    M = int(ratio)
+    full = fine_quadrature_weights(M).sum(axis=0)
+    s = np.concatenate([(j + nodes.HLGL_CONTROL_NODES[:4]) / M for j in range(M)] + [[1.0]])
+    W = np.vstack([full, full * (2.0 * s - 1.0)])
+    B = (1.0 / np.arange(1, 7)) @ nodes.hermite_quintic_matrix()
+    return W, B
+
+
 def _hermite(b, x_i, d_i, x_c, d_c, x_e, d_e):
     """Quintic Hermite value from basis weights ``b`` (6,) and node values/slopes (slopes times h)."""
     return b[0] * x_i + b[1] * d_i + b[2] * x_c + b[3] * d_c + b[4] * x_e + b[5] * d_e
@@ -158,11 +180,11 @@ class MultiRateHLGL(Transcription):
             raise ValueError(f"fast_interpolation must be one of {FAST_INTERPOLATIONS}, got {fast_interpolation!r}")
         if control_mesh not in CONTROL_MESHES:
             raise ValueError(f"control_mesh must be one of {CONTROL_MESHES}, got {control_mesh!r}")
-        if control_mesh == "fine" and fast_interpolation != "quadrature":
+        if control_mesh == "fine" and fast_interpolation not in WEAK_COUPLINGS:
             raise ValueError(
-                'control_mesh="fine" needs fast_interpolation="quadrature": the collocation couplings see the fast '
-                "states through Hermite slopes at the coarse nodes, where a fine control is free to differ from the "
-                "fast trajectory it drives (the NLP then exploits the difference)"
+                f'control_mesh="fine" needs fast_interpolation in {WEAK_COUPLINGS}: the collocation couplings see '
+                "the fast states through Hermite slopes at the coarse nodes, where a fine control is free to differ "
+                "from the fast trajectory it drives (the NLP then exploits the difference)"
             )
         self.ratio = int(ratio)
         self.fast_interpolation = fast_interpolation
@@ -346,19 +368,26 @@ class MultiRateHLGL(Transcription):
             fine_colloc.append((za_f, f(x_at(s_a), za_f, s_a), zb_f, f(x_at(s_b), zb_f, s_b)))
 
         defects = []
-        if self.fast_interpolation == "quadrature":
-            # slow states: integral defects over each half of the coarse segment, the slow dynamics
-            # integrated with every fine node and collocation point (fine_quadrature_weights)
+        if self.fast_interpolation in WEAK_COUPLINGS:
+            # slow states: weak defects, the slow dynamics integrated over every fine node and collocation point
             F_all = []
             for j in range(M):
                 F_all += [F_nodes[2 * j], fine_colloc[j][1], F_nodes[2 * j + 1], fine_colloc[j][3]]
             F_all.append(F_nodes[2 * M])
-            W = fine_quadrature_weights(M)
-            if nxs:
-                fx_all = [split(F)[0] for F in F_all]
+            fx_all = [split(F)[0] for F in F_all] if nxs else []
+
+            def integral(weights):
+                return sum(float(wk) * fk for wk, fk in zip(weights, fx_all) if wk != 0.0)
+
+            if nxs and self.fast_interpolation == "quadrature":
+                W = fine_quadrature_weights(M)
                 for half in range(2):
-                    integral = sum(float(W[half, k]) * fx_all[k] for k in range(4 * M + 1))
-                    defects.append((X[half + 1] - X[half] - h * integral) / sx)
+                    defects.append((X[half + 1] - X[half] - h * integral(W[half])) / sx)
+            elif nxs:
+                W, B = legendre_weights(M)
+                x_mean = _hermite(B, X[0], h * fx_c[0], X[1], h * fx_c[1], X[2], h * fx_c[2])
+                defects.append((X[2] - X[0] - h * integral(W[0])) / sx)  # P_0: int dx/ds = x_e - x_i
+                defects.append((X[2] + X[0] - 2.0 * x_mean - h * integral(W[1])) / sx)  # P_1, by parts
         else:
             z_at_coarse_colloc = self._fast_at_coarse_collocation(Z, zc, fz_nodes, fz_c, h)
             xa, xb = x_at(sa), x_at(sb)
