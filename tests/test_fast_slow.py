@@ -56,10 +56,10 @@ def test_attitude_ascent_rejects_bad_effort_weights(w):
 def test_designs_build_the_transcriptions_they_name():
     pr = attitude_ascent()
     assert isinstance(transcription(pr, STANDARD, 40), HLGL)
-    tr = transcription(pr, "fine quadrature, positions slow", 40, 4)
+    tr = transcription(pr, "Galerkin, positions slow", 40, 4)
     assert isinstance(tr, MultiRateHLGL) and tr.segments == 10 and tr.ratio == 4
     assert [pr.state_names[i] for i in tr.slow] == ["X", "Y"]
-    assert tr.control_mesh == "fine" and tr.fast_interpolation == "quadrature"
+    assert tr.control_mesh == "fine" and tr.fast_interpolation == "galerkin"
     # positions slow: (1 - 1/M)/4 of the standard's 16 variables per fine segment are saved
     std = transcription(pr, STANDARD, 40)
     assert 1 - tr.n_variables / std.n_variables == pytest.approx((1 - 1 / 4) / 4, abs=0.01)
@@ -77,8 +77,8 @@ def test_errors_against_itself_are_zero_and_groups_are_relative(reference):
 
 def test_accuracy_study_rows_and_the_measured_times_join(reference):
     pr = attitude_ascent()
-    study = accuracy_study(pr, reference, [16], [2], designs=["fine quadrature, positions slow"], n=401)
-    assert list(study.design) == [STANDARD, "fine quadrature, positions slow"]
+    study = accuracy_study(pr, reference, [16], [2], designs=["Galerkin, positions slow"], n=401)
+    assert list(study.design) == [STANDARD, "Galerkin, positions slow"]
     assert list(study.coarse_segments) == [16, 8]
     assert (study.attitude_error > 0).all()
     times = pd.DataFrame(

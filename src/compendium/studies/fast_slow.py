@@ -31,14 +31,14 @@ DESIGNS: dict[str, dict] = {
         "fast_interpolation": "coarse",
         "control_mesh": "coarse",
     },
-    "fine quadrature, attitude fast": {
+    "Galerkin, attitude fast": {
         "fast": ("theta", "q"),
-        "fast_interpolation": "quadrature",
+        "fast_interpolation": "galerkin",
         "control_mesh": "fine",
     },
-    "fine quadrature, positions slow": {
+    "Galerkin, positions slow": {
         "fast": ("U", "V", "theta", "q"),
-        "fast_interpolation": "quadrature",
+        "fast_interpolation": "galerkin",
         "control_mesh": "fine",
     },
 }
