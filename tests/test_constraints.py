@@ -64,7 +64,7 @@ def test_path_points_are_where_each_scheme_holds_states_and_controls():
     hlgl, radau, multi = (SCHEMES[k](pr) for k in ("hlgl", "radau", "multirate"))
     assert hlgl.n_path_points == 4 * 30 + 1  # t_i, t_a, t_c, t_b of each segment and the end
     assert radau.n_path_points == 4 * 30 + 1  # every collocation point and the end
-    assert multi.n_path_points == 2 * 15 + 1  # the coarse nodes
+    assert multi.n_path_points == 4 * 15 + 1  # every control point (the quartic's five per coarse segment)
     for tr in (hlgl, radau, multi):
         assert tr.n_constraints == tr.n_defects + tr.n_path_points
         assert np.all(np.diff(np.sort(tr.path_point_fractions())) > 0), "no point is constrained twice"

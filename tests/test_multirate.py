@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from _problems import min_energy_double_integrator
 
-from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, State
+from ocpkit import HLGL, Control, MultiRateHLGL, OptimalControlProblem, State
 
 from compendium.paper import paper_table
 from compendium.problems import lunar_ascent
@@ -256,3 +256,67 @@ def test_unknown_control_mesh_and_fine_controls_with_a_collocation_coupling():
     for coupling in ("coarse", "fine"):
         with pytest.raises(ValueError, match="needs fast_interpolation in"):
             MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation=coupling, control_mesh="fine")
+
+
+def _polynomial_problem_with_a_state_dependent_running_cost():
+    """x' = z + u1 (slow), z' = x + u2 (fast), L = x z + u1, on [0.2, 1.5]: with x of degree 4, z of degree 3 and
+    the controls that make them solutions, every defect vanishes and the cost is a polynomial's integral."""
+    rng = np.random.default_rng(1)
+    cx, cz = rng.normal(size=5), rng.normal(size=4)
+    u1, u2 = np.polysub(np.polyder(cx), cz), np.polysub(np.polyder(cz), cx)
+    pr = OptimalControlProblem(
+        "poly",
+        [State("x"), State("z")],
+        [Control("u1"), Control("u2")],
+        lambda x, u, t: ca.vertcat(x[1] + u[0], x[0] + u[1]),
+        t0=0.2,
+        tf=1.5,
+        lagrange=lambda x, u, t: x[0] * x[1] + u[0],
+    )
+    integral = np.polyint(np.polyadd(np.polymul(cx, cz), u1))
+    return pr, cx, cz, u1, u2, np.polyval(integral, 1.5) - np.polyval(integral, 0.2)
+
+
+@pytest.mark.parametrize("ratio", [1, 2, 3, 5])
+@pytest.mark.parametrize(
+    "coupling, controls",
+    [("coarse", "coarse"), ("fine", "coarse"), ("quadrature", "fine"), ("galerkin", "coarse"), ("galerkin", "fine")],
+)
+def test_running_cost_on_the_fine_grid_sees_the_states_there(coupling, controls, ratio):
+    """The running cost depends on both states: exact for polynomials the scheme represents, on a non-uniform mesh
+    with t0 != 0 (the slow states at the fine points from their coarse Hermite, the fast from their fine one)."""
+    pr, cx, cz, u1, u2, exact = _polynomial_problem_with_a_state_dependent_running_cost()
+    mr = MultiRateHLGL(pr, mesh=[0.3, 0.7], ratio=ratio, fast=["z"], fast_interpolation=coupling, control_mesh=controls)
+
+    def t(s):
+        return 0.2 + 1.3 * s
+
+    tu = t(mr.control_point_fractions())
+    X = np.polyval(cx, t(mr.coarse_node_fractions()))[:, None]
+    Z = np.polyval(cz, t(mr.fine_node_fractions()))[:, None]
+    U = np.stack([np.polyval(u1, tu), np.polyval(u2, tu)], 1)
+    assert np.abs(mr.defects(X, Z, U)).max() < 1e-12
+    J = float(mr.nlp.objective_function(mr.pack(X, Z, U))) * pr.objective_scale
+    assert J == pytest.approx(exact, abs=1e-12)
+
+
+@pytest.mark.parametrize("controls", ["coarse", "fine"])
+def test_a_control_bound_holds_at_every_control_point(controls):
+    """min int u^2 with u <= 4 (a path constraint) between rest states: the bound is active; with the controls free
+    between constrained points the NLP would undercut the true optimum (J = 12.44 for HLGL)."""
+    from ocpkit import Constraint
+
+    pr = OptimalControlProblem(
+        "min_energy_umax",
+        [State("x1", initial=0.0, final=1.0), State("x2", initial=0.0, final=0.0)],
+        [Control("u")],
+        lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=1.0,
+        lagrange=lambda x, u, t: u[0] ** 2,
+        path_constraints=[Constraint("u_max", lambda x, u, t: u[0], upper=4.0)],
+    )
+    mr = MultiRateHLGL(pr, 2, ratio=4, fast=["x2"], fast_interpolation="galerkin", control_mesh=controls)
+    sol = mr.solve(error_threshold=None)
+    assert mr.n_path_points == 4 * mr.control_quartics * 2 + 1
+    assert sol.control_values.max() <= 4.0 + 1e-6  # IPOPT's constraint tolerance
+    assert sol.objective >= HLGL(pr, 8).solve(error_threshold=None).objective - 1e-3

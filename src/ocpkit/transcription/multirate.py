@@ -16,7 +16,7 @@ The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
 * Fine defects (Eqs. 6-7 for ``z`` on each fine segment) need ``x`` at the fine
   centres and fine collocation points: the coarse quintic Hermite polynomial of
   ``x`` (values and slopes at the three coarse nodes), as the paper does.
-* The slow defects, by ``fast_interpolation`` (the coupling; the NLP's size is the same for all three):
+* The slow defects, by ``fast_interpolation`` (the coupling; the NLP's size is the same for all four):
 
   ``"coarse"`` (the paper's reading)
       Eqs. 6-7 for ``x`` on the coarse segment. The full state at the coarse collocation points is the coarse
@@ -45,6 +45,7 @@ the fine mesh) and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
@@ -129,6 +130,7 @@ def legendre_weights(ratio: int) -> tuple[np.ndarray, np.ndarray]:
     s = np.concatenate([(j + nodes.HLGL_CONTROL_NODES[:4]) / M for j in range(M)] + [[1.0]])
     W = np.vstack([full, full * (2.0 * s - 1.0)])
     B = (1.0 / np.arange(1, 7)) @ nodes.hermite_quintic_matrix()
+    B[np.abs(B) < 1e-14] = 0.0  # the centre slope's weight is zero (rounding leaves 1e-16)
     return W, B
 
 
@@ -149,10 +151,11 @@ class MultiRateHLGL(Transcription):
         Fine segments per coarse segment, ``M >= 1``.
     slow, fast : sequences of state names
         The partition; give either (the other is its complement) or both.
-    fast_interpolation : ``"coarse"`` (default, the paper's reading), ``"fine"`` or ``"quadrature"``
+    fast_interpolation : ``"coarse"`` (default, the paper's reading), ``"fine"``, ``"quadrature"`` or ``"galerkin"``
         How the slow defects see the fast states (module docstring).
     control_mesh : ``"coarse"`` (default, the paper's: one quartic per coarse segment) or ``"fine"`` (one quartic
-        per fine segment; with ``fast_interpolation="quadrature"`` only).
+        per fine segment; with the couplings of :data:`WEAK_COUPLINGS` only). Path constraints hold at every
+        control point.
     mesh : positive fractions of the coarse segments, optional.
 
     NLP variable layout: slow states node by node on the coarse nodes, fast
@@ -281,50 +284,34 @@ class MultiRateHLGL(Transcription):
         return w, p, X, Z, U, t_start, h
 
     def _path_points(self) -> list[PathPoints]:
-        """Path constraints where both meshes hold NLP values: the coarse nodes (start and centre of every coarse
-        segment, slow states and the fast ones at the same times, the controls there), and the final node once."""
-        M = self.ratio
-        w, p, X, Z, U, t_start, h = self._segment_symbols()
-        full = [self._full_state(ca.vertsplit(X[k]), ca.vertsplit(Z[k * M])) for k in range(3)]
-        c = 2 * self.control_quartics  # the control point at the coarse centre
-        t = [t_start + h * s for s in nodes.HLGL_STATE_NODES]
+        """Path constraints at every control point (``4q + 1`` per coarse segment, the last once): the controls are
+        NLP values there, the fast states NLP values or their fine Hermite polynomial, the slow states NLP values
+        or their coarse Hermite polynomial."""
+        q = self.control_quartics
+        m = self._segment_model()
+        s = np.arange(4 * q + 1) / (4 * q)
+        full = [self._full_state(ca.vertsplit(m.x_at(sk)), ca.vertsplit(m.z_fine_at(sk))) for sk in s]
+        t = [m.t_start + m.h * sk for sk in s]
         variables, params = self._segment_tables()
         mesh = self.mesh
-        fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_STATE_NODES[None, :2]
+        fractions = mesh.starts[:, None] + mesh.fractions[:, None] * s[None, :-1]
+        last = (variables[:, -1:], params[:, -1:], np.ones((1, 1)))
         return [
-            PathPoints(w, p, full[:2], [U[0], U[c]], t[:2], variables, params, fractions),
-            PathPoints(w, p, [full[2]], [U[2 * c]], [t[2]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
+            PathPoints(m.w, m.p, full[:-1], m.U[:-1], t[:-1], variables, params, fractions),
+            PathPoints(m.w, m.p, [full[-1]], [m.U[-1]], [t[-1]], *last),
         ]
 
-    def _fast_at_coarse_collocation(self, Z, zc, fz_nodes, fz_c, h):
-        """The fast states at a coarse collocation point ``s``: the coarse Hermite of their values and slopes at the
-        coarse nodes (``"coarse"``, the paper's reading) or the Hermite of the fine segment holding ``s``."""
-        M = self.ratio
-        hf = h / M
-
-        def z_fine_at(s):
-            j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
-            b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
-            i = 2 * j
-            return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
-
-        def z_coarse_at(s):
-            b = nodes.hermite_quintic_basis(np.array([s]))[0]
-            return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
-
-        return z_coarse_at if self.fast_interpolation == "coarse" else z_fine_at
-
-    def _segment_expressions(self):
-        """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
+    def _segment_model(self):
+        """One coarse segment's symbols (:meth:`_segment_symbols`) and the pieces every expression of it uses: the
+        control ``u_at(s)``, the dynamics ``f(x, z, s)`` and ``split`` of their value into slow and fast parts, the
+        full dynamics at the coarse nodes (``Fc``) and at the fine nodes (``F_nodes``, the fast part ``fz_nodes``),
+        the slow states' coarse Hermite ``x_at(s)``, and the fast states' fine Hermite ``z_fine_at(s)`` (the fine
+        segment holding ``s``) and coarse Hermite ``z_coarse_at(s)`` (values and slopes at the coarse nodes)."""
         pr = self.problem
         M = self.ratio
         nu = pr.nu
-        nxs, nzf = len(self.slow), len(self.fast)
         w, p, X, Z, U, t_start, h = self._segment_symbols()
         P = parameter_vector(pr, w)
-        sx = pr.state_scaling.subset(self.slow).scale
-        sz = pr.state_scaling.subset(self.fast).scale
-
         q = self.control_quartics
 
         def u_at(s):
@@ -355,6 +342,35 @@ class MultiRateHLGL(Transcription):
         fine_s = np.arange(2 * M + 1) / (2 * M)
         F_nodes = [Fc[k // M] if k % M == 0 else f(x_at(s), Z[k], s) for k, s in enumerate(fine_s)]
         fz_nodes = [split(F)[1] for F in F_nodes]
+
+        def z_fine_at(s):
+            j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
+            b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
+            i = 2 * j
+            return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
+
+        def z_coarse_at(s):
+            b = nodes.hermite_quintic_basis(np.array([s]))[0]
+            return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
+
+        return SimpleNamespace(
+            **dict(w=w, p=p, X=X, Z=Z, U=U, t_start=t_start, h=h, P=P, u_at=u_at, f=f, split=split),
+            **dict(zc=zc, Fc=Fc, fx_c=fx_c, fz_c=fz_c, x_at=x_at, F_nodes=F_nodes, fz_nodes=fz_nodes),
+            **dict(z_fine_at=z_fine_at, z_coarse_at=z_coarse_at),
+        )
+
+    def _segment_expressions(self):
+        """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
+        pr = self.problem
+        M = self.ratio
+        nxs, nzf = len(self.slow), len(self.fast)
+        m = self._segment_model()
+        w, p, X, Z, t_start, h, P = m.w, m.p, m.X, m.Z, m.t_start, m.h, m.P
+        u_at, f, split, fx_c, x_at = m.u_at, m.f, m.split, m.fx_c, m.x_at
+        F_nodes, fz_nodes = m.F_nodes, m.fz_nodes
+        sx = pr.state_scaling.subset(self.slow).scale
+        sz = pr.state_scaling.subset(self.fast).scale
+        hf = h / M
 
         # fine collocation points: z from each fine segment's Hermite, x from the coarse one
         sa, sb = nodes.HLGL_COLLOCATION
@@ -389,7 +405,7 @@ class MultiRateHLGL(Transcription):
                 defects.append((X[2] - X[0] - h * integral(W[0])) / sx)  # P_0: int dx/ds = x_e - x_i
                 defects.append((X[2] + X[0] - 2.0 * x_mean - h * integral(W[1])) / sx)  # P_1, by parts
         else:
-            z_at_coarse_colloc = self._fast_at_coarse_collocation(Z, zc, fz_nodes, fz_c, h)
+            z_at_coarse_colloc = m.z_coarse_at if self.fast_interpolation == "coarse" else m.z_fine_at
             xa, xb = x_at(sa), x_at(sb)
             za, zb = z_at_coarse_colloc(sa), z_at_coarse_colloc(sb)
             Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
