@@ -73,6 +73,16 @@ def test_errors_against_itself_are_zero_and_groups_are_relative(reference):
     e = errors_against(reference, reference, n=101)
     assert set(e) == {"positions_error", "velocities_error", "attitude_error", "control_error", "tf_error"}
     assert max(e.values()) == 0.0
+    coarse = HLGL(attitude_ascent(), 20).solve(ipopt_options={"tol": 1e-12})
+    e = errors_against(coarse, reference, n=101)
+    s = np.linspace(0.0, 1.0, 101)
+    x, x_ref = coarse.state(s * coarse.tf), reference.state(s * reference.tf)
+    q = np.abs(x[:, 5] - x_ref[:, 5]).max() / max(1.0, np.abs(x_ref[:, 5]).max())
+    theta = np.abs(x[:, 4] - x_ref[:, 4]).max() / max(1.0, np.abs(x_ref[:, 4]).max())
+    assert e["attitude_error"] == pytest.approx(max(q, theta))
+    u, u_ref = coarse.control(s * coarse.tf)[:, 0], reference.control(s * reference.tf)[:, 0]
+    assert e["control_error"] == pytest.approx(np.abs(u - u_ref).max() / np.abs(u_ref).max())
+    assert e["tf_error"] == pytest.approx(abs(coarse.tf - reference.tf))
 
 
 def test_accuracy_study_rows_and_the_measured_times_join(reference):
@@ -87,16 +97,22 @@ def test_accuracy_study_rows_and_the_measured_times_join(reference):
             "ratio": [1],
             "fine_segments": [16],
             "nlp_parameters": [study.nlp_parameters.iloc[0]],
+            "iterations": [study.iterations.iloc[0]],
             "end_to_end_s": [0.5],
             "effort_weight": [1e-8],
+            "ipopt_tol": [1e-10],
         }
     )
-    joined = with_measured_times(study, times, 1e-8)
+    joined = with_measured_times(study, times, 1e-8, 1e-10)
     assert joined.end_to_end_s.iloc[0] == 0.5 and np.isnan(joined.end_to_end_s.iloc[1])
-    assert with_measured_times(study, times, 1e-9).end_to_end_s.isna().all()
-    wrong = times.assign(nlp_parameters=1)
+    assert with_measured_times(study, times, 1e-9, 1e-10).end_to_end_s.isna().all()  # another problem
+    assert with_measured_times(study, times, 1e-8, 1e-12).end_to_end_s.isna().all()  # other solves
     with pytest.raises(ValueError, match="other NLPs"):
-        with_measured_times(study, wrong, 1e-8)
+        with_measured_times(study, times.assign(nlp_parameters=1), 1e-8, 1e-10)
+    with pytest.warns(UserWarning, match="other IPOPT iteration counts"):
+        with_measured_times(study, times.assign(iterations=99), 1e-8, 1e-10)
+    with pytest.raises(pd.errors.MergeError):
+        with_measured_times(study, pd.concat([times, times]), 1e-8, 1e-10)  # one time per case
 
 
 def test_the_committed_times_are_of_the_notebooks_nlps():

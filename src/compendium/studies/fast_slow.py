@@ -13,6 +13,7 @@ the same designs and meshes and :func:`with_measured_times` joins its table.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 
 import matplotlib.pyplot as plt
@@ -70,7 +71,8 @@ def transcription(problem: OptimalControlProblem, design: str, fine_segments: in
 
 
 def errors_against(solution, reference, groups: Mapping[str, Sequence[str]] = STATE_GROUPS, n: int = 8001) -> dict:
-    """Relative errors of ``solution`` against ``reference`` per group of states, of the control and of t_f."""
+    """Relative errors of ``solution`` against ``reference`` per group of states and of the control (module
+    docstring), and the absolute error of t_f."""
     s = np.linspace(0.0, 1.0, n)
     names = reference.problem.state_names
     x = solution.state(solution.t0 + s * (solution.tf - solution.t0))
@@ -79,7 +81,7 @@ def errors_against(solution, reference, groups: Mapping[str, Sequence[str]] = ST
     out = {f"{g}_error": float(max(rel[names.index(v)] for v in states)) for g, states in groups.items()}
     u = solution.control(solution.t0 + s * (solution.tf - solution.t0))
     u_ref = reference.control(reference.t0 + s * (reference.tf - reference.t0))
-    out["control_error"] = float(np.abs(u - u_ref).max() / np.abs(u_ref).max())
+    out["control_error"] = float(np.abs(u - u_ref).max() / max(np.abs(u_ref).max(), np.finfo(float).tiny))
     out["tf_error"] = float(abs(solution.tf - reference.tf))
     return out
 
@@ -124,18 +126,29 @@ def measured_times(path=None) -> pd.DataFrame:
     return pd.read_csv(paths.repo_root() / MEASURED_TIMES if path is None else path)
 
 
-def with_measured_times(study: pd.DataFrame, times: pd.DataFrame, effort_weight: float) -> pd.DataFrame:
+def with_measured_times(study: pd.DataFrame, times: pd.DataFrame, effort_weight: float, ipopt_tol: float):
     """``study`` with the measured ``end_to_end_s`` of the same design, ratio and fine mesh, for the same
-    ``effort_weight`` (NaN where the benchmark did not run that case). The NLP sizes must agree: the times are of
-    the same NLPs."""
-    times = times[np.isclose(times.effort_weight, effort_weight, rtol=1e-12, atol=0.0)]
-    t = times[KEYS + ["nlp_parameters", "end_to_end_s"]].rename(columns={"nlp_parameters": "measured_nlp_parameters"})
-    out = study.merge(t, on=KEYS, how="left")
+    ``effort_weight`` and IPOPT tolerance (NaN where the benchmark did not run that case).
+
+    The times must be of the same NLPs (an error otherwise) and of the same solves: a warning names the cases
+    whose IPOPT iterations differ (another machine's rounding can change a count)."""
+    same = np.isclose(times.effort_weight, effort_weight, rtol=1e-12, atol=0.0)
+    same &= np.isclose(times.ipopt_tol, ipopt_tol, rtol=1e-12, atol=0.0)
+    t = times.loc[same, KEYS + ["nlp_parameters", "iterations", "end_to_end_s"]]
+    t = t.rename(columns={"nlp_parameters": "measured_nlp_parameters", "iterations": "measured_iterations"})
+    out = study.merge(t, on=KEYS, how="left", validate="one_to_one")
     measured = out.measured_nlp_parameters.notna()
     wrong = out[measured & (out.measured_nlp_parameters != out.nlp_parameters)]
     if len(wrong):
         raise ValueError(f"the measured times are of other NLPs: {wrong[KEYS].to_dict('records')}")
-    return out.drop(columns="measured_nlp_parameters")
+    other = out[measured & (out.measured_iterations != out.iterations)]
+    if len(other):
+        warnings.warn(
+            f"the measured times of {len(other)} cases are of solves with other IPOPT iteration counts: "
+            f"{other[KEYS].to_dict('records')}",
+            stacklevel=2,
+        )
+    return out.drop(columns=["measured_nlp_parameters", "measured_iterations"])
 
 
 def cost_to_reach(study: pd.DataFrame, error: str, target: float, cost: str) -> pd.DataFrame:
