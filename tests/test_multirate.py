@@ -306,15 +306,8 @@ def test_a_control_bound_holds_at_every_control_point(controls):
     between constrained points the NLP would undercut the true optimum (J = 12.44 for HLGL)."""
     from ocpkit import Constraint
 
-    pr = OptimalControlProblem(
-        "min_energy_umax",
-        [State("x1", initial=0.0, final=1.0), State("x2", initial=0.0, final=0.0)],
-        [Control("u")],
-        lambda x, u, t: ca.vertcat(x[1], u[0]),
-        tf=1.0,
-        lagrange=lambda x, u, t: u[0] ** 2,
-        path_constraints=[Constraint("u_max", lambda x, u, t: u[0], upper=4.0)],
-    )
+    bound = Constraint("u_max", lambda x, u, t: u[0], upper=4.0)
+    pr = min_energy_double_integrator().replace(path_constraints=[bound])
     mr = MultiRateHLGL(pr, 2, ratio=4, fast=["x2"], fast_interpolation="galerkin", control_mesh=controls)
     sol = mr.solve(error_threshold=None)
     assert mr.n_path_points == 4 * mr.control_quartics * 2 + 1
