@@ -1,31 +1,31 @@
-"""The published record, guarded: compare what a fresh run wrote with the committed ``figures/`` and ``data/derived/``.
+"""The published record, guarded: compare what fresh runs wrote with the committed ``figures/`` and ``data/derived/``
+by the reproducibility contract (:mod:`compendium.contract`, ``notebooks/contract.toml``).
 
 Command line (``make test`` runs it after nbval, whose runs write under ``build/test-output``)::
 
-    python -m compendium.guard build/test-output
+    python -m compendium.guard build/test-output          # against the repository's record
+    python -m compendium.guard . --reference-commit HEAD  # the working tree (after make reproduce) against HEAD
 
-Every run leaves a record (:mod:`compendium.outputs`) naming its parameters and the files it wrote.
-For each file of each run:
+Every run leaves a record (:mod:`compendium.outputs`) naming its notebook, parameters and the files it wrote.
 
-1. **A published run** (the notebook's published parameters) must reproduce the committed file:
+1. **A published run** (the notebook's published parameters) must write exactly the files its contract declares,
+   and each must reproduce the committed one:
 
-   * figures: the same bytes. Should the bytes differ, a PNG whose pixels differ nowhere by more
-     than ``PIXEL_TOL`` and a PDF whose drawing commands hold the same numbers to ``rtol = 1e-6``
-     pass with a note (a last-bit change of a solver's answer can move a coordinate in the tenth
-     decimal of a PDF); anything more is a difference;
-   * CSV and JSON tables: the same columns, rows and keys; text, integers and booleans equal; floats
-     within ``|a - b| <= atol + rtol |b|`` with ``rtol = 1e-6, atol = 1e-10``, except quantities at
-     the level of rounding noise (shooting residuals ``norm_S``, ``noise of S``, Hamiltonian drift,
-     re-integration errors), which must agree within a factor of two or both lie below ``1e-10``;
-   * Markdown tables: the same text, their printed numbers within 5 % (they are rounded to 2-3 digits).
+   * CSV tables: the same columns; rows paired by the table's ``key`` (else by position); each value accepted by
+     its column's class; rows of runs that failed (the ``status`` column) by their key and status only;
+   * JSON summaries: the same keys, each value by its class; Markdown tables: the text around them exactly, the
+     cells by their column's class (numbers as printed: one unit of the last digit is part of the tolerance);
+   * figures: the arrays they draw (``figures/data/<name>.json``, :mod:`compendium.figure_data`) by the classes
+     of the figure's declaration (by default, the class of each axis' scale), their texts word for word with the
+     numbers as converged values. PNG and PDF bytes, which depend on the machine's last bits, fonts and
+     libraries, are compared only for a note.
 
-2. **A run with other parameters** (for instance nbval's fast defaults of the orbit transfer, which
-   the published run extends) cannot reproduce whole files; each row of each CSV table it wrote must
-   match a row of the committed table with the same tolerances. Its figures, JSON and Markdown are
-   listed as not compared.
+2. **A run with other parameters** (nbval's fast defaults of the orbit transfer, which the published run extends)
+   cannot reproduce whole files: each row of each CSV table it wrote must match the committed row of the same key.
+   Its figures, JSON and Markdown are listed as not compared.
 
-A file a published run writes that the repository does not hold is a difference. The command prints
-what it compared and exits with status 1 and the list of differences if there are any.
+Files the committed record holds that no contract declares are differences too. The command prints what it compared
+and exits with status 1 and the list of differences if there are any.
 """
 
 from __future__ import annotations
@@ -33,25 +33,32 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
+import subprocess
 import sys
-import zlib
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from .contract import (
+    Class,
+    Contract,
+    Converged,
+    Exact,
+    FigureSpec,
+    SolverPath,
+    TableSpec,
+    column_resolutions,
+    text_differences,
+    to_number,
+)
 from .outputs import RUNS
 from .paths import repo_root
 
-RTOL, ATOL = 1e-6, 1e-10
-#: quantities at the level of rounding noise: compared within a factor of two (or both below NOISE_FLOOR)
-NOISE_COLUMNS = re.compile(r"norm_S|noise|drift|reintegration|re-integration")
-NOISE_FACTOR, NOISE_FLOOR = 2.0, 1e-10
-MARKDOWN_RTOL = 0.05
-PIXEL_TOL = 2 / 255  # largest change of one colour channel that counts as the same picture
-_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+MAX_PER_FILE = 8  # differences listed per file (the rest are counted)
+PUBLISHED_FOLDERS = ("figures", "data/derived")
 
 
 @dataclass
@@ -62,215 +69,412 @@ class Report:
     differences: list[str] = field(default_factory=list)
 
 
-def close(a: float, b: float, column: str = "") -> bool:
-    """Whether a fresh value ``a`` matches the committed ``b`` (the module docstring's tolerances)."""
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    if NOISE_COLUMNS.search(column):
-        if abs(a) <= NOISE_FLOOR and abs(b) <= NOISE_FLOOR:
-            return True
-        return a * b > 0 and max(abs(a), abs(b)) <= NOISE_FACTOR * min(abs(a), abs(b))
-    return abs(a - b) <= ATOL + RTOL * abs(b)
+# -- values --------------------------------------------------------------------------------------------------------
 
 
-def _value_difference(a, b, where: str) -> str | None:
-    if isinstance(a, bool) or isinstance(b, bool) or isinstance(a, str) or isinstance(b, str) or a is None or b is None:
-        return None if a == b else f"{where}: {a!r} != committed {b!r}"
-    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
-        return None if close(float(a), float(b), where) else f"{where}: {a!r} != committed {b!r}"
-    return None if a == b else f"{where}: {a!r} != committed {b!r}"
+def _accepts(klass: Class, a: str, b: str, scale: float | None = None, resolution: float = 0.0) -> bool:
+    """Does the fresh field ``a`` reproduce the committed ``b`` (both as written; ``resolution``: that of ``b``'s
+    format, :func:`compendium.contract.column_resolutions`) under ``klass``?"""
+    x, y = to_number(a), to_number(b)
+    if x is None or y is None:  # text, booleans; a flag of the solver's path (which of two runs ended lower) is
+        return isinstance(klass, SolverPath) or str(a).strip() == str(b).strip()  # recorded, not compared
+    if isinstance(klass, Exact) and not (math.isnan(x) and math.isnan(y)):
+        return x == y
+    return bool(klass.accepts(x, y, resolution, scale))
 
 
-# -- tables ------------------------------------------------------------------------------------------
+def _show(value) -> str:
+    return repr(value) if isinstance(value, str) else str(value)
 
 
-def _read_csv(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path, keep_default_na=True)
+# -- tables --------------------------------------------------------------------------------------------------------
 
 
-def _row_difference(fresh: pd.Series, committed: pd.Series) -> str | None:
-    for column in committed.index:
-        a, b = fresh[column], committed[column]
-        a_nan = isinstance(a, float) and math.isnan(a)
-        b_nan = isinstance(b, float) and math.isnan(b)
-        if a_nan or b_nan:
-            if a_nan != b_nan:
-                return f"column {column!r}: {a!r} != committed {b!r}"
-            continue
-        diff = _value_difference(
-            a.item() if hasattr(a, "item") else a, b.item() if hasattr(b, "item") else b, f"column {column!r}"
-        )
-        if diff:
-            return diff
+def read_csv(path: Path) -> pd.DataFrame:
+    """A CSV table as written: every field a string (``""`` where empty), so that each number keeps its digits."""
+    return pd.read_csv(path, dtype=str, keep_default_na=False)
+
+
+def _column_scale(spec: TableSpec, column: str, values: pd.Series) -> float | None:
+    klass = spec.class_of(column)
+    if isinstance(klass, Converged) and klass.scale == "column":
+        numbers = [to_number(v) for v in values]
+        finite = [abs(v) for v in numbers if v is not None and math.isfinite(v)]
+        return max(finite, default=0.0)
     return None
 
 
-def compare_csv(fresh: Path, committed: Path, *, subset: bool = False) -> list[str]:
-    """Differences of a fresh CSV table from the committed one (``subset``: each fresh row matches some row)."""
-    a, b = _read_csv(fresh), _read_csv(committed)
-    if list(a.columns) != list(b.columns):
-        return [f"columns {list(a.columns)} != committed {list(b.columns)}"]
-    if subset:
-        out = []
-        for i, row in a.iterrows():
-            if not any(_row_difference(row, other) is None for _, other in b.iterrows()):
-                out.append(f"row {i} matches no committed row: {row.to_dict()}")
-        return out
-    if len(a) != len(b):
-        return [f"{len(a)} rows != committed {len(b)}"]
+def _key_of(row: pd.Series, spec: TableSpec) -> tuple:
+    return tuple(row[c] for c in spec.key)
+
+
+def _same_key(a: pd.Series, b: pd.Series, spec: TableSpec) -> bool:
+    return all(_accepts(spec.class_of(c), a[c], b[c]) for c in spec.key)
+
+
+def _row_differences(
+    fresh: pd.Series, committed: pd.Series, spec: TableSpec, scales: dict, resolutions: dict | None = None
+) -> list[str]:
+    skip = spec.not_compared(fresh, committed, committed.index)  # a run that failed: its status, never its numbers
     out = []
-    for i in range(len(a)):
-        diff = _row_difference(a.iloc[i], b.iloc[i])
-        if diff:
-            out.append(f"row {i}, {diff}")
+    for column in [c for c in committed.index if c not in skip]:
+        klass = spec.class_of(column)
+        a, b = fresh[column], committed[column]
+        if not _accepts(klass, a, b, scales.get(column), (resolutions or {}).get(column, 0.0)):
+            out.append(f"column {column!r}: {_show(a)} != committed {_show(b)} ({klass.describe()})")
     return out
 
 
-def compare_json(fresh: Path, committed: Path) -> list[str]:
+def _row_label(row: pd.Series, spec: TableSpec, index: int) -> str:
+    if spec.key:
+        return "row " + ", ".join(f"{c}={row[c]}" for c in spec.key)
+    return f"row {index}"
+
+
+def compare_tables(
+    fresh: pd.DataFrame, committed: pd.DataFrame, spec: TableSpec, *, subset: bool = False, notes: list | None = None
+) -> list[str]:
+    """Differences of a fresh table from the committed one under ``spec`` (``subset``: a run with other
+    parameters, each of whose rows must match the committed row of the same key). ``notes`` receives what is
+    listed but not compared (the rows the contract's ``only`` leaves out)."""
+    if list(fresh.columns) != list(committed.columns):
+        return [f"columns {list(fresh.columns)} != committed {list(committed.columns)}"]
+    undeclared = spec.undeclared(committed.columns)
+    if undeclared:
+        return [f"columns {undeclared} have no class in the contract"]
+    if spec.only:
+        keep_fresh = [spec.reproduces(fresh.iloc[i]) for i in range(len(fresh))]
+        keep_committed = [spec.reproduces(committed.iloc[j]) for j in range(len(committed))]
+        if notes is not None:
+            left = (len(fresh) - sum(keep_fresh), len(committed) - sum(keep_committed))
+            notes.append(f"{left[0]} fresh and {left[1]} committed rows are search outcomes, not compared (only)")
+        fresh = fresh[keep_fresh].reset_index(drop=True)
+        committed = committed[keep_committed].reset_index(drop=True)
+    scales = {c: _column_scale(spec, c, committed[c]) for c in committed.columns}
+    written = {c: column_resolutions(committed[c]) for c in committed.columns}
+
+    def resolutions(j: int) -> dict:
+        return {c: r[j] for c, r in written.items()}
+
     out: list[str] = []
+    if not spec.key:
+        if subset:
+            return ["a run with other parameters needs the table's key to match its rows (declare `key`)"]
+        if len(fresh) != len(committed):
+            return [f"{len(fresh)} rows != committed {len(committed)}"]
+        for i in range(len(fresh)):
+            diffs = _row_differences(fresh.iloc[i], committed.iloc[i], spec, scales, resolutions(i))
+            out += [f"row {i}, {d}" for d in diffs]
+        return out
+    used: set[int] = set()
+    for i in range(len(fresh)):
+        row = fresh.iloc[i]
+        matches = [j for j in range(len(committed)) if j not in used and _same_key(row, committed.iloc[j], spec)]
+        if not matches:
+            out.append(f"{_row_label(row, spec, i)}: no committed row has this key")
+            continue
+        j = matches[0]
+        used.add(j)
+        label = _row_label(row, spec, i)
+        out += [f"{label}, {d}" for d in _row_differences(row, committed.iloc[j], spec, scales, resolutions(j))]
+    if not subset:
+        for j in sorted(set(range(len(committed))) - used):
+            out.append(f"{_row_label(committed.iloc[j], spec, j)}: committed, but the fresh run has no such row")
+    return out
 
-    def walk(a, b, where):
-        if isinstance(a, dict) and isinstance(b, dict):
-            if set(a) != set(b):
-                out.append(f"{where or 'top level'}: keys {sorted(set(a) ^ set(b))} differ")
-            for k in sorted(set(a) & set(b)):
-                walk(a[k], b[k], f"{where}.{k}" if where else k)
-        elif isinstance(a, list) and isinstance(b, list):
-            if len(a) != len(b):
-                out.append(f"{where}: {len(a)} items != committed {len(b)}")
-            for i, (x, y) in enumerate(zip(a, b)):
-                walk(x, y, f"{where}[{i}]")
+
+def compare_csv(
+    fresh: Path, committed: Path, spec: TableSpec, *, subset: bool = False, notes: list | None = None
+) -> list[str]:
+    return compare_tables(read_csv(fresh), read_csv(committed), spec, subset=subset, notes=notes)
+
+
+def _flatten(obj, prefix: str = "") -> dict[str, object]:
+    if isinstance(obj, dict):
+        out: dict[str, object] = {}
+        for k, v in obj.items():
+            out |= _flatten(v, f"{prefix}.{k}" if prefix else str(k))
+        return out
+    if isinstance(obj, list) and obj and all(isinstance(v, dict) for v in obj):
+        out = {}
+        for i, v in enumerate(obj):
+            out |= _flatten(v, f"{prefix}[{i}]")
+        return out
+    return {prefix: obj}
+
+
+def _field(value) -> str:
+    """A JSON value as a table field: numbers with their digits, ``null`` empty, lists as JSON text."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, list):
+        return json.dumps(value)
+    return str(value)
+
+
+def compare_json(fresh: Path, committed: Path, spec: TableSpec) -> list[str]:
+    a, b = _flatten(json.loads(fresh.read_text())), _flatten(json.loads(committed.read_text()))
+    if set(a) != set(b):
+        return [f"keys {sorted(set(a) ^ set(b))} are in one file only"]
+    out = []
+    for key in b:
+        klass = spec.class_of(key)
+        if klass is None:
+            out.append(f"key {key!r} has no class in the contract")
+        elif isinstance(b[key], list) and isinstance(a[key], list):
+            x, y = np.asarray(a[key], dtype=float), np.asarray(b[key], dtype=float)
+            if x.shape != y.shape or not klass.accepts(x, y).all():
+                out.append(f"{key}: {a[key]} != committed {b[key]} ({klass.describe()})")
+        elif not _accepts(klass, _field(a[key]), _field(b[key])):
+            out.append(f"{key}: {_show(a[key])} != committed {_show(b[key])} ({klass.describe()})")
+    return out
+
+
+def _markdown_blocks(text: str) -> list[tuple[str, object]]:
+    """``("text", line)`` and ``("table", DataFrame of strings)`` blocks of a Markdown document."""
+    blocks: list[tuple[str, object]] = []
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if (
+            line.lstrip().startswith("|")
+            and i + 1 < len(lines)
+            and set(lines[i + 1].replace("|", "").strip()) <= set("-: ")
+        ):
+            rows = []
+            j = i
+            while j < len(lines) and lines[j].lstrip().startswith("|"):
+                rows.append([c.strip() for c in lines[j].strip().strip("|").split("|")])
+                j += 1
+            header, body = rows[0], rows[2:]
+            blocks.append(("table", pd.DataFrame(body, columns=header)))
+            i = j
         else:
-            diff = _value_difference(a, b, where)
-            if diff:
-                out.append(diff)
-
-    walk(json.loads(fresh.read_text()), json.loads(committed.read_text()), "")
-    return out
+            blocks.append(("text", line))
+            i += 1
+    return blocks
 
 
-def compare_markdown(fresh: Path, committed: Path) -> list[str]:
-    a, b = fresh.read_text(), committed.read_text()
-    if _NUMBER.sub("#", a) != _NUMBER.sub("#", b):
-        return ["the text differs (not only its numbers)"]
+def compare_markdown(fresh: Path, committed: Path, spec: TableSpec) -> list[str]:
+    a, b = _markdown_blocks(fresh.read_text()), _markdown_blocks(committed.read_text())
+    if [k for k, _ in a] != [k for k, _ in b]:
+        return ["the document's structure (text lines and tables) differs"]
     out = []
-    for x, y in zip(_NUMBER.findall(a), _NUMBER.findall(b)):
-        u, v = float(x), float(y)
-        if abs(u - v) > MARKDOWN_RTOL * max(abs(u), abs(v)) and max(abs(u), abs(v)) > NOISE_FLOOR:
-            out.append(f"number {x} != committed {y}")
+    for (kind, x), (_, y) in zip(a, b):
+        if kind == "text":
+            out += text_differences(x, y)
+        else:
+            out += compare_tables(x, y, spec)
     return out
 
 
-# -- figures -----------------------------------------------------------------------------------------
+# -- figures -------------------------------------------------------------------------------------------------------
 
 
-def compare_png(fresh: Path, committed: Path) -> tuple[list[str], str | None]:
-    """``(differences, note)``: equal bytes, or pixels within ``PIXEL_TOL``."""
-    if fresh.read_bytes() == committed.read_bytes():
-        return [], None
-    from matplotlib.image import imread
-
-    a, b = imread(fresh), imread(committed)
-    if a.shape != b.shape:
-        return [f"image size {a.shape} != committed {b.shape}"], None
-    worst = float(np.abs(a.astype(float) - b.astype(float)).max())
-    if worst <= PIXEL_TOL:
-        return [], f"{fresh.name}: bytes differ, pixels within {PIXEL_TOL:.3f} (largest change {worst:.3f})"
-    changed = int((np.abs(a.astype(float) - b.astype(float)) > PIXEL_TOL).any(axis=-1).sum())
-    return [f"{changed} pixels differ (largest channel change {worst:.2f})"], None
+def _array(values) -> np.ndarray:
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
 
 
-def _pdf_streams(data: bytes) -> list[bytes]:
-    out = []
-    for m in re.finditer(rb"stream\r?\n(.*?)\r?\nendstream", data, re.S):
-        raw = m.group(1)
-        try:
-            out.append(zlib.decompress(raw))
-        except zlib.error:
-            out.append(raw)
+def _coordinate_scale(axes: dict, part: str) -> float:
+    values = [np.abs(_array(a[part])) for a in axes["artists"] if part in a]
+    finite = np.concatenate(values) if values else np.zeros(0)
+    finite = finite[np.isfinite(finite)]
+    return float(finite.max()) if finite.size else 0.0
+
+
+def compare_figure_data(fresh: dict, committed: dict, spec: FigureSpec) -> list[str]:
+    """Differences of what a fresh figure draws from the committed one (:mod:`compendium.figure_data`)."""
+    out = text_differences(fresh.get("suptitle", ""), committed.get("suptitle", ""), spec.class_of(None, "suptitle"))
+    if len(fresh["axes"]) != len(committed["axes"]):
+        return out + [f"{len(fresh['axes'])} axes != committed {len(committed['axes'])}"]
+    for i, (fa, ca) in enumerate(zip(fresh["axes"], committed["axes"])):
+        where = f"axes {i}"
+        if all(isinstance(spec.class_of(i, p, ca.get(f"{p}scale")), SolverPath) for p in ("x", "y")):
+            continue  # what a search or a solver's path drew (an iteration history, branches found): not compared
+        for key in ("xscale", "yscale", "zscale", "colorbar"):
+            if fa.get(key) != ca.get(key):
+                out.append(f"{where}: {key} {fa.get(key)!r} != committed {ca.get(key)!r}")
+        for key in ("title", "xlabel", "ylabel", "zlabel"):
+            out += text_differences(fa.get(key) or "", ca.get(key) or "", spec.class_of(i, key), f"{where} {key}")
+        for key in ("legend", "texts"):
+            if len(fa[key]) != len(ca[key]):
+                out.append(f"{where}: {len(fa[key])} {key} entries != committed {len(ca[key])}")
+            else:
+                for x, y in zip(fa[key], ca[key]):
+                    out += text_differences(x, y, spec.class_of(i, key), f"{where} {key}")
+        kinds_a = [(a["type"], a["label"]) for a in fa["artists"]]
+        kinds_b = [(a["type"], a["label"]) for a in ca["artists"]]
+        if [k for k, _ in kinds_a] != [k for k, _ in kinds_b]:
+            out.append(f"{where}: artists {[k for k, _ in kinds_a]} != committed {[k for k, _ in kinds_b]}")
+            continue
+        for j, ((_, la), (_, lb)) in enumerate(zip(kinds_a, kinds_b)):
+            out += text_differences(la, lb, spec.class_of(i, "legend"), f"{where} artist {j} label")
+        for part in ("x", "y", "z", "c"):
+            klass = spec.class_of(i, part, ca.get(f"{part}scale"))
+            if isinstance(klass, SolverPath):
+                continue  # how a solver got there (an iteration history): recorded, not compared
+            scale = _coordinate_scale(ca, part) if isinstance(klass, Converged) and klass.scale == "column" else None
+            for j, (a, b) in enumerate(zip(fa["artists"], ca["artists"])):
+                if (part in a) != (part in b):
+                    out.append(f"{where} artist {j}: {part} data in one figure only")
+                    continue
+                if part not in b:
+                    continue
+                x, y = _array(a[part]), _array(b[part])
+                if x.shape != y.shape:
+                    out.append(f"{where} artist {j} ({b['label'] or b['type']}): {x.size} {part} values != {y.size}")
+                    continue
+                bad = ~klass.accepts(x, y, scale=scale)
+                if bad.any():
+                    k = int(np.argmax(bad))
+                    out.append(
+                        f"{where} artist {j} ({b['label'] or b['type']}): {int(bad.sum())} of {y.size} {part} values "
+                        f"differ, e.g. [{k}] {x[k]:.9g} != committed {y[k]:.9g} ({klass.describe()})"
+                    )
+            limits = f"{part}lim"
+            if limits in ca and part != "c":
+                x, y = _array(fa[limits]), _array(ca[limits])
+                # limits follow the data: by the coordinate's class, at the resolution of the axis
+                lim_class = klass if not isinstance(klass, Converged) else Converged(klass.rtol, klass.atol, "column")
+                lim_scale = max(_coordinate_scale(ca, part), float(np.nanmax(np.abs(y)))) if y.size else None
+                if x.shape != y.shape or not lim_class.accepts(x, y, scale=lim_scale).all():
+                    out.append(f"{where}: {limits} {fa[limits]} != committed {ca[limits]}")
     return out
 
 
-def compare_pdf(fresh: Path, committed: Path) -> tuple[list[str], str | None]:
-    """``(differences, note)``: equal bytes, or the same drawing with numbers within ``RTOL``."""
-    a, b = fresh.read_bytes(), committed.read_bytes()
-    if a == b:
+def _same_bytes(fresh: Path, committed: Path) -> bool:
+    return fresh.read_bytes() == committed.read_bytes()
+
+
+# -- runs ----------------------------------------------------------------------------------------------------------
+
+
+def _compare_file(kind: str, spec, fresh: Path, committed: Path) -> tuple[list[str], str | None]:
+    """``(differences, note)`` of one published file under its contract."""
+    if kind == "tables":
+        notes: list[str] = []
+        return compare_csv(fresh, committed, spec, notes=notes), (f"{fresh.name}: {notes[0]}" if notes else None)
+    if kind == "json":
+        return compare_json(fresh, committed, spec), None
+    if kind == "markdown":
+        return compare_markdown(fresh, committed, spec), None
+    if kind == "figure data":
+        return compare_figure_data(json.loads(fresh.read_text()), json.loads(committed.read_text()), spec), None
+    # PNG and PDF: a same-machine note only (the figure's data are compared)
+    if _same_bytes(fresh, committed):
         return [], None
-    sa, sb = _pdf_streams(a), _pdf_streams(b)
-    if len(sa) != len(sb):
-        return [f"{len(sa)} content streams != committed {len(sb)}"], None
-    for x, y in zip(sa, sb):
-        tx, ty = _NUMBER.sub("#", x.decode("latin-1")), _NUMBER.sub("#", y.decode("latin-1"))
-        if tx != ty:
-            return ["the drawing differs (not only its coordinates)"], None
-        for u, v in zip(_NUMBER.findall(x.decode("latin-1")), _NUMBER.findall(y.decode("latin-1"))):
-            if abs(float(u) - float(v)) > 1e-6 + RTOL * abs(float(v)):
-                return [f"a coordinate {u} != committed {v}"], None
-    return [], f"{fresh.name}: bytes differ, the same drawing to rtol {RTOL:g}"
+    return [], f"{fresh.name}: bytes differ (the figure is compared by its data; expected on another machine)"
 
 
-# -- runs --------------------------------------------------------------------------------------------
-
-
-def check_run(output_root: Path, record: dict, reference: Path, report: Report) -> None:
+def check_run(output_root: Path, record: dict, reference: Path, contract: Contract, report: Report) -> None:
+    notebook = record["notebook"]
+    if notebook not in contract:
+        report.differences.append(f"{notebook}: the contract has no section for this notebook")
+        return
+    declared = contract[notebook].files()
     published = record["published_parameters"]
-    for rel in record["files"]:
+    written = list(record["files"])
+    for rel in written:
+        if rel not in declared:
+            report.differences.append(f"{notebook}: {rel}: written, but not declared in the contract")
+    if published:
+        for rel in declared:
+            if rel not in written:
+                report.differences.append(f"{notebook}: {rel}: declared in the contract, but the run did not write it")
+    for rel in written:
+        if rel not in declared:
+            continue
+        kind, spec = declared[rel]
         fresh, committed = output_root / rel, reference / rel
-        label = f"{record['notebook']}: {rel}"
+        label = f"{notebook}: {rel}"
         if not fresh.is_file():
             report.differences.append(f"{label}: listed in the run record but not written")
-            continue
-        if not published:
-            if fresh.suffix == ".csv" and committed.is_file():
-                diffs = compare_csv(fresh, committed, subset=True)
-                report.compared.append(f"{label} (rows against the committed table)")
-                report.differences += [f"{label}: {d}" for d in diffs]
-            else:
-                report.skipped.append(f"{label} (a run with other parameters)")
             continue
         if not committed.is_file():
             report.differences.append(f"{label}: not in the published record (is it committed?)")
             continue
-        note = None
-        if fresh.suffix == ".png":
-            diffs, note = compare_png(fresh, committed)
-        elif fresh.suffix == ".pdf":
-            diffs, note = compare_pdf(fresh, committed)
-        elif fresh.suffix == ".csv":
-            diffs = compare_csv(fresh, committed)
-        elif fresh.suffix == ".json":
-            diffs = compare_json(fresh, committed)
-        elif fresh.suffix == ".md":
-            diffs = compare_markdown(fresh, committed)
-        else:
-            diffs = [] if fresh.read_bytes() == committed.read_bytes() else ["bytes differ"]
+        if not published:
+            if kind == "tables":
+                diffs = compare_csv(fresh, committed, spec, subset=True)
+                report.compared.append(f"{label} (rows against the committed table, by key)")
+                report.differences += _limited(label, diffs)
+            else:
+                report.skipped.append(f"{label} (a run with other parameters)")
+            continue
+        diffs, note = _compare_file(kind, spec, fresh, committed)
         report.compared.append(label)
         if note:
-            report.notes.append(f"{record['notebook']}: {note}")
-        report.differences += [f"{label}: {d}" for d in diffs[:5]]
-        if len(diffs) > 5:
-            report.differences.append(f"{label}: ... and {len(diffs) - 5} more")
+            report.notes.append(f"{notebook}: {note}")
+        report.differences += _limited(label, diffs)
+
+
+def _limited(label: str, diffs: list[str]) -> list[str]:
+    out = [f"{label}: {d}" for d in diffs[:MAX_PER_FILE]]
+    if len(diffs) > MAX_PER_FILE:
+        out.append(f"{label}: ... and {len(diffs) - MAX_PER_FILE} more")
+    return out
+
+
+def undeclared_committed_files(reference: Path, contract: Contract) -> list[str]:
+    """Files of the committed record (``figures/``, ``data/derived/``, run records aside) no contract declares."""
+    declared = {rel for nc in contract.notebooks.values() for rel in nc.files()}
+    out = []
+    for folder in PUBLISHED_FOLDERS:
+        for path in sorted((reference / folder).rglob("*")):
+            rel = path.relative_to(reference).as_posix()
+            if path.is_file() and not rel.startswith(RUNS.as_posix() + "/") and rel not in declared:
+                if not path.name.startswith("."):
+                    out.append(rel)
+    return out
 
 
 def guard(output_root: str | Path, reference: str | Path | None = None) -> Report:
     """Compare every run recorded under ``output_root`` with the published record in ``reference`` (the repo)."""
     output_root = Path(output_root)
     reference = Path(reference) if reference else repo_root()
+    contract = Contract.load(reference)
     records = sorted((output_root / RUNS).glob("*.json"))
     report = Report()
     if not records:
         report.differences.append(f"no run records under {output_root / RUNS}: did the notebooks run?")
     for path in records:
-        check_run(output_root, json.loads(path.read_text()), reference, report)
+        check_run(output_root, json.loads(path.read_text()), reference, contract, report)
+    report.differences += [
+        f"{rel}: committed, but no notebook's contract declares it"
+        for rel in undeclared_committed_files(reference, contract)
+    ]
     return report
+
+
+def committed_record(commit: str, into: Path, repository: Path | None = None) -> Path:
+    """The published record and the contract as of ``commit`` (``git archive``), unpacked into ``into``."""
+    repository = repository or repo_root()
+    paths = ["figures", "data/derived", "notebooks/contract.toml"]
+    archive = subprocess.run(
+        ["git", "-C", str(repository), "archive", "--format=tar", commit, *paths], capture_output=True, check=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m compendium.guard", description=__doc__.split("\n")[0])
     parser.add_argument("output_root", type=Path, help="where the runs wrote (e.g. build/test-output)")
     parser.add_argument("--reference", type=Path, default=None, help="the published record (default: the repository)")
+    parser.add_argument(
+        "--reference-commit", default=None, help="compare against the record of this git commit (e.g. HEAD)"
+    )
     args = parser.parse_args(argv)
-    report = guard(args.output_root, args.reference)
+    with tempfile.TemporaryDirectory(prefix="ocpkit-record-") as tmp:
+        reference = args.reference
+        if args.reference_commit:
+            reference = committed_record(args.reference_commit, Path(tmp))
+        report = guard(args.output_root, reference)
     print(f"published record: {len(report.compared)} files compared, {len(report.skipped)} not compared")
     for line in report.skipped:
         print(f"  not compared: {line}")
@@ -281,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
         for line in report.differences:
             print(f"  {line}", file=sys.stderr)
         return 1
-    print("every compared file matches the published record")
+    print("every compared file reproduces the published record (notebooks/contract.toml)")
     return 0
 
 
