@@ -1,15 +1,19 @@
-"""Run the compendium's notebooks headless (papermill), refresh their stored outputs, build the report.
+"""Run the compendium's notebooks headless (papermill), publish their runs, refresh stored outputs, build the report.
 
 Command line::
 
-    python -m compendium.notebooks run notebooks/01_lunar_ascent.ipynb -p segments 40
-    python -m compendium.notebooks reproduce notebooks/*.ipynb   # the published runs (notebooks/published.toml)
-    python -m compendium.notebooks store notebooks/*.ipynb       # re-execute in place (nbval reference)
+    python -m compendium.notebooks run notebooks/01_lunar_ascent.ipynb -p segments 40   # build/runs/01_lunar_ascent/segments-40/
+    python -m compendium.notebooks reproduce notebooks/*.ipynb   # the published runs (notebooks/published.toml), published
+    python -m compendium.notebooks store notebooks/*.ipynb       # re-execute in place (nbval reference), published
+    python -m compendium.notebooks publish build/runs/01_lunar_ascent/defaults   # a complete run, into the record
     python -m compendium.notebooks report build/notebooks --output build/report
 
-Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk
-over IPC sockets (no unencrypted TCP), and long work reports its progress in the terminal
-(``OCPKIT_PROGRESS=terminal``, see :mod:`compendium.progress`), not in the stored notebooks.
+A run writes the executed notebook, its figures and tables and its record into its own folder
+(:mod:`compendium.outputs`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
+and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
+Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
+private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
+progress in the terminal (``OCPKIT_PROGRESS=terminal``, see :mod:`compendium.progress`), not in the stored notebooks.
 """
 
 from __future__ import annotations
@@ -82,25 +86,24 @@ def published_overrides(path: str | Path) -> dict:
     return {k: ast.literal_eval(v) for k, v in table.items()}
 
 
-def _kernel_manager_class(progress: bool = False):
+def _kernel_manager_class(ipc_dir: str | None = None):
     """jupyter_client's kernel manager over IPC sockets: local, and without ipykernel's TCP warning.
 
-    ``progress``: the kernel leaves its stderr file descriptor alone (ipykernel otherwise captures it
-    into the notebook), so that the progress bars :mod:`compendium.progress` writes to it reach the
-    terminal of the run and never the stored notebook.
+    ``ipc_dir``: the folder of the sockets (a private temporary one), so that none is left in the folder the
+    kernel runs in. The kernel is the one JupyterLab starts (the ``ocpkit`` kernelspec, its output captured
+    the same way), so a stored notebook is what Lab's Run All gives; progress bars reach the terminal through
+    the kernel's original standard error (:mod:`compendium.progress`).
     """
+    import os
+
     from jupyter_client import AsyncKernelManager
 
     class IPCKernelManager(AsyncKernelManager):
         def __init__(self, **kwargs):
             super().__init__(**kwargs)
             self.transport = "ipc"
-
-        def format_kernel_cmd(self, extra_arguments=None):
-            cmd = super().format_kernel_cmd(extra_arguments)
-            if progress and any("ipykernel" in part for part in cmd):
-                cmd.append("--IPKernelApp.capture_fd_output=False")
-            return cmd
+            if ipc_dir is not None:
+                self.ip = os.path.join(ipc_dir, "kernel")
 
     return IPCKernelManager
 
@@ -122,15 +125,19 @@ def execute(
     cwd: str | Path | None = None,
     timeout: int = 3600,
     progress: bool = False,
+    env: dict[str, str] | None = None,
 ) -> Path:
     """Execute a notebook with papermill into ``output``; unknown parameters are rejected first.
 
     The kernel starts in ``cwd`` (default: the output's folder), not in the
     notebook's folder: the notebooks find the repository through
     :mod:`compendium.paths`, whatever folder they run in. ``progress``: a bar over the
-    notebook's cells, and the notebook's own bars, in this process's terminal.
+    notebook's cells, and the notebook's own bars, in this process's terminal. ``env``:
+    environment variables for the kernel (``OCPKIT_RUNS_DIR``, ``OCPKIT_OUTPUT_DIR``).
     """
     import os
+    import shutil
+    import tempfile
 
     import papermill as pm
 
@@ -138,8 +145,10 @@ def execute(
     parameters = dict(parameters or {})
     check_parameters(path, parameters)
     output.parent.mkdir(parents=True, exist_ok=True)
-    previous = os.environ.get("OCPKIT_PROGRESS")
-    os.environ["OCPKIT_PROGRESS"] = "terminal" if progress else "off"  # inherited by the kernel
+    settings = {"OCPKIT_PROGRESS": "terminal" if progress else "off", **(env or {})}  # inherited by the kernel
+    previous = {k: os.environ.get(k) for k in settings}
+    os.environ.update(settings)
+    ipc_dir = tempfile.mkdtemp(prefix="ocpkit-ipc-")  # short: a Unix socket path has at most ~107 characters
     try:
         pm.execute_notebook(
             str(path),
@@ -149,18 +158,26 @@ def execute(
             cwd=str(cwd or output.parent),
             execution_timeout=timeout,
             progress_bar={"desc": path.stem, "leave": False} if progress else False,
-            kernel_manager_class=_kernel_manager_class(progress),
+            kernel_manager_class=_kernel_manager_class(ipc_dir),
         )
     finally:
-        if previous is None:
-            os.environ.pop("OCPKIT_PROGRESS", None)
-        else:
-            os.environ["OCPKIT_PROGRESS"] = previous
+        shutil.rmtree(ipc_dir, ignore_errors=True)
+        for k, v in previous.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
     return output
 
 
 def strip_volatile_metadata(path: str | Path) -> None:
-    """Remove timings and timestamps so that a stored notebook changes only when its results do."""
+    """Remove timings and timestamps, and store the outputs as JupyterLab does, so that a stored notebook changes
+    only when its results do, whether papermill or Lab's Run All ran it.
+
+    A cell that prints, computes a while, then prints again sends two stream messages: papermill stores them as
+    two outputs, Lab as one (it merges consecutive stream outputs of the same name); where the split falls
+    depends on timing. Consecutive stream outputs of one name are merged here, as Lab does.
+    """
     import nbformat
 
     nb = nbformat.read(str(path), as_version=4)
@@ -169,15 +186,118 @@ def strip_volatile_metadata(path: str | Path) -> None:
     for cell in nb.cells:
         for key in _VOLATILE_CELL_METADATA:
             cell.metadata.pop(key, None)
+        if cell.cell_type == "code":
+            cell.outputs = _merged_streams(cell.outputs)
     nbformat.write(nb, str(path))
 
 
-def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False) -> Path:
-    """Re-execute a notebook in place with its default parameters (the nbval reference outputs)."""
+def _merged_streams(outputs: list) -> list:
+    merged: list = []
+    for out in outputs:
+        last = merged[-1] if merged else None
+        if out.output_type == "stream" and last is not None and last.output_type == "stream" and last.name == out.name:
+            last.text = last.text + out.text
+        else:
+            merged.append(out)
+    return merged
+
+
+def _run_parameters(path: Path, given: dict) -> dict:
+    """Every parameter of a run of ``path`` with ``given``: the defaults, updated."""
+    return literal_parameters(path) | given
+
+
+def run(
+    path: str | Path,
+    parameters: dict | None = None,
+    *,
+    runs: str | Path | None = None,
+    kernel: str = KERNEL_NAME,
+    progress: bool = False,
+) -> Path:
+    """Execute a notebook into its run folder (:func:`compendium.outputs.run_folder`): the executed notebook,
+    its figures, tables and record side by side. ``runs``: the folder of run folders (default ``build/runs``).
+    Returns the run folder."""
+    from .outputs import run_folder
+
+    path, parameters = Path(path), dict(parameters or {})
+    check_parameters(path, parameters)
+    folder = run_folder(path.stem, _run_parameters(path, parameters), runs)
+    env = {"OCPKIT_RUNS_DIR": str(Path(runs).resolve())} if runs is not None else {}
+    execute(path, folder / path.name, parameters, kernel=kernel, cwd=folder, progress=progress, env=env)
+    return folder
+
+
+class PublishError(ValueError):
+    """A run that may not become the published record (the message says why)."""
+
+
+def publish_run(folder: str | Path) -> list[str]:
+    """Copy a complete run into the published record (``figures/``, ``data/derived/``); the files copied.
+
+    Only a run of the committed notebook (the tracked ``notebooks/<name>.ipynb``, unchanged: the digests of the
+    code cells its kernel executed are those of the file's code cells, in order, once each) with its published
+    parameters publishes; anything else raises :class:`PublishError` naming the reason.
+    """
+    import json
+    import os
+    import shutil
+
+    from . import paths
+    from .outputs import RUNS, notebook_code, published_parameters
+
+    folder = Path(folder)
+    records = sorted((folder / RUNS).glob("*.json"))
+    if len(records) != 1:
+        raise PublishError(f"{folder} holds {len(records)} run records; a run folder holds one (is the run complete?)")
+    record = json.loads(records[0].read_text())
+    notebook = record["notebook"]
+    tracked = paths.notebooks_dir() / f"{notebook}.ipynb"
+    if not tracked.is_file():
+        raise PublishError(f"{notebook} is not a notebook of the compendium ({tracked} does not exist)")
+    published = published_parameters(notebook)
+    if record["parameters"] != json.loads(json.dumps(published)):
+        changed = sorted(k for k in published if record["parameters"].get(k) != json.loads(json.dumps(published[k])))
+        raise PublishError(f"the run of {notebook} in {folder} has other parameters than the published run: {changed}")
+    if record.get("code") is None:
+        raise PublishError(f"the run of {notebook} in {folder} recorded no executed code (not run in a Jupyter kernel)")
+    if record["code"] != notebook_code(tracked):
+        raise PublishError(
+            f"the code the kernel ran in {folder} is not that of {tracked.relative_to(paths.repo_root())}: an edited "
+            "or copied notebook, or cells run out of order (restart the kernel and run all cells)"
+        )
+    missing = [rel for rel in record["files"] if not (folder / rel).is_file()]
+    if missing:
+        raise PublishError(f"the run of {notebook} in {folder} lists files it does not hold: {missing[:5]}")
+    root = paths.repo_root()
+    for rel in record["files"]:
+        target = root / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(f".{target.name}.{os.getpid()}")
+        shutil.copyfile(folder / rel, tmp)
+        os.replace(tmp, target)
+    (root / RUNS).mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(records[0], root / RUNS / f"{notebook}.json")
+    return list(record["files"])
+
+
+def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False) -> tuple[Path, bool]:
+    """Re-execute a notebook in place with its default parameters (the nbval reference outputs).
+
+    Where the defaults are the published parameters, the run is published (:func:`publish_run`). Returns the
+    run's folder and whether it was published.
+    """
+    from .outputs import published_parameters, run_folder
+
     path = Path(path)
     execute(path, path, {}, kernel=kernel, cwd=path.parent, progress=progress)
     strip_volatile_metadata(path)
-    return path
+    defaults = literal_parameters(path)
+    folder = run_folder(path.stem, defaults)
+    publishes = defaults == published_parameters(path.stem)
+    if publishes:
+        publish_run(folder)
+    return folder, publishes
 
 
 def _title(nb) -> str:
@@ -272,41 +392,64 @@ def _say(line: str) -> None:
     tqdm.write(line, file=sys.stderr)
 
 
+def _where(folder: Path) -> str:
+    from . import paths
+
+    try:
+        return f"{folder.resolve().relative_to(paths.repo_root())}/"
+    except ValueError:
+        return f"{folder}/"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m compendium.notebooks", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="execute notebooks headless into an output folder")
-    run.add_argument("notebooks", nargs="+", type=Path)
-    run.add_argument("--output", type=Path, default=Path("build/notebooks"))
-    run.add_argument("-p", "--parameter", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"))
-    run.add_argument("--kernel", default=KERNEL_NAME)
+    run_p = sub.add_parser("run", help="execute notebooks headless, each into its own run folder (never published)")
+    run_p.add_argument("notebooks", nargs="+", type=Path)
+    run_p.add_argument("--output", type=Path, default=None, help="the folder of run folders (default build/runs)")
+    run_p.add_argument("-p", "--parameter", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"))
+    run_p.add_argument("--kernel", default=KERNEL_NAME)
     rp = sub.add_parser(
         "reproduce",
-        help="the published runs: each notebook with the parameters of "
-        "notebooks/published.toml, executed into an output folder",
+        help="the published runs: each notebook with the parameters of notebooks/published.toml, then published",
     )
     rp.add_argument("notebooks", nargs="+", type=Path)
-    rp.add_argument("--output", type=Path, default=Path("build/notebooks"))
+    rp.add_argument("--output", type=Path, default=Path("build/notebooks"), help="the executed notebooks (report)")
     rp.add_argument("--kernel", default=KERNEL_NAME)
-    st = sub.add_parser("store", help="re-execute notebooks in place with default parameters")
+    st = sub.add_parser("store", help="re-execute notebooks in place with default parameters (published if those are)")
     st.add_argument("notebooks", nargs="+", type=Path)
     st.add_argument("--kernel", default=KERNEL_NAME)
+    pb = sub.add_parser("publish", help="copy complete runs of the committed notebooks into the published record")
+    pb.add_argument("runs", nargs="+", type=Path)
     rep = sub.add_parser("report", help="HTML report of executed notebooks")
     rep.add_argument("executed", type=Path)
     rep.add_argument("--output", type=Path, default=Path("build/report"))
     args = parser.parse_args(argv)
 
+    from .outputs import run_folder
+
     try:
-        if args.command in ("run", "reproduce"):
-            given = {k: _parse_value(v) for k, v in args.parameter} if args.command == "run" else {}
-            for nb in _each(args.notebooks, args.command):
-                params = given if args.command == "run" else published_overrides(nb)
+        if args.command == "run":
+            given = {k: _parse_value(v) for k, v in args.parameter}
+            for nb in _each(args.notebooks, "run"):
+                folder = run(nb, given, runs=args.output, kernel=args.kernel, progress=True)
+                _say(f"executed {nb}: the executed notebook, figures and tables are in {_where(folder)}")
+        elif args.command == "reproduce":
+            for nb in _each(args.notebooks, "reproduce"):
+                params = published_overrides(nb)
                 out = execute(nb, args.output / nb.name, params, kernel=args.kernel, progress=True)
-                _say(f"executed {nb} -> {out}")
+                folder = run_folder(nb.stem, _run_parameters(nb, params))
+                files = publish_run(folder)
+                _say(f"executed {nb} -> {out}; published {len(files)} files from {_where(folder)}")
         elif args.command == "store":
             for nb in _each(args.notebooks, "store"):
-                store(nb, kernel=args.kernel, progress=True)
-                _say(f"stored outputs of {nb}")
+                folder, published = store(nb, kernel=args.kernel, progress=True)
+                what = "and published its run" if published else f"(its run, with other parameters: {_where(folder)})"
+                _say(f"stored outputs of {nb} {what}")
+        elif args.command == "publish":
+            for folder in args.runs:
+                files = publish_run(folder)
+                _say(f"published {len(files)} files from {_where(folder)}")
         else:
             print(f"report: {build_report(args.executed, args.output)}")
     except ValueError as exc:

@@ -2,23 +2,35 @@
 
 A notebook opens one :class:`Outputs` in its first code cell and publishes it in its last:
 
-1. **Destination.** ``OCPKIT_OUTPUT_DIR``, when set, is an explicit choice and wins. Otherwise a
-   run whose parameters are the notebook's published ones (:func:`published_parameters`) writes
-   the published record, ``figures/`` and ``data/derived/`` of the repository; any other run
-   writes under ``build/runs/<notebook>/``, so exploring never overwrites what the README cites.
-2. **All or nothing.** Files are written to a staging folder (``build/staging/``) and moved into
-   place by :meth:`Outputs.publish` when the notebook completes: a run that fails midway leaves
-   the destination as it was, never outputs of two runs side by side.
-3. **Timings apart.** Measured times vary from run to run; they go to the run's record
-   ``data/derived/runs/<notebook>.json`` (git-ignored), with the parameters, whether they are the
-   published ones, and the files written. The tracked files of a default re-run are byte-identical.
+1. **Every run writes its own folder.** A notebook never writes the published record (``figures/`` and
+   ``data/derived/`` of the repository) itself. A run writes under ``build/runs/<notebook>/<key>/``, where the
+   key names the parameters that differ from the notebook's defaults (``defaults`` when none do,
+   ``segments-40`` ...; see :func:`run_key`), so runs with other parameters never overwrite each other and a
+   run with the same parameters replaces the earlier one whole. ``OCPKIT_RUNS_DIR`` moves ``build/runs``;
+   ``OCPKIT_OUTPUT_DIR`` is the explicit choice of one folder for the run (nbval's runs write
+   ``build/test-output``). The run's first output line says where, and why.
+2. **Only the committed notebook publishes.** ``make reproduce`` and ``make store`` (and
+   ``python -m compendium.notebooks publish RUN``) copy a run into the published record, and only a complete
+   run of the committed notebook, unchanged, with its published parameters (:func:`published_parameters`):
+   the run's record holds a digest of every code cell the kernel executed (:func:`executed_code`), which must
+   be the committed notebook's code cells. Lab's Run All, a copy of a notebook and an edited one stay in
+   ``build/runs/``.
+3. **All or nothing.** Files are staged in ``<folder>/.staging/`` and moved into place by :meth:`Outputs.publish`
+   when the notebook completes: a run that fails midway leaves its folder as it was. The staging folder of a
+   failed run is removed when its kernel exits, and that of a killed one by the next run into the same folder.
+4. **Timings apart.** Measured times go to the run's record, ``<folder>/data/derived/runs/<notebook>.json``,
+   with the parameters and the files written; tracked files and stored notebooks hold none.
 """
 
 from __future__ import annotations
 
+import atexit
+import hashlib
 import json
 import os
+import re
 import shutil
+import socket
 import tempfile
 import warnings
 from pathlib import Path
@@ -26,21 +38,149 @@ from pathlib import Path
 import pandas as pd
 
 from . import paths
+from .figure_data import write_figure_data
 from .plotting import save_figure
 
 RUNS = Path("data") / "derived" / "runs"
+STAGING = ".staging"
+FIGURE_DATA = Path("figures") / "data"
+
+
+class ContractWarning(UserWarning):
+    """A run wrote something ``notebooks/contract.toml`` does not declare (the guard reports it as a difference)."""
 
 
 def published_parameters(notebook: str) -> dict:
     """The parameters of the notebook's published run: its parameters cell, updated by ``notebooks/published.toml``."""
-    from .notebooks import literal_parameters, published_overrides
+    from .notebooks import published_overrides
 
     path = paths.notebooks_dir() / f"{notebook}.ipynb"
-    params, overrides = literal_parameters(path), published_overrides(path)
+    params, overrides = default_parameters(notebook), published_overrides(path)
     unknown = sorted(set(overrides) - set(params))
     if unknown:
         raise ValueError(f"notebooks/published.toml names unknown parameter(s) {unknown} of {notebook}")
     return params | overrides
+
+
+def default_parameters(notebook: str) -> dict:
+    """The defaults of the notebook's parameters cell, as Python values."""
+    from .notebooks import literal_parameters
+
+    return literal_parameters(paths.notebooks_dir() / f"{notebook}.ipynb")
+
+
+_SLUG = re.compile(r"[A-Za-z0-9.+-]+")
+
+
+def run_key(notebook: str, parameters: dict) -> str:
+    """The name of a run's folder: ``defaults``, or the parameters that differ from the defaults.
+
+    ``segments=40`` gives ``segments-40``; a value that is not a short plain word (a list, a path) is named by a
+    digest of its ``repr``, and a key longer than 80 characters by a digest of all of it: the run's record holds
+    the parameters themselves.
+    """
+    defaults = default_parameters(notebook)
+    changed = {k: v for k, v in parameters.items() if k in defaults and v != defaults[k]}
+    if not changed:
+        return "defaults"
+    parts = []
+    for name, value in sorted(changed.items()):
+        text = repr(value)
+        if not _SLUG.fullmatch(text) or len(text) > 24:
+            text = hashlib.sha256(text.encode()).hexdigest()[:8]
+        parts.append(f"{name}-{text}")
+    key = "_".join(parts)
+    if len(key) > 80:
+        key = "p-" + hashlib.sha256(repr(sorted(changed.items())).encode()).hexdigest()[:12]
+    return key
+
+
+def runs_root() -> Path:
+    """The folder of run folders: ``OCPKIT_RUNS_DIR``, else ``build/runs`` of the repository."""
+    given = os.environ.get("OCPKIT_RUNS_DIR")
+    return Path(given).resolve() if given else paths.repo_root() / "build" / "runs"
+
+
+def run_folder(notebook: str, parameters: dict, runs: Path | None = None) -> Path:
+    """Where a run of ``notebook`` with ``parameters`` writes: ``OCPKIT_OUTPUT_DIR`` when set, else its folder under
+    ``runs`` (default :func:`runs_root`)."""
+    explicit = os.environ.get("OCPKIT_OUTPUT_DIR")
+    if explicit:
+        return Path(explicit).resolve()
+    return (Path(runs).resolve() if runs is not None else runs_root()) / notebook / run_key(notebook, parameters)
+
+
+def code_digest(source: str) -> str:
+    """The digest of one code cell's source (trailing white space aside)."""
+    return hashlib.sha256(source.rstrip().encode()).hexdigest()[:16]
+
+
+def _ipython():
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython is part of the environment
+        return None
+    return get_ipython()
+
+
+def _kernel_inputs() -> list[str] | None:
+    """The sources the running kernel has executed, in order (``None`` outside IPython)."""
+    shell = _ipython()
+    if shell is None or getattr(shell, "history_manager", None) is None:
+        return None
+    return [s for s in shell.history_manager.input_hist_raw[1:]]
+
+
+def _is_injected_parameters(source: str) -> bool:
+    """papermill's injected cell: ``# Parameters`` and assignments only."""
+    import ast
+
+    if not source.lstrip().startswith("# Parameters"):
+        return False
+    try:
+        body = ast.parse(source).body
+    except SyntaxError:
+        return False
+    return all(isinstance(node, ast.Assign) for node in body)
+
+
+def _assigned(source: str) -> list[str]:
+    import ast
+
+    return [
+        t.id
+        for node in ast.parse(source).body
+        if isinstance(node, ast.Assign)
+        for t in node.targets
+        if hasattr(t, "id")
+    ]
+
+
+def executed_code(inputs: list[str]) -> list[str]:
+    """Digests of the code cells a kernel executed, papermill's injected parameters cell left out."""
+    return [code_digest(s) for s in inputs if not _is_injected_parameters(s)]
+
+
+def notebook_code(path: Path) -> list[str]:
+    """Digests of a notebook file's code cells, in order."""
+    import nbformat
+
+    nb = nbformat.read(str(path), as_version=4)
+    return [
+        code_digest(c.source)
+        for c in nb.cells
+        if c.cell_type == "code" and "injected-parameters" not in c.metadata.get("tags", [])
+    ]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 class Outputs:
@@ -59,35 +199,41 @@ class Outputs:
         self.parameters = {k: parameters[k] for k in published}
         self.changed = {k: v for k, v in self.parameters.items() if v != published[k]}
         self.is_published_run = not self.changed
-        explicit = os.environ.get("OCPKIT_OUTPUT_DIR")
-        if explicit:
-            self.root = Path(explicit).resolve()
-        elif self.is_published_run:
-            self.root = paths.repo_root()
-        else:
-            self.root = paths.repo_root() / "build" / "runs" / notebook
-        staging = paths.repo_root() / "build" / "staging"
+        self.explicit = bool(os.environ.get("OCPKIT_OUTPUT_DIR"))
+        self.root = run_folder(notebook, self.parameters)
+        if self.root == paths.repo_root().resolve():
+            raise ValueError(
+                "OCPKIT_OUTPUT_DIR is the repository itself: the published record is written only by "
+                "`make reproduce` or `make store` (python -m compendium.notebooks publish), from a complete run"
+            )
+        self._sweep_stale_staging()
+        staging = self.root / STAGING
         staging.mkdir(parents=True, exist_ok=True)
-        self._staging = Path(tempfile.mkdtemp(prefix=f"{notebook}-", dir=staging))
+        prefix = f"{notebook}-{socket.gethostname()}-{os.getpid()}-"
+        self._staging = Path(tempfile.mkdtemp(prefix=prefix, dir=staging))
+        atexit.register(self._discard)
         self.files: list[str] = []
         self.timings: dict[str, list[dict]] = {}
         self.published = False
+        self._contract = _contract_of(notebook)
 
     @classmethod
     def start(cls, notebook: str, namespace: dict) -> Outputs:
         """Open the outputs of a run whose parameters are variables of ``namespace`` (a notebook's ``globals()``).
 
-        Also shows warnings as ``Category: message``, without the file path Python prints by default: a
-        stored notebook must not carry the paths of the machine that ran it.
+        Rejects parameters papermill passed that the notebook does not declare (papermill itself only warns, then
+        runs the defaults). Also shows warnings as ``Category: message``, without the file path Python prints by
+        default: a stored notebook must not carry the paths of the machine that ran it.
         """
         warnings.formatwarning = _format_warning
+        _reject_unknown_injected(notebook)
         out = cls(notebook, {k: namespace[k] for k in published_parameters(notebook) if k in namespace})
         print(out.describe())
         return out
 
     def describe(self) -> str:
         where = self._display(self.root)
-        if os.environ.get("OCPKIT_OUTPUT_DIR"):
+        if self.explicit:
             reason = "OCPKIT_OUTPUT_DIR is set"
         elif self.is_published_run:
             reason = "the published parameters"
@@ -95,17 +241,42 @@ class Outputs:
             reason = "parameters differ from the published run: " + ", ".join(
                 f"{k} = {v!r}" for k, v in self.changed.items()
             )
-        return f"outputs go to {where} when the notebook completes ({reason})"
+        return (
+            f"This run writes its figures and tables to {where} when it completes ({reason}).\n"
+            "The published record (figures/, data/derived/) is written only by `make reproduce` and `make store`, "
+            "from a complete run of this notebook as committed, with its published parameters."
+        )
 
     @staticmethod
     def _display(path: Path) -> str:
         try:
-            rel = path.relative_to(paths.repo_root())
-            return "figures/ and data/derived/ of the repository" if rel == Path(".") else f"{rel}/"
+            return f"{path.relative_to(paths.repo_root())}/"
         except ValueError:
-            return f"{path.name}/ (outside the repository)"
+            return f"{path}/"
 
-    # -- writing (into the staging folder) ------------------------------------------------------
+    @property
+    def record(self) -> str:
+        """Where the run's record (its parameters, files and measured times) is written when the run completes."""
+        return self._display(self.root / RUNS / f"{self.notebook}.json").rstrip("/")
+
+    # -- staging --------------------------------------------------------------------------------------------------
+    def _sweep_stale_staging(self) -> None:
+        """Remove the staging folders that runs killed on this machine left in this run's folder."""
+        staging = self.root / STAGING
+        if not staging.is_dir():
+            return
+        host = socket.gethostname()
+        for entry in staging.iterdir():
+            m = re.fullmatch(rf"{re.escape(self.notebook)}-(.+)-(\d+)-[^-]+", entry.name)
+            if m and m.group(1) == host and not _alive(int(m.group(2))):
+                shutil.rmtree(entry, ignore_errors=True)
+
+    def _discard(self) -> None:
+        if not self.published:
+            shutil.rmtree(self._staging, ignore_errors=True)
+            _remove_if_empty(self._staging.parent)
+
+    # -- writing (into the staging folder) ------------------------------------------------------------------------
     def _path(self, relative: Path) -> Path:
         if self.published:
             raise RuntimeError(f"the outputs of {self.notebook} are already published; start a new Outputs")
@@ -116,20 +287,31 @@ class Outputs:
         return path
 
     def figure(self, fig, name: str) -> None:
-        """``figures/<name>.png`` and ``.pdf`` (deterministic bytes)."""
+        """``figures/<name>.png`` and ``.pdf`` (deterministic bytes), and ``figures/data/<name>.json``, the
+        arrays the figure draws (:mod:`compendium.figure_data`), which the guard compares."""
+        self._declared("figures", name)
         for path in save_figure(fig, name, self._staging / "figures"):
             self._path(Path("figures") / path.name)
+        write_figure_data(fig, self._path(FIGURE_DATA / f"{name}.json"))
 
     def table(self, df: pd.DataFrame, name: str, float_format: str = "%.10g") -> None:
         """``data/derived/<name>.csv`` (no index)."""
+        spec = self._declared("tables", name)
+        if spec is not None and spec.undeclared(df.columns):
+            self._warn(f"columns {spec.undeclared(df.columns)} of table {name!r} have no class")
         df.to_csv(self._path(Path("data") / "derived" / f"{name}.csv"), index=False, float_format=float_format)
 
     def text(self, text: str, filename: str) -> None:
         """``data/derived/<filename>`` (Markdown tables, notes)."""
+        if filename.endswith(".md"):
+            self._declared("markdown", filename)
         self._path(Path("data") / "derived" / filename).write_text(text)
 
     def json(self, obj: dict, name: str) -> None:
         """``data/derived/<name>.json``."""
+        spec = self._declared("json", name)
+        if spec is not None and spec.undeclared(obj):
+            self._warn(f"keys {spec.undeclared(obj)} of {name}.json have no class")
         self._path(Path("data") / "derived" / f"{name}.json").write_text(json.dumps(obj, indent=2) + "\n")
 
     def timing(self, name: str, rows) -> None:
@@ -140,29 +322,95 @@ class Outputs:
             rows = [rows]
         self.timings[name] = [{k: _plain(v) for k, v in r.items()} for r in rows]
 
-    # -- publishing -------------------------------------------------------------------------------
+    def _declared(self, kind: str, name: str):
+        if self._contract is None:
+            return None
+        spec = getattr(self._contract, kind).get(name)
+        if spec is None:
+            self._warn(f"{kind[:-1] if kind != 'json' else 'JSON file'} {name!r} is not declared")
+        return spec
+
+    def _warn(self, what: str) -> None:
+        warnings.warn(
+            f"{self.notebook}: {what} in notebooks/contract.toml; the guard cannot compare it",
+            ContractWarning,
+            stacklevel=3,
+        )
+
+    # -- publishing -----------------------------------------------------------------------------------------------
     def publish(self) -> None:
-        """Move every staged file into place and write the run's record; print where they went."""
+        """Move every staged file into this run's folder and write the run's record; print where they went."""
         if self.published:
             raise RuntimeError(f"the outputs of {self.notebook} are already published")
+        previous = self.root / RUNS / f"{self.notebook}.json"
+        stale = []
+        if previous.is_file():
+            try:
+                stale = [f for f in json.loads(previous.read_text()).get("files", []) if f not in self.files]
+            except (ValueError, OSError):
+                stale = []
         for rel in self.files:
             target = self.root / rel
             target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.move(self._staging / rel, target)
+            os.replace(self._staging / rel, target)
+        for rel in stale:  # what the earlier run of this notebook here wrote and this one did not
+            (self.root / rel).unlink(missing_ok=True)
+        inputs = _kernel_inputs()
         record = {
             "notebook": self.notebook,
             "published_parameters": self.is_published_run,
             "parameters": {k: _plain(v) for k, v in self.parameters.items()},
             "files": self.files,
+            "code": executed_code(inputs) if inputs is not None else None,
             "timings": self.timings,
         }
-        runs = self.root / RUNS
-        runs.mkdir(parents=True, exist_ok=True)
-        (runs / f"{self.notebook}.json").write_text(json.dumps(record, indent=2) + "\n")
+        (self.root / RUNS).mkdir(parents=True, exist_ok=True)
+        tmp = previous.with_suffix(f".json.{os.getpid()}")
+        tmp.write_text(json.dumps(record, indent=2) + "\n")
+        os.replace(tmp, previous)
         shutil.rmtree(self._staging, ignore_errors=True)
+        _remove_if_empty(self._staging.parent)
         self.published = True
-        figures = sum(f.startswith("figures/") for f in self.files)
-        print(f"wrote {figures} figure files and {len(self.files) - figures} tables to {self._display(self.root)}")
+        figures = sum(f.startswith("figures/") and not f.startswith(f"{FIGURE_DATA}/") for f in self.files)
+        tables = sum(f.startswith("data/") for f in self.files)
+        print(f"wrote {figures} figure files and {tables} tables to {self._display(self.root)}")
+
+
+def _remove_if_empty(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
+def _contract_of(notebook: str):
+    """The notebook's section of ``notebooks/contract.toml`` (``None``, with a warning, when it has none)."""
+    from .contract import load_contract
+
+    try:
+        contract = load_contract()
+    except FileNotFoundError:
+        return None
+    if notebook not in contract:
+        warnings.warn(f"notebooks/contract.toml has no section for {notebook}", ContractWarning, stacklevel=3)
+        return None
+    return contract[notebook]
+
+
+def _reject_unknown_injected(notebook: str) -> None:
+    """Raise when papermill injected a parameter the notebook does not declare (papermill only warns)."""
+    inputs = _kernel_inputs()
+    if not inputs:
+        return
+    injected = [s for s in inputs if _is_injected_parameters(s)]
+    if not injected:
+        return
+    from .notebooks import notebook_parameters
+
+    known = notebook_parameters(paths.notebooks_dir() / f"{notebook}.ipynb")
+    unknown = sorted(set(_assigned(injected[-1])) - set(known))
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {unknown} for {notebook}; its parameters are {sorted(known)}")
 
 
 def _format_warning(message, category, filename, lineno, line=None) -> str:

@@ -1,0 +1,210 @@
+"""Everyday use never rewrites the published record nor loses a run: a copied notebook, a Lab-style run, two runs at
+once, a misspelt papermill parameter, a killed run. Each runs real kernels on a throw-away compendium
+(``OCPKIT_ROOT``) holding one small notebook, so the repository's record is never touched (about 40 s)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from compendium.notebooks import KERNEL_NAME
+
+NOTEBOOK = "10_tiny"
+
+
+def _kernel_available() -> bool:
+    from jupyter_client.kernelspec import KernelSpecManager
+
+    return KERNEL_NAME in KernelSpecManager().find_kernel_specs()
+
+
+pytestmark = pytest.mark.skipif(not _kernel_available(), reason="the 'ocpkit' kernel is registered by `make setup`")
+
+
+def _cell(source: str, tags=()):
+    cell = nbformat.v4.new_code_cell(source)
+    if tags:
+        cell.metadata["tags"] = list(tags)
+    return cell
+
+
+@pytest.fixture
+def compendium(tmp_path, monkeypatch):
+    """A compendium of one notebook: a figure and a table, a parameter to pause in the middle of the run."""
+    root = tmp_path / "compendium"
+    (root / "data").mkdir(parents=True)
+    (root / "notebooks").mkdir()
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": KERNEL_NAME, "display_name": "Python (ocpkit)", "language": "python"}
+    nb.cells = [
+        nbformat.v4.new_markdown_cell("# A small notebook"),
+        _cell("n = 3  # points\npause = 0.0  # seconds to wait between the table and the figure", ["parameters"]),
+        _cell(
+            "import time\n\nimport matplotlib.pyplot as plt\nimport numpy as np\nimport pandas as pd\n\n"
+            "from compendium.outputs import Outputs\n\n"
+            f'outputs = Outputs.start("{NOTEBOOK}", globals())'
+        ),
+        _cell('x = np.linspace(0, 1, n)\noutputs.table(pd.DataFrame({"x": x, "y": x**2}), "tiny")\ntime.sleep(pause)'),
+        _cell('fig, ax = plt.subplots()\nax.plot(x, x**2)\nax.set_title("y = x^2")\noutputs.figure(fig, "tiny")'),
+        _cell("outputs.publish()"),
+    ]
+    nbformat.write(nb, str(root / "notebooks" / f"{NOTEBOOK}.ipynb"))
+    (root / "notebooks" / "published.toml").write_text("")
+    (root / "notebooks" / "contract.toml").write_text(
+        f'["{NOTEBOOK}".tables.tiny]\nconverged = ["x", "y"]\n["{NOTEBOOK}".figures.tiny]\n'
+    )
+    monkeypatch.setenv("OCPKIT_ROOT", str(root))
+    for name in ("OCPKIT_OUTPUT_DIR", "OCPKIT_RUNS_DIR"):
+        monkeypatch.delenv(name, raising=False)
+    return root
+
+
+def _env(root: Path) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("OCPKIT_OUTPUT_DIR", "OCPKIT_RUNS_DIR")}
+    return env | {"OCPKIT_ROOT": str(root), "OCPKIT_PROGRESS": "off"}
+
+
+def _run(args, root: Path, cwd: Path | None = None, timeout: int = 180) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, *args], cwd=cwd or root, env=_env(root), capture_output=True, text=True, timeout=timeout
+    )
+
+
+def _record(folder: Path) -> dict:
+    return json.loads((folder / "data" / "derived" / "runs" / f"{NOTEBOOK}.json").read_text())
+
+
+def _published(root: Path) -> list[str]:
+    return sorted(str(p.relative_to(root)) for d in ("figures", "data/derived") for p in (root / d).rglob("*"))
+
+
+def test_a_copied_and_edited_notebook_run_with_papermill_never_publishes(compendium):
+    scratch = compendium / "build" / "scratch"
+    scratch.mkdir(parents=True)
+    nb = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
+    nb.cells[4].source = nb.cells[4].source.replace('"y = x^2"', '"my own title"')
+    nbformat.write(nb, str(scratch / "my_try.ipynb"))
+    proc = _run(["-m", "papermill", "-k", KERNEL_NAME, "my_try.ipynb", "my_try_out.ipynb"], compendium, cwd=scratch)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert _published(compendium) == [], "the published record is untouched"
+    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
+    assert (folder / "figures" / "tiny.png").is_file()
+    executed = nbformat.read(str(scratch / "my_try_out.ipynb"), as_version=4)
+    first_line = executed.cells[2].outputs[0]["text"].splitlines()[0]
+    assert first_line.startswith(f"This run writes its figures and tables to build/runs/{NOTEBOOK}/defaults/")
+    refused = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
+    assert refused.returncode == 2 and f"is not that of notebooks/{NOTEBOOK}.ipynb" in refused.stderr
+    assert _published(compendium) == []
+
+
+def test_a_lab_style_run_writes_its_own_folder_and_publishes_only_on_request(compendium):
+    """Cells executed one by one on a kernel, as JupyterLab's Run All does (no papermill)."""
+    from nbclient import NotebookClient
+
+    path = compendium / "notebooks" / f"{NOTEBOOK}.ipynb"
+    nb = nbformat.read(str(path), as_version=4)
+    NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
+    assert _published(compendium) == []
+    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
+    assert nb.cells[2].outputs[0]["text"].startswith(f"This run writes its figures and tables to build/runs/{NOTEBOOK}")
+    assert _record(folder)["published_parameters"] is True
+    proc = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
+    assert proc.returncode == 0, proc.stderr
+    assert "figures/tiny.png" in _published(compendium) and "figures/data/tiny.json" in _published(compendium)
+
+
+def test_two_runs_at_once_with_other_parameters_both_survive(compendium, tmp_path):
+    out = tmp_path / "custom"
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "compendium.notebooks",
+                "run",
+                f"notebooks/{NOTEBOOK}.ipynb",
+                "-p",
+                "n",
+                str(n),
+                "--output",
+                str(out),
+            ],
+            cwd=compendium,
+            env=_env(compendium),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+        for n in (30, 50)
+    ]
+    results = [p.communicate(timeout=180) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [r[1][-2000:] for r in results]
+    for n, (_, stderr) in zip((30, 50), results):
+        folder = out / NOTEBOOK / f"n-{n}"
+        assert _record(folder)["parameters"]["n"] == n and (folder / "figures" / "tiny.png").is_file()
+        assert (folder / f"{NOTEBOOK}.ipynb").is_file(), "the executed notebook sits beside its figures"
+        assert f"{NOTEBOOK}/n-{n}/" in stderr, "the terminal says where the figures and tables went"
+    assert _published(compendium) == []
+
+
+def test_a_misspelt_parameter_is_an_error_with_papermill_too(compendium, tmp_path):
+    proc = _run(
+        [
+            "-m",
+            "papermill",
+            "-k",
+            KERNEL_NAME,
+            f"notebooks/{NOTEBOOK}.ipynb",
+            str(tmp_path / "o.ipynb"),
+            "-p",
+            "nn",
+            "4",
+        ],
+        compendium,
+    )
+    assert proc.returncode != 0 and "unknown parameter(s) ['nn']" in proc.stderr
+    assert not (compendium / "build" / "runs").exists() and _published(compendium) == []
+    runner = _run(["-m", "compendium.notebooks", "run", f"notebooks/{NOTEBOOK}.ipynb", "-p", "nn", "4"], compendium)
+    assert runner.returncode == 2 and "unknown parameter(s) ['nn']" in runner.stderr
+
+
+def test_a_killed_run_leaves_no_sockets_and_its_staging_goes_with_the_next_run(compendium):
+    folder = compendium / "build" / "runs" / NOTEBOOK / "pause-8.0"
+    args = ["-m", "compendium.notebooks", "run", f"notebooks/{NOTEBOOK}.ipynb", "-p", "pause", "8.0"]
+    proc = subprocess.Popen(
+        [sys.executable, *args], cwd=compendium, env=_env(compendium), start_new_session=True,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    staging = folder / ".staging"
+    deadline = time.monotonic() + 120
+    while not (staging.is_dir() and any((p / "data").exists() for p in staging.iterdir())):
+        assert proc.poll() is None and time.monotonic() < deadline, "the run did not reach its pause"
+        time.sleep(0.2)
+    (entry,) = list(staging.iterdir())
+    kernel_pid = int(entry.name.split("-")[-2])
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    deadline = time.monotonic() + 30
+    while True:  # the kernel notices its parent is gone and exits without cleaning up
+        try:
+            os.kill(kernel_pid, 0)
+        except ProcessLookupError:
+            break
+        if time.monotonic() > deadline:
+            os.kill(kernel_pid, signal.SIGKILL)
+        time.sleep(0.2)
+    assert entry.is_dir(), "a killed run leaves its staging folder"
+    leftovers = [p.name for d in (compendium, folder) for p in d.iterdir() if p.name.startswith("kernel")]
+    assert leftovers == [], "no IPC sockets in the user's folders"
+    again = _run(args, compendium)  # the same run, in full
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert not entry.exists() and not staging.exists(), "the next run into the folder removed the leftovers"
+    assert (folder / "figures" / "tiny.png").is_file()
