@@ -9,6 +9,8 @@ import pandas as pd
 
 from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem
 
+from ..checks import approx
+
 TABLE_COLUMNS = [
     "scheme",
     "segments",
@@ -213,7 +215,7 @@ def verdict_lines(rows: pd.DataFrame, paper: pd.DataFrame) -> list[str]:
         )
     for col in ("max_state_diff_pct", "max_control_diff_pct"):
         v, bound = ours.loc[scheme, col], paper.loc[scheme, col]
-        lines.append(f"{col}: {v:.1g} % (paper {bound} %), at or below the paper: {v <= bound}")
+        lines.append(f"{col}: {approx(v, 1)} % (paper {bound} %), at or below the paper: {v <= bound}")
     return lines
 
 
