@@ -7,6 +7,7 @@ from pathlib import Path
 
 import matplotlib as mpl
 import matplotlib.pyplot as plt
+import numpy as np
 
 STYLE = {
     "figure.figsize": (6.4, 4.0),
@@ -58,6 +59,18 @@ def save_figure(fig: plt.Figure, name: str, folder: Path | str, formats: Sequenc
         fig.savefig(path, format=fmt, metadata=meta)
         out.append(path)
     return out
+
+
+def floored(values, floor: float) -> np.ndarray:
+    """``|values|`` drawn against a stated floor: a value below it (rounding noise, whose digits differ between
+    machines) is drawn at the floor, so that the picture is the same on every machine. The floor is the one the
+    value's class states in ``notebooks/contract.toml``; :func:`draw_floor` shows it."""
+    return np.maximum(np.abs(np.asarray(values, dtype=float)), floor)
+
+
+def draw_floor(ax, floor: float, what: str = "rounding level") -> None:
+    """A dotted line at ``floor`` on a logarithmic axis, labelled: values of :func:`floored` below it sit on it."""
+    ax.axhline(floor, color="0.55", lw=0.8, ls=":", zorder=0, label=f"{what} ({floor:.0e}): values below drawn on it")
 
 
 def time_histories(

@@ -1,20 +1,38 @@
-"""Progress bars for long work (continuations, restarts, sweeps), wherever the reader is.
+"""Progress bars for long work (continuations, restarts, sweeps), in the terminal, never in a notebook.
 
-``OCPKIT_PROGRESS`` says where the bars go:
-
-* ``terminal`` (set by :mod:`compendium.notebooks` for headless runs): the kernel process's own
-  stderr, which is the terminal of ``make reproduce``; nothing enters the stored notebook;
-* ``off`` (nbval, tests): no bars;
-* unset (JupyterLab): under the running cell, cleared when the work is done.
+A bar is drawn on the terminal of the process that runs the work: for a notebook, its kernel's
+original standard error, which is the terminal of ``make reproduce`` or of ``make lab`` (ipykernel
+sends what the kernel writes to its own ``sys.stderr`` into the notebook; the bars bypass it). A bar
+under a cell would be stored with the notebook, and JupyterLab keeps what a cleared bar leaves (a line
+of spaces, the cursor moves of nested bars), so a notebook run and saved in Lab would differ from the
+stored one. ``OCPKIT_PROGRESS=off`` (nbval, tests) draws no bars; ``terminal`` (set by
+:mod:`compendium.notebooks` for headless runs) or unset draws them.
 """
 
 from __future__ import annotations
 
+import io
 import os
 import sys
 from contextlib import contextmanager
 
 from tqdm import tqdm
+
+_TERMINAL = None
+
+
+def terminal():
+    """The process's terminal: the original standard error of an IPython kernel (``sys.stderr.fileno()`` is the
+    copy ipykernel keeps of it), else ``sys.__stderr__``."""
+    global _TERMINAL
+    if _TERMINAL is None:
+        try:
+            fd = sys.stderr.fileno()
+        except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
+            _TERMINAL = sys.__stderr__
+        else:
+            _TERMINAL = sys.__stderr__ if fd == 2 else open(os.dup(fd), "w", buffering=1)  # noqa: SIM115
+    return _TERMINAL
 
 
 def progress(iterable=None, *, total: int | None = None, desc: str | None = None, unit: str = "it") -> tqdm:
@@ -22,16 +40,15 @@ def progress(iterable=None, *, total: int | None = None, desc: str | None = None
     mode = os.environ.get("OCPKIT_PROGRESS", "")
     if mode not in ("", "terminal", "off"):
         raise ValueError(f"OCPKIT_PROGRESS must be 'terminal' or 'off' (or unset), got {mode!r}")
-    stream = sys.__stderr__ if mode == "terminal" else sys.stderr
     return tqdm(
         iterable,
         total=total,
         desc=desc,
         unit=unit,
         leave=False,
-        file=stream,
+        file=terminal() if mode != "off" else sys.__stderr__,
         disable=mode == "off",
-        dynamic_ncols=mode == "terminal",
+        dynamic_ncols=True,
         mininterval=0.5,
     )
 

@@ -36,3 +36,34 @@ def markdown_table(df: pd.DataFrame, formats: Mapping[str, str] | None = None) -
 
     rule = "|" + "|".join(("-" * (w + 1) + ":") if num else ("-" * (w + 2)) for w, num in zip(widths, numeric)) + "|"
     return "\n".join([line(cols), rule] + [line(r) for r in rows])
+
+
+class Shown:
+    """A formatted table as a notebook shows it, with the same bytes on every run.
+
+    A pandas ``Styler`` displays with a random HTML id and a plain-text form holding its memory address, so a
+    stored notebook would change on every run; this shows the same table with an id derived from its content,
+    and as plain text, the table's formatted values (``Styler.to_string``).
+    """
+
+    def __init__(self, styler):
+        self.styler = styler
+
+    def _text(self) -> str:
+        return self.styler.to_string()
+
+    def _repr_html_(self) -> str:
+        import hashlib
+
+        self.styler.set_uuid(hashlib.sha256(self._text().encode()).hexdigest()[:8])
+        return self.styler.to_html()
+
+    def __repr__(self) -> str:
+        return self._text()
+
+
+def show(table) -> Shown:
+    """``show(df.style.format(...))``: the styled table, displayed deterministically (:class:`Shown`); a DataFrame
+    is shown as it formats by default."""
+    styler = table.style if isinstance(table, pd.DataFrame) else table
+    return Shown(styler)
