@@ -29,7 +29,13 @@ $(STAMP): environment.txt pyproject.toml
 	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (ocpkit)"
 	touch $@
 
+# the published runs, then whether they reproduce the committed record by its contract (notebooks/contract.toml)
 reproduce: notebooks report
+	@if git rev-parse --verify -q HEAD >/dev/null 2>&1; then \
+		$(PY) -m compendium.guard . --reference-commit HEAD || { \
+		echo "make reproduce: the regenerated record (figures/, data/derived/) differs from the committed one beyond"; \
+		echo "its contract (above). If the change is intended, review it with git diff and commit it."; exit 1; }; \
+	else echo "make reproduce: not a git checkout, so nothing to compare the regenerated record with"; fi
 
 # the published runs: each notebook with the parameters notebooks/published.toml gives it (the orbit transfer's
 # full run; the others' defaults), writing figures/ and data/derived/ when each completes
@@ -51,7 +57,8 @@ unit: setup
 # nbval writes figures and tables under build/test-output, never over the tracked ones
 nbval: setup
 	rm -rf build/test-output
-	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output OCPKIT_PROGRESS=off $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) -p no:cacheprovider $(NOTEBOOKS)
+	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output OCPKIT_PROGRESS=off $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) \
+		--nbval-sanitize-with notebooks/nbval_sanitize.cfg -p no:cacheprovider $(NOTEBOOKS)
 
 # what nbval's runs wrote, against the committed figures/ and data/derived/
 guard: nbval
