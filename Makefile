@@ -19,15 +19,58 @@ export OMP_NUM_THREADS := 1
 
 .PHONY: setup reproduce notebooks report test lint unit nbval guard lab bench store clean
 
+# -- setup ---------------------------------------------------------------------------------------------------------
+# environment.txt is resolved for Python 3.11. PYTHON_MIN is the oldest 3.11 it is installed and tested on: Debian
+# 12's python3 (soupsieve is pinned below 3.0 for it, 3.0.2 and later need 3.11.5); tests/test_setup.py checks that
+# every pin admits it.
+PYTHON_MIN := 3.11.2
+
+# Run by $(PYTHON) before anything is created: a Python 3.11, PYTHON_MIN or later, that can make a virtual
+# environment with pip in it (Debian and Ubuntu ship venv's ensurepip apart from python3). Plain enough for any
+# Python, 2 included, to print this message rather than a syntax error.
+define CHECK_PYTHON
+import sys
+found = "%d.%d.%d" % tuple(sys.version_info[:3])
+need = tuple(int(part) for part in "$(PYTHON_MIN)".split("."))
+series = "%d.%d" % need[:2]
+it = "PYTHON=%s is Python %s (%s)" % (sys.argv[1], found, sys.executable)
+if not need <= tuple(sys.version_info[:3]) < (need[0], need[1] + 1):
+    sys.stderr.write("setup: %s, but the compendium needs Python %s (%s or a later %s release).\n"
+                     "Name one with PYTHON=, e.g. make setup PYTHON=python%s (or PYTHON=/path/to/python%s)\n"
+                     % (it, series, "$(PYTHON_MIN)", series, series, series))
+    sys.exit(3)
+try:
+    import ensurepip, venv
+    ensurepip.version()
+except Exception as exc:
+    sys.stderr.write("setup: %s, but it cannot create a virtual environment with pip in it (%s: %s).\n"
+                     "On Debian or Ubuntu install the package python3-venv (apt-get install python3-venv; it is "
+                     "python%s-venv for this python%s), or name another Python with PYTHON=\n"
+                     % (it, type(exc).__name__, exc, series, series))
+    sys.exit(3)
+print("  %s: ok" % it)
+endef
+
 setup: $(STAMP)
 
+# The interpreter is checked first (CHECK_PYTHON), before anything is created. Then src/compendium/bootstrap.py, run
+# by it, makes .venv, all of it or nothing half-made (its docstring says how): a .venv of an earlier setup is rebuilt
+# from scratch when environment.txt or pyproject.toml changed, and comes back from .venv.previous if the rebuild
+# fails or is interrupted; pip's output shows one line per package. The script writes the stamp, last: .PRECIOUS
+# keeps make from deleting it on Ctrl-C (the script alone says which .venv is whole).
+.PRECIOUS: $(STAMP)
+$(STAMP): export SETUP_CHECK_PYTHON = $(CHECK_PYTHON)
 $(STAMP): environment.txt pyproject.toml
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --disable-pip-version-check -q -r environment.txt
-	$(PY) -m pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e .
-	$(PY) -c "import pathlib, sysconfig; pathlib.Path(sysconfig.get_paths()['purelib'], 'compendium.pth').write_text('$(CURDIR)/src\n')"
-	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (ocpkit)"
-	touch $@
+	@echo "setup [1/5] checking the interpreter PYTHON=$(PYTHON)"
+	@[ -n "$(strip $(PYTHON))" ] && command -v $(firstword $(PYTHON)) >/dev/null 2>&1 || { \
+	  echo "setup: PYTHON=$(PYTHON) is neither a command on PATH nor an executable file. Install Python 3.11" \
+	       "($(PYTHON_MIN) or later) and name it, e.g. make setup PYTHON=python3.11 (or PYTHON=/path/to/python3.11)" >&2; \
+	  exit 1; }
+	@$(PYTHON) -c "$$SETUP_CHECK_PYTHON" "$(PYTHON)" || { status=$$?; [ $$status = 3 ] || \
+	  echo "setup: PYTHON=$(PYTHON) could not run the interpreter check (exit status $$status): is it a Python?" >&2; \
+	  exit 1; }
+	@exec $(PYTHON) -P src/compendium/bootstrap.py --venv $(VENV) --stamp $@ --requirements environment.txt \
+	  --kernel $(KERNEL) --display-name "Python (ocpkit)" --root "$(CURDIR)" --changed "$?"
 
 # the published runs, then whether they reproduce the committed record by its contract (notebooks/contract.toml)
 reproduce: notebooks report
@@ -38,7 +81,7 @@ reproduce: notebooks report
 	else echo "make reproduce: not a git checkout, so nothing to compare the regenerated record with"; fi
 
 # the published runs: each notebook with the parameters notebooks/published.toml gives it (the orbit transfer's
-# full run; the others' defaults), writing figures/ and data/derived/ when each completes
+# full run; the others' defaults), each run copied into figures/ and data/derived/ when it completes
 notebooks: setup
 	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
 
@@ -51,7 +94,38 @@ lint: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-unit: setup
+# Headless Chromium for the browser tests of tests/test_lab.py: nothing to do when one is installed (the names the
+# tests look for), else Debian's chromium and chromium-driver (/usr/bin/chromium) from apt-get, as root or via sudo.
+# Under `make unit` a missing Chromium fails those tests rather than skipping them unseen (OCPKIT_REQUIRE_BROWSER);
+# OCPKIT_REQUIRE_BROWSER=0 (e.g. `make test OCPKIT_REQUIRE_BROWSER=0`) installs nothing and lets them skip.
+CHROMIUM_BIN := /usr/bin/chromium
+.PHONY: chromium
+chromium:
+	@set -e; \
+	if [ -x $(CHROMIUM_BIN) ] || command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; \
+	then :; \
+	elif [ "$(OCPKIT_REQUIRE_BROWSER)" = 0 ]; then \
+	  echo "chromium: none installed, and OCPKIT_REQUIRE_BROWSER=0: the browser tests of tests/test_lab.py will skip"; \
+	else \
+	  how="install one (Debian: apt-get install chromium chromium-driver), or let those tests skip:"; \
+	  how="$$how make test OCPKIT_REQUIRE_BROWSER=0"; \
+	  if ! command -v apt-get >/dev/null 2>&1; then \
+	    echo "chromium: the browser tests need Chromium ($(CHROMIUM_BIN), or chromium or chromium-browser on PATH)," \
+	         "and there is no apt-get here to install it: $$how" >&2; exit 1; \
+	  elif [ "$$(id -u)" = 0 ]; then as=; \
+	  elif command -v sudo >/dev/null 2>&1; then as=sudo; \
+	  else echo "chromium: the browser tests need Chromium; apt-get can install it as root only, this is user" \
+	            "$$(id -un) and there is no sudo: $$how" >&2; exit 1; \
+	  fi; \
+	  echo "chromium: none installed: apt-get installs Debian's chromium and chromium-driver$${as:+ (with sudo)}"; \
+	  $$as apt-get update -q; \
+	  $$as env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends chromium chromium-driver; \
+	  test -x $(CHROMIUM_BIN) || { echo "chromium: apt-get finished, but there is no $(CHROMIUM_BIN)" >&2; exit 1; }; \
+	fi
+
+# tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above)
+unit: export OCPKIT_REQUIRE_BROWSER ?= 1
+unit: setup chromium
 	$(PY) -m pytest tests/
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones
@@ -81,8 +155,8 @@ bench: setup
 	$(PY) benchmarks/bench_sweep.py
 	$(PY) benchmarks/bench_quasi_newton.py
 
-# stored outputs use the default parameters; where those are a notebook's published ones its figures and tables
-# are the published record (identical when nothing changed: review `git status`), otherwise they go to build/runs/
+# stored outputs use the default parameters; where those are a notebook's published ones the run is also copied into
+# the published record (identical when nothing changed: review `git status`); every run's own folder is build/runs/
 store: setup
 	$(PY) -m compendium.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
 

@@ -3,7 +3,8 @@
 The server tests start JupyterLab the way a user does (the module, extra arguments passed through) and talk to it
 over its REST API and a kernel websocket; the browser tests load the Lab page in headless Chromium and read the DOM
 it renders. Each part skips when what it needs (jupyterlab, the ``ocpkit`` kernel, websocket-client, a Chromium
-binary) is absent. The whole module takes about 30 s.
+binary) is absent, except that the browser tests fail without Chromium when OCPKIT_REQUIRE_BROWSER is set, as
+`make unit` does. The whole module takes about 30 s.
 """
 
 from __future__ import annotations
@@ -308,7 +309,24 @@ def _chromium() -> str | None:
     return "/usr/bin/chromium" if Path("/usr/bin/chromium").is_file() else None
 
 
-needs_chromium = pytest.mark.skipif(_chromium() is None, reason="no Chromium binary (chromium, chromium-browser)")
+NO_CHROMIUM = "no Chromium binary (chromium, chromium-browser)"
+#: set by `make unit`: there a missing Chromium fails the browser tests, whose skip would pass CI unseen
+REQUIRE_BROWSER = os.environ.get("OCPKIT_REQUIRE_BROWSER", "") not in {"", "0"}
+
+
+def needs_chromium(test):
+    """``test`` as it is with Chromium; without, skipped, or under OCPKIT_REQUIRE_BROWSER a test that fails at once."""
+    if _chromium() is not None:
+        return test
+    if not REQUIRE_BROWSER:
+        return pytest.mark.skip(reason=NO_CHROMIUM)(test)
+
+    def fails():
+        pytest.fail(f"{NO_CHROMIUM}, and OCPKIT_REQUIRE_BROWSER is set (make unit): `make chromium` installs it")
+
+    fails.__name__, fails.__doc__ = test.__name__, test.__doc__
+    return fails
+
 
 #: virtual (not wall-clock) milliseconds Chromium lets the page run before dumping it; Lab renders in ~5 s of real time
 VIRTUAL_TIME_BUDGET = 30000
