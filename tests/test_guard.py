@@ -198,32 +198,34 @@ def _moved(text: str, klass, rng) -> str:
     x = to_number(text)
     if x is None or math.isnan(x) or isinstance(klass, Exact):
         return text
+    x = float(x)
     if isinstance(klass, Converged):
-        return repr(x * (1 + 1e-9 * rng.choice([-1, 1])))
+        return repr(float(x * (1 + 1e-9 * rng.choice([-1, 1]))))
     if isinstance(klass, Error):
         if abs(x) <= klass.floor:
-            return repr(klass.floor * rng.uniform(-1, 1))
-        return repr(x * rng.uniform(1 / (0.95 * klass.factor), 0.95 * klass.factor))
+            return repr(float(klass.floor * rng.uniform(-1, 1)))
+        return repr(float(x * rng.uniform(1 / (0.95 * klass.factor), 0.95 * klass.factor)))
     if isinstance(klass, Order):
-        return repr(x + rng.uniform(-0.08, 0.08))
+        return repr(float(x + rng.uniform(-0.08, 0.08)))
     if isinstance(klass, SolverPath):
-        return str(round(x * rng.uniform(0.6, 1.7))) if float(x).is_integer() else repr(x * rng.uniform(0.6, 1.7))
+        moved = float(x * rng.uniform(0.6, 1.7))
+        return str(round(moved)) if x.is_integer() else repr(moved)
     raise AssertionError(klass)
 
 
 def _move_table(table: pd.DataFrame, spec, rng) -> pd.DataFrame:
-    out = table.copy()
-    for i in range(len(table)):
-        row = table.iloc[i]
-        failed = spec.not_compared(row, row, table.columns)
-        for column in table.columns:
-            klass = spec.class_of(column)
-            if column in failed:
-                x = to_number(row[column])
-                out.iloc[i, out.columns.get_loc(column)] = repr(7.3 * x + 1) if x is not None else row[column]
+    rows = []
+    for record in table.to_dict("records"):
+        failed = spec.not_compared(record, record, table.columns)
+        moved = {}
+        for column, text in record.items():
+            x = to_number(text)
+            if column in failed or not spec.reproduces(record):  # a failed run's or a search's numbers: anything
+                moved[column] = repr(7.3 * float(x) + 1) if x is not None and column not in spec.key else text
             else:
-                out.iloc[i, out.columns.get_loc(column)] = _moved(row[column], klass, rng)
-    return out
+                moved[column] = _moved(text, spec.class_of(column), rng)
+        rows.append(moved)
+    return pd.DataFrame(rows, columns=table.columns)
 
 
 def _move_figure(data: dict, spec, rng) -> dict:

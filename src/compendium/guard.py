@@ -108,6 +108,15 @@ def _key_of(row: pd.Series, spec: TableSpec) -> tuple:
     return tuple(row[c] for c in spec.key)
 
 
+def _normal_key(row: pd.Series, spec: TableSpec) -> tuple:
+    """A row's key, numbers to nine significant digits (``5`` and ``5.0`` are one key): what most matches need."""
+    out = []
+    for c in spec.key:
+        x = to_number(row[c])
+        out.append(f"{x:.9g}" if x is not None else str(row[c]).strip())
+    return tuple(out)
+
+
 def _same_key(a: pd.Series, b: pd.Series, spec: TableSpec) -> bool:
     return all(_accepts(spec.class_of(c), a[c], b[c]) for c in spec.key)
 
@@ -166,10 +175,16 @@ def compare_tables(
             diffs = _row_differences(fresh.iloc[i], committed.iloc[i], spec, scales, resolutions(i))
             out += [f"row {i}, {d}" for d in diffs]
         return out
+    by_key: dict[tuple, list[int]] = {}
+    for j in range(len(committed)):
+        by_key.setdefault(_normal_key(committed.iloc[j], spec), []).append(j)
     used: set[int] = set()
     for i in range(len(fresh)):
         row = fresh.iloc[i]
-        matches = [j for j in range(len(committed)) if j not in used and _same_key(row, committed.iloc[j], spec)]
+        exact = [j for j in by_key.get(_normal_key(row, spec), []) if j not in used]
+        matches = exact or [  # a key that moved within its class (a converged t_f of a grid, say)
+            j for j in range(len(committed)) if j not in used and _same_key(row, committed.iloc[j], spec)
+        ]
         if not matches:
             out.append(f"{_row_label(row, spec, i)}: no committed row has this key")
             continue
