@@ -14,9 +14,14 @@ def test_a_converged_value_prints_one_decade_above_its_tolerance(capsys):
     check("t_f", 481.20387231, 481.2038723, atol=1e-6, digits=10)
     check("t_f", 481.20387179, 481.2038723, atol=1e-6, digits=10)  # another machine's last digits
     check("mass", 17.9997, 18, rtol=1e-4, digits=6)
+    check("residual", 1e-5, 0.0, atol=1e-3)  # a value below the tolerance prints as what the tolerance resolves
+    check("residual", 4e-5, 0.0, atol=1e-3)
+    check("altitude", 1234.5, 1230.0, atol=50.0)
     out = capsys.readouterr().out.splitlines()
     assert out[0] == out[1] == "t_f: 481.20387 (within 1e-06 of 481.2038723): ok"
     assert out[2] == "mass: 18.00 (within 0.0001 relative of 18): ok"
+    assert out[3] == out[4] == "residual: 0.00 (within 0.001 of 0): ok"
+    assert out[5] == "altitude: 1200 (within 50 of 1230): ok"
 
 
 def test_exact_equality_is_stated(capsys):

@@ -51,6 +51,8 @@ def test_each_class_accepts_what_its_computation_supports_and_nothing_more():
     e = Error(floor=1e-10)
     assert e.accepts(4.639e-8, 4.773e-8) and e.accepts(3.66e-15, 3.33e-15) and e.accepts(-1e-16, 5e-11)
     assert not e.accepts(1e-6, 3e-6) and not e.accepts(-1e-6, 1e-6)
+    # continuous at the floor: a value below it counts as the floor
+    assert e.accepts(4e-11, 1.12e-10) and not e.accepts(4e-11, 2.5e-10)
     # order: a tenth; path: a factor of 3 (+ 10)
     assert Order().accepts(5.41112, 5.41083) and not Order().accepts(4.6, 4.1)
     assert SolverPath().accepts([83, 19, 25], [51, 34, 8]).all() and not SolverPath().accepts(300, 51)

@@ -208,3 +208,50 @@ def test_a_killed_run_leaves_no_sockets_and_its_staging_goes_with_the_next_run(c
     assert again.returncode == 0, again.stderr[-2000:]
     assert not entry.exists() and not staging.exists(), "the next run into the folder removed the leftovers"
     assert (folder / "figures" / "tiny.png").is_file()
+
+
+def _commit(root: Path) -> None:
+    identity = ["-c", "user.name=test", "-c", "user.email=test@localhost", "-c", "commit.gpgsign=false"]
+    for args in (["init", "-q"], ["add", "-A"], [*identity, "commit", "-q", "-m", "the compendium"]):
+        subprocess.run(["git", *args], cwd=root, check=True, capture_output=True)
+
+
+def _lab_style_run(compendium: Path, nb) -> None:
+    from nbclient import NotebookClient
+
+    NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
+
+
+def test_the_tracked_notebook_edited_and_saved_is_not_the_committed_one(compendium):
+    """In a git checkout, the committed notebook is HEAD's: an edit saved over the tracked file does not publish."""
+    _commit(compendium)
+    path = compendium / "notebooks" / f"{NOTEBOOK}.ipynb"
+    nb = nbformat.read(str(path), as_version=4)
+    nb.cells[3].source = nb.cells[3].source.replace("x**2", "x**3")
+    nbformat.write(nb, str(path))  # saved, not committed
+    _lab_style_run(compendium, nb)
+    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
+    refused = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
+    assert refused.returncode == 2 and f"notebooks/{NOTEBOOK}.ipynb as committed (HEAD)" in refused.stderr
+    assert _published(compendium) == []
+
+
+def test_a_cell_made_to_look_like_papermill_s_does_not_slip_past_the_digests(compendium):
+    _commit(compendium)
+    nb = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
+    nb.cells.insert(3, _cell("# Parameters\nn = 50"))  # run in the session, never saved
+    _lab_style_run(compendium, nb)
+    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
+    refused = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
+    assert refused.returncode == 2 and "is not that of" in refused.stderr and _published(compendium) == []
+
+
+def test_the_runner_says_where_a_copy_s_figures_went(compendium):
+    copy = compendium / "notebooks" / "11_copy.ipynb"
+    copy.write_bytes((compendium / "notebooks" / f"{NOTEBOOK}.ipynb").read_bytes())
+    proc = _run(["-m", "compendium.notebooks", "run", "notebooks/11_copy.ipynb"], compendium)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert f"into build/runs/11_copy/defaults/; its figures and tables are in build/runs/{NOTEBOOK}/defaults/" in (
+        proc.stderr
+    )
+    assert (compendium / "build" / "runs" / NOTEBOOK / "defaults" / "figures" / "tiny.png").is_file()

@@ -199,11 +199,11 @@ def _moved(text: str, klass, rng) -> str:
     if x is None or math.isnan(x) or isinstance(klass, Exact):
         return text
     x = float(x)
-    if isinstance(klass, Converged):
-        return repr(float(x * (1 + 1e-9 * rng.choice([-1, 1]))))
+    if isinstance(klass, Converged):  # by a third of the tolerance
+        return repr(float(x * (1 + 0.3 * klass.rtol * rng.choice([-1, 1]))))
     if isinstance(klass, Error):
-        if abs(x) <= klass.floor:
-            return repr(float(klass.floor * rng.uniform(-1, 1)))
+        if abs(x) <= 2 * klass.floor:  # at the floor: anywhere below it, or a little above
+            return repr(float(klass.floor * rng.uniform(-1, 1.5)))
         return repr(float(x * rng.uniform(1 / (0.95 * klass.factor), 0.95 * klass.factor)))
     if isinstance(klass, Order):
         return repr(float(x + rng.uniform(-0.08, 0.08)))
@@ -243,11 +243,11 @@ def _move_figure(data: dict, spec, rng) -> dict:
                     artist[part] = [None if v is None else v * 3.7 for v in artist[part]][
                         : max(1, len(artist[part]) // 2)
                     ]
-                elif isinstance(klass, Converged):
-                    artist[part] = [None if v is None else v + 1e-9 * span for v in artist[part]]
+                elif isinstance(klass, Converged):  # by a third of the tolerance, relative to the axis' span
+                    artist[part] = [None if v is None else v + 0.3 * klass.rtol * span for v in artist[part]]
                 elif isinstance(klass, Error):
                     artist[part] = [
-                        None if v is None else (v * 1.5 if abs(v) > klass.floor else klass.floor * 0.5)
+                        None if v is None else (v * 1.5 if abs(v) > 2 * klass.floor else klass.floor * 0.5)
                         for v in artist[part]
                     ]
     return data
@@ -386,3 +386,62 @@ def test_a_failed_run_is_compared_by_its_status_only():
     assert {"fuel_kg", "norm_S"} <= spec.not_compared(fresh, committed, committed.index)
     committed["converged"] = "True"
     assert {"fuel_kg", "norm_S"} <= spec.not_compared(fresh, committed, committed.index), "either side failed"
+
+
+def test_figure_selectors_by_label_and_the_axes_a_search_drew():
+    from compendium.contract import FigureSpec
+
+    def data(ends, branches, title="fuel against the horizon"):
+        fig, (a, b) = plt.subplots(1, 2)
+        a.plot([0.0, 1.0], [1.0, 2.0], label="x")
+        a.plot(ends, [0.0] * len(ends), "|", label="interval ends")
+        for k, y in enumerate(branches):
+            b.plot([1.0, 2.0], y, label=f"branch {k}")
+        b.set_title(title)
+        out = figure_data(fig)
+        plt.close(fig)
+        return out
+
+    spec = FigureSpec.from_toml("f", {"path": ["0[interval ends]", "1"]})
+    committed = data([0.0, 0.5, 1.0], [[1.0, 2.0], [3.0, 4.0]])
+    # another mesh, other branches: what refinement and a search chose
+    assert compare_figure_data(data([0.0, 0.3, 0.6, 1.0], [[1.0, 2.0]]), committed, spec) == []
+    assert compare_figure_data(data([0.0, 0.5, 1.0], [[1.0, 2.0]], title="fuel"), committed, spec), "texts still count"
+    assert compare_figure_data(data([0.0, 0.5, 1.0], [[1.0, 2.0]]), committed, FigureSpec("f")), "without selectors"
+
+
+def test_a_parameter_on_a_logarithmic_x_axis_is_compared_as_a_value():
+    from compendium.contract import FigureSpec
+
+    def data(x):
+        fig, ax = plt.subplots()
+        ax.semilogx(x, [1.0, 2.0, 3.0])
+        out = figure_data(fig)
+        plt.close(fig)
+        return out
+
+    assert compare_figure_data(data([0.1, 1.0, 5.0 * 1.9]), data([0.1, 1.0, 5.0]), FigureSpec("f"))
+
+
+def test_edge_cases_of_tables_and_summaries(tmp_path):
+    from compendium.contract import TableSpec
+    from compendium.guard import compare_json, compare_tables
+
+    spec = TableSpec.from_toml("t", {"key": ["a"], "exact": ["a"], "converged": ["b"]})
+    twice = pd.DataFrame({"a": ["1", "1"], "b": ["2.0", "3.0"]})
+    assert "does not identify a row" in compare_tables(twice, twice, spec)[0]
+    once = pd.DataFrame({"a": ["5", "2"], "b": ["inf", ""]})
+    assert compare_tables(pd.DataFrame({"a": ["2.0", "5.0"], "b": ["", "inf"]}), once, spec) == []
+    (tmp_path / "a.json").write_text(json.dumps({"names": ["x", "y"], "t": [1.0, 2.0]}))
+    (tmp_path / "b.json").write_text(json.dumps({"names": ["x", "z"], "t": [1.0, 2.0]}))
+    summary = TableSpec.from_toml("s", {"exact": ["names"], "converged": ["t"]})
+    assert compare_json(tmp_path / "a.json", tmp_path / "a.json", summary) == []
+    assert "names" in compare_json(tmp_path / "a.json", tmp_path / "b.json", summary)[0]
+
+
+def test_a_notebook_whose_run_is_missing_is_a_difference(record):
+    ref, fresh = record
+    (ref / "notebooks" / "contract.toml").write_text(CONTRACT + '\n["other".figures.g]\n')
+    assert "other: the contract declares its files, but no run of it is recorded" in "\n".join(
+        guard(fresh, ref).differences
+    )

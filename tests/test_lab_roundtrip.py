@@ -5,8 +5,8 @@ clone) is served by `python -m compendium.lab` (``OCPKIT_ROOT`` = the clone), in
 ``make lab`` (neither ``OCPKIT_OUTPUT_DIR`` nor ``OCPKIT_PROGRESS`` set). Headless Chromium, driven over the Chrome
 DevTools Protocol (websocket-client, already a dependency of jupyter_server), opens the notebook and runs Lab's own
 commands, the ones behind the Kernel and File menus (``notebook:restart-run-all``, its confirmation dialog
-accepted, then ``docmanager:save``). Then ``git status`` of the clone's notebooks/ must be empty; when it is not,
-the failure says which cells and outputs changed, and how.
+accepted, then ``docmanager:save``). Then ``git status`` of the clone must be empty (the notebook, figures/ and
+data/); when it is not, the failure says which cells and outputs changed, and how.
 
 ``OCPKIT_LAB_ROUNDTRIP=00_validation.ipynb,04_shooting_validation.ipynb`` runs other notebooks than the default
 (the fastest with figures and tables, about 20 s of cells; the whole test takes about 40 s).
@@ -450,7 +450,7 @@ def describe_changes(old_text: str, new_text: str) -> str:
 @needs_chromium  # under make test, a missing Chromium fails (OCPKIT_REQUIRE_BROWSER)
 @pytest.mark.parametrize("name", NOTEBOOKS)
 def test_restart_run_all_and_save_in_lab_leaves_the_stored_notebook_unchanged(name, tmp_path, monkeypatch):
-    # a reader's `make lab`: outputs go where the notebook's defaults send them, progress bars under the cells
+    # a reader's `make lab`: outputs go to the run's own folder, progress bars to the server's terminal
     monkeypatch.delenv("OCPKIT_OUTPUT_DIR", raising=False)
     monkeypatch.delenv("OCPKIT_PROGRESS", raising=False)
     clone = tmp_path / "clone"
@@ -472,7 +472,7 @@ def test_restart_run_all_and_save_in_lab_leaves_the_stored_notebook_unchanged(na
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
     print(f"{name}: " + ", ".join(f"{step} {seconds:.1f} s" for step, seconds in timings.items()))
-    status = _git(clone, "status", "--porcelain", "--", "notebooks")
+    status = _git(clone, "status", "--porcelain")  # the notebook and the published record; build/ is ignored
     if status:
         saved = path.read_text()
         shutil.copy(path, tmp_path / f"saved-{name}")  # kept by pytest's tmp_path for a closer look

@@ -171,9 +171,13 @@ def test_what_the_contract_does_not_declare_is_written_with_a_warning(repo):
         out.table(pd.DataFrame({"x": [1.0], "y": [2.0]}), "a_table")
 
 
-def test_executed_code_leaves_out_papermill_s_injected_cell():
-    sources = ["segments = 20", "# Parameters\nsegments = 40\n", "print(segments)  "]
-    assert executed_code(sources) == executed_code(["segments = 20", "print(segments)"])
+def test_executed_code_leaves_out_papermill_s_injected_cell_and_only_that():
+    parameters = "segments = 20"
+    sources = [parameters, "# Parameters\nsegments = 40\n", "print(segments)  "]
+    assert executed_code(sources, parameters) == executed_code([parameters, "print(segments)"], parameters)
+    # the same cell run by a user after the notebook's first cells is code like any other
+    later = [parameters, "print(segments)", "# Parameters\nsegments = 50"]
+    assert len(executed_code(later, parameters)) == 3
 
 
 def _complete_run(repo, code=None, parameters=None):

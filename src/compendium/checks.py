@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import math
 
-KINDS = ("exact", "converged", "error", "order", "path")
+from .contract import CLASSES
+
+KINDS = tuple(CLASSES)  # the classes of the contract
 APPROX = "≈"
 
 
@@ -28,11 +30,13 @@ def approx(value, digits: int = 2) -> str:
 
 
 def _rounded(value: float, resolution: float) -> str:
-    """``value`` to the decade ``resolution`` (a power of ten), in significant digits."""
-    if value == 0 or not math.isfinite(value):
+    """``value`` to the decade ``resolution`` (a power of ten), in fixed point: ``18.00``, ``7529.7``, ``0.00``."""
+    if not math.isfinite(value):
         return f"{value:g}"
-    digits = max(1, math.floor(math.log10(abs(value))) - round(math.log10(resolution)) + 1)
-    return f"{value:#.{digits}g}".rstrip(".")  # keep the zeros the resolution resolves: 18.00
+    decade = round(math.log10(resolution))
+    if decade >= 0:
+        return f"{round(value / resolution) * resolution:.0f}"
+    return f"{value:.{-decade}f}"
 
 
 def check(

@@ -19,8 +19,9 @@ the committed ``b``:
 ``error(factor=2, floor=0)``
     error estimates, errors against a reference or a closed form, re-integration errors, residuals (|S| at
     convergence), noise measures: small differences of nearly equal numbers, accurate only in magnitude.
-    ``max(|a|, |b|) <= factor * min(|a|, |b|)`` with the same sign, or both ``|a|, |b| <= floor``, the level
-    below which the quantity is rounding noise (stated where it is declared).
+    ``max(a', b') <= factor * min(a', b')`` with ``a' = max(|a|, floor)`` (a value below the floor, the level
+    below which the quantity is noise, stated where it is declared, counts as the floor; so two values below it are
+    equal), of the same sign unless one is below the floor.
 ``order(atol=0.1)``
     fitted convergence orders, slopes of log error against log mesh size: ``|a - b| <= atol`` (the README
     states them to one decimal).
@@ -109,7 +110,7 @@ class Converged(Class):
         a, b, both, either = _nan_mask(a, b)
         s = np.abs(b) if scale is None else scale
         with np.errstate(invalid="ignore"):
-            ok = np.abs(a - b) <= self.atol + self.rtol * s + np.asarray(resolution, dtype=float)
+            ok = (a == b) | (np.abs(a - b) <= self.atol + self.rtol * s + np.asarray(resolution, dtype=float))
         return both | (~either & ok)
 
 
@@ -124,10 +125,11 @@ class Error(Class):
     def accepts(self, a, b, resolution=0.0, scale=None):
         a, b, both, either = _nan_mask(a, b)
         with np.errstate(invalid="ignore", divide="ignore"):
-            small = (np.abs(a) <= self.floor) & (np.abs(b) <= self.floor)
-            lo, hi = np.minimum(np.abs(a), np.abs(b)), np.maximum(np.abs(a), np.abs(b))
-            same = (np.sign(a) == np.sign(b)) & (hi <= self.factor * lo + np.asarray(resolution, dtype=float))
-        return both | (~either & (small | same | (a == b)))
+            fa, fb = np.maximum(np.abs(a), self.floor), np.maximum(np.abs(b), self.floor)
+            lo, hi = np.minimum(fa, fb), np.maximum(fa, fb)
+            signs = (np.sign(a) == np.sign(b)) | (np.abs(a) <= self.floor) | (np.abs(b) <= self.floor)
+            ok = signs & (hi <= self.factor * lo + np.asarray(resolution, dtype=float))
+        return both | (~either & (ok | (a == b)))
 
 
 class Order(Class):
@@ -207,27 +209,22 @@ def to_number(text) -> float | None:
         return None
 
 
-def resolution(text) -> float:
-    """One unit of the last digit ``text`` prints: ``"0.4466"`` -> 1e-4, ``"4.6e-08"`` -> 1e-9, ``"5365"`` -> 1."""
-    if not isinstance(text, str):
-        return 0.0
-    m = re.fullmatch(r"\s*[-+]?(\d*)(?:\.(\d*))?(?:[eE]([-+]?\d+))?\s*", text)
-    if not m or not (m.group(1) or m.group(2)):
-        return 0.0
-    decimals = len(m.group(2) or "")
-    exponent = int(m.group(3) or 0)
-    return 10.0 ** (exponent - decimals)
+_WRITTEN = re.compile(r"\s*[-+]?(\d*)(?:\.(\d*))?(?:[eE]([-+]?\d+))?\s*")
 
 
-def _written(text) -> tuple[int, int, bool] | None:
-    """``(decimals, significant digits, has an exponent)`` of a number as written, ``None`` for anything else."""
-    if not isinstance(text, str):
-        return None
-    m = re.fullmatch(r"\s*[-+]?(\d*)(?:\.(\d*))?([eE][-+]?\d+)?\s*", text)
+def _written(text) -> tuple[int, int, int | None] | None:
+    """``(decimals, significant digits, exponent or None)`` of a number as written, ``None`` for anything else."""
+    m = _WRITTEN.fullmatch(text) if isinstance(text, str) else None
     if not m or not (m.group(1) or m.group(2)):
         return None
     digits = ((m.group(1) or "") + (m.group(2) or "")).lstrip("0")
-    return len(m.group(2) or ""), max(len(digits), 1), m.group(3) is not None
+    return len(m.group(2) or ""), max(len(digits), 1), int(m.group(3)) if m.group(3) else None
+
+
+def resolution(text) -> float:
+    """One unit of the last digit ``text`` prints: ``"0.4466"`` -> 1e-4, ``"4.6e-08"`` -> 1e-9, ``"5365"`` -> 1."""
+    w = _written(text)
+    return 0.0 if w is None else 10.0 ** ((w[2] or 0) - w[0])
 
 
 def column_resolutions(texts) -> list[float]:
@@ -242,7 +239,7 @@ def column_resolutions(texts) -> list[float]:
     numbers = [w for w in written if w is not None]
     if not numbers:
         return [0.0] * len(texts)
-    if all(not w[2] and w[0] == numbers[0][0] for w in numbers):
+    if all(w[2] is None and w[0] == numbers[0][0] for w in numbers):
         return [10.0 ** -numbers[0][0] if w is not None else 0.0 for w in written]
     significant = max(w[1] for w in numbers)
     out = []
@@ -277,7 +274,7 @@ KINDS = {
     "markdown": ("data/derived", (".md",)),
     "figures": ("figures", (".png", ".pdf")),
 }
-FIGURE_DATA = "data"  # figures/data/<name>.json: the arrays a figure draws (compendium.figure_data)
+FIGURE_DATA = "figures/data"  # <name>.json: the arrays a figure draws (compendium.figure_data)
 
 
 @dataclass
@@ -370,25 +367,45 @@ class TableSpec:
         return spec
 
 
+_SELECTOR = re.compile(
+    r"suptitle|(?P<axes>\d+|\*)(?:\[(?P<label>[^\]]+)\])?(?:\.(?P<part>x|y|z|c|title|xlabel|ylabel|legend|texts))?"
+)
+
+
 @dataclass
 class FigureSpec:
-    """The classes of what a figure draws, by selector (``"1.y"``: the y data of the second axes, ``"*.x"``,
-    ``"0"``: every coordinate of the first axes, ``"suptitle"``, ``"0.title"``); anything not selected takes the
-    class of its axis' scale: ``error()`` on a logarithmic axis (a magnitude is what it shows),
-    ``converged(scale="column")`` on a linear one (relative to the axis' span), numbers in texts ``converged``."""
+    """The classes of what a figure draws, by selector: ``"1.y"`` (the y data of the second axes), ``"*.x"``, ``"0"``
+    (every coordinate of the first axes), ``"0[interval ends]"`` (the artists of the first axes whose label matches
+    the glob pattern), ``"0.legend"``, ``"0.title"``, ``"suptitle"``. Anything not selected: ``error()`` for y and z
+    on a logarithmic axis (a magnitude is what it shows), ``converged(scale="column")`` otherwise (relative to the
+    axis' span; x is a parameter or a mesh even on a logarithmic axis), numbers in texts ``converged``. An artist
+    whose class is ``path`` (what a search found, an iteration history) is not compared, nor counted."""
 
     name: str
     selectors: list[tuple[str, Class]] = field(default_factory=list)
 
-    def class_of(self, axes: int | None, part: str, scale: str | None = None) -> Class:
-        candidates = [f"{axes}.{part}", f"{axes}", f"*.{part}", "*"] if axes is not None else [part]
+    def class_of(self, axes: int | None, part: str, scale: str | None = None, label: str | None = None) -> Class:
+        if axes is None:
+            candidates = [part]
+        else:
+            candidates = [f"{axes}.{part}", f"{axes}", f"*.{part}", "*"]
         for want in candidates:
             for selector, klass in self.selectors:
                 if selector == want:
                     return klass
-        if part in ("x", "y", "z") and scale == "log":
+        if part in ("y", "z") and scale == "log":
             return Error()
         return Converged(scale="column")
+
+    def artist_class(self, axes: int, label: str, part: str | None = None) -> Class | None:
+        """The class a label selector gives the artist (``None`` when none selects it)."""
+        for selector, klass in self.selectors:
+            m = _SELECTOR.fullmatch(selector)
+            if not m or m["label"] is None or m["axes"] not in (str(axes), "*"):
+                continue
+            if fnmatch.fnmatchcase(label, m["label"]) and (m["part"] is None or m["part"] == part):
+                return klass
+        return None
 
     @classmethod
     def from_toml(cls, name: str, table: Mapping) -> FigureSpec:
@@ -396,9 +413,7 @@ class FigureSpec:
         for entry, value in table.items():
             klass = parse_class(entry)
             for selector in _names(value, f"{name}.{entry}"):
-                if not re.fullmatch(
-                    r"suptitle|(\d+|\*)(\.(x|y|z|c|limits|title|xlabel|ylabel|legend|texts))?", selector
-                ):
+                if not _SELECTOR.fullmatch(selector):
                     raise ValueError(f"figure {name}: cannot read the selector {selector!r}")
                 spec.selectors.append((selector, klass))
         return spec
@@ -421,7 +436,7 @@ class NotebookContract:
                 for suffix in suffixes:
                     out[f"{folder}/{stem}{suffix}"] = (kind, spec)
                 if kind == "figures":
-                    out[f"figures/{FIGURE_DATA}/{stem}.json"] = ("figure data", spec)
+                    out[f"{FIGURE_DATA}/{stem}.json"] = ("figure data", spec)
         return out
 
 

@@ -13,8 +13,9 @@ Every run leaves a record (:mod:`compendium.outputs`) naming its notebook, param
 
    * CSV tables: the same columns; rows paired by the table's ``key`` (else by position); each value accepted by
      its column's class; rows of runs that failed (the ``status`` column) by their key and status only;
-   * JSON summaries: the same keys, each value by its class; Markdown tables: the text around them exactly, the
-     cells by their column's class (numbers as printed: one unit of the last digit is part of the tolerance);
+   * JSON summaries: the same keys, each value by its class; Markdown: the words of the text around the tables
+     exactly and its numbers as converged values, the cells by their column's class (numbers as printed: one unit
+     of the last digit is part of the tolerance);
    * figures: the arrays they draw (``figures/data/<name>.json``, :mod:`compendium.figure_data`) by the classes
      of the figure's declaration (by default, the class of each axis' scale), their texts word for word with the
      numbers as converged values. PNG and PDF bytes, which depend on the machine's last bits, fonts and
@@ -46,7 +47,6 @@ from .contract import (
     Class,
     Contract,
     Converged,
-    Exact,
     FigureSpec,
     SolverPath,
     TableSpec,
@@ -78,8 +78,6 @@ def _accepts(klass: Class, a: str, b: str, scale: float | None = None, resolutio
     x, y = to_number(a), to_number(b)
     if x is None or y is None:  # text, booleans; a flag of the solver's path (which of two runs ended lower) is
         return isinstance(klass, SolverPath) or str(a).strip() == str(b).strip()  # recorded, not compared
-    if isinstance(klass, Exact) and not (math.isnan(x) and math.isnan(y)):
-        return x == y
     return bool(klass.accepts(x, y, resolution, scale))
 
 
@@ -102,10 +100,6 @@ def _column_scale(spec: TableSpec, column: str, values: pd.Series) -> float | No
         finite = [abs(v) for v in numbers if v is not None and math.isfinite(v)]
         return max(finite, default=0.0)
     return None
-
-
-def _key_of(row: pd.Series, spec: TableSpec) -> tuple:
-    return tuple(row[c] for c in spec.key)
 
 
 def _normal_key(row: pd.Series, spec: TableSpec) -> tuple:
@@ -178,6 +172,11 @@ def compare_tables(
     by_key: dict[tuple, list[int]] = {}
     for j in range(len(committed)):
         by_key.setdefault(_normal_key(committed.iloc[j], spec), []).append(j)
+    repeated = [k for k, rows in by_key.items() if len(rows) > 1]
+    if repeated:
+        return [
+            f"the key {spec.key} does not identify a row: {repeated[0]} is the key of {len(by_key[repeated[0]])} rows"
+        ]
     used: set[int] = set()
     for i in range(len(fresh)):
         row = fresh.iloc[i]
@@ -241,8 +240,13 @@ def compare_json(fresh: Path, committed: Path, spec: TableSpec) -> list[str]:
         if klass is None:
             out.append(f"key {key!r} has no class in the contract")
         elif isinstance(b[key], list) and isinstance(a[key], list):
-            x, y = np.asarray(a[key], dtype=float), np.asarray(b[key], dtype=float)
-            if x.shape != y.shape or not klass.accepts(x, y).all():
+            numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in a[key] + b[key])
+            if not numbers:
+                same = a[key] == b[key]
+            else:
+                x, y = np.asarray(a[key], dtype=float), np.asarray(b[key], dtype=float)
+                same = x.shape == y.shape and bool(klass.accepts(x, y).all())
+            if not same:
                 out.append(f"{key}: {a[key]} != committed {b[key]} ({klass.describe()})")
         elif not _accepts(klass, _field(a[key]), _field(b[key])):
             out.append(f"{key}: {_show(a[key])} != committed {_show(b[key])} ({klass.describe()})")
@@ -295,70 +299,109 @@ def _array(values) -> np.ndarray:
     return np.array([np.nan if v is None else v for v in values], dtype=float)
 
 
-def _coordinate_scale(axes: dict, part: str) -> float:
-    values = [np.abs(_array(a[part])) for a in axes["artists"] if part in a]
+def _span(artists: list[dict], part: str) -> float:
+    """The largest magnitude an axis shows: the scale of its ``converged`` comparisons."""
+    values = [np.abs(_array(a[part])) for a in artists if part in a]
     finite = np.concatenate(values) if values else np.zeros(0)
     finite = finite[np.isfinite(finite)]
     return float(finite.max()) if finite.size else 0.0
 
 
+def _figure_texts(fresh: dict, committed: dict, spec: FigureSpec, i: int, where: str) -> list[str]:
+    out = []
+    for key in ("xscale", "yscale", "zscale", "colorbar"):
+        if fresh.get(key) != committed.get(key):
+            out.append(f"{where}: {key} {fresh.get(key)!r} != committed {committed.get(key)!r}")
+    for key in ("title", "xlabel", "ylabel", "zlabel"):
+        out += text_differences(fresh.get(key) or "", committed.get(key) or "", spec.class_of(i, key), f"{where} {key}")
+    for key in ("legend", "texts"):
+        klass = spec.class_of(i, key)
+        if isinstance(klass, SolverPath):
+            continue  # the legend of what a search found, or of a solver's path
+        if len(fresh[key]) != len(committed[key]):
+            out.append(f"{where}: {len(fresh[key])} {key} entries != committed {len(committed[key])}")
+        else:
+            for x, y in zip(fresh[key], committed[key]):
+                out += text_differences(x, y, klass, f"{where} {key}")
+    return out
+
+
+def _artist_class(spec: FigureSpec, i: int, artist: dict, part: str, axes: dict) -> Class:
+    return (
+        spec.artist_class(i, artist["label"], part)
+        or spec.artist_class(i, artist["label"])
+        or spec.class_of(i, part, axes.get(f"{part}scale"))
+    )
+
+
+def _compared_artists(axes: dict, spec: FigureSpec, i: int) -> list[dict]:
+    """The artists of an axes the contract compares: not those it declares ``path`` by their label."""
+    return [a for a in axes["artists"] if not isinstance(spec.artist_class(i, a["label"]), SolverPath)]
+
+
+def _figure_artists(fresh: dict, committed: dict, spec: FigureSpec, i: int, where: str) -> list[str]:
+    fa, ca = _compared_artists(fresh, spec, i), _compared_artists(committed, spec, i)
+    kinds_a, kinds_b = [a["type"] for a in fa], [a["type"] for a in ca]
+    if kinds_a != kinds_b:
+        return [f"{where}: artists {kinds_a} != committed {kinds_b}"]
+    out = []
+    for j, (a, b) in enumerate(zip(fa, ca)):
+        out += text_differences(a["label"], b["label"], spec.class_of(i, "legend"), f"{where} artist {j} label")
+        for part in ("x", "y", "z", "c"):
+            if (part in a) != (part in b):
+                out.append(f"{where} artist {j}: {part} data in one figure only")
+                continue
+            klass = _artist_class(spec, i, b, part, committed)
+            if part not in b or isinstance(klass, SolverPath):
+                continue
+            scale = _span(ca, part) if isinstance(klass, Converged) and klass.scale == "column" else None
+            x, y = _array(a[part]), _array(b[part])
+            if x.shape != y.shape:
+                out.append(f"{where} artist {j} ({b['label'] or b['type']}): {x.size} {part} values != {y.size}")
+                continue
+            bad = ~klass.accepts(x, y, scale=scale)
+            if bad.any():
+                k = int(np.argmax(bad))
+                out.append(
+                    f"{where} artist {j} ({b['label'] or b['type']}): {int(bad.sum())} of {y.size} {part} values "
+                    f"differ, e.g. [{k}] {x[k]:.9g} != committed {y[k]:.9g} ({klass.describe()})"
+                )
+    return out
+
+
+def _figure_limits(fresh: dict, committed: dict, spec: FigureSpec, i: int, where: str) -> list[str]:
+    """The axis limits, which follow the data: by each coordinate's class, relative to the axis' span."""
+    out = []
+    for part in ("x", "y", "z"):
+        limits = f"{part}lim"
+        if limits not in committed:
+            continue
+        klass = spec.class_of(i, part, committed.get(f"{part}scale"))
+        if isinstance(klass, SolverPath):
+            continue
+        x, y = _array(fresh[limits]), _array(committed[limits])
+        if isinstance(klass, Converged):
+            klass = Converged(klass.rtol, klass.atol, "column")
+        span = max(_span(_compared_artists(committed, spec, i), part), float(np.nanmax(np.abs(y))) if y.size else 0.0)
+        if x.shape != y.shape or not klass.accepts(x, y, scale=span).all():
+            out.append(f"{where}: {limits} {fresh[limits]} != committed {committed[limits]}")
+    return out
+
+
 def compare_figure_data(fresh: dict, committed: dict, spec: FigureSpec) -> list[str]:
-    """Differences of what a fresh figure draws from the committed one (:mod:`compendium.figure_data`)."""
+    """Differences of what a fresh figure draws from the committed one (:mod:`compendium.figure_data`): its texts,
+    scales and artists, each coordinate by its class; an axes whose x and y are both ``path`` (what a search found,
+    a solver's history) by its texts and scales only."""
     out = text_differences(fresh.get("suptitle", ""), committed.get("suptitle", ""), spec.class_of(None, "suptitle"))
     if len(fresh["axes"]) != len(committed["axes"]):
         return out + [f"{len(fresh['axes'])} axes != committed {len(committed['axes'])}"]
     for i, (fa, ca) in enumerate(zip(fresh["axes"], committed["axes"])):
         where = f"axes {i}"
+        out += _figure_texts(fa, ca, spec, i, where)
         if all(isinstance(spec.class_of(i, p, ca.get(f"{p}scale")), SolverPath) for p in ("x", "y")):
-            continue  # what a search or a solver's path drew (an iteration history, branches found): not compared
-        for key in ("xscale", "yscale", "zscale", "colorbar"):
-            if fa.get(key) != ca.get(key):
-                out.append(f"{where}: {key} {fa.get(key)!r} != committed {ca.get(key)!r}")
-        for key in ("title", "xlabel", "ylabel", "zlabel"):
-            out += text_differences(fa.get(key) or "", ca.get(key) or "", spec.class_of(i, key), f"{where} {key}")
-        for key in ("legend", "texts"):
-            if len(fa[key]) != len(ca[key]):
-                out.append(f"{where}: {len(fa[key])} {key} entries != committed {len(ca[key])}")
-            else:
-                for x, y in zip(fa[key], ca[key]):
-                    out += text_differences(x, y, spec.class_of(i, key), f"{where} {key}")
-        kinds_a = [(a["type"], a["label"]) for a in fa["artists"]]
-        kinds_b = [(a["type"], a["label"]) for a in ca["artists"]]
-        if [k for k, _ in kinds_a] != [k for k, _ in kinds_b]:
-            out.append(f"{where}: artists {[k for k, _ in kinds_a]} != committed {[k for k, _ in kinds_b]}")
             continue
-        for j, ((_, la), (_, lb)) in enumerate(zip(kinds_a, kinds_b)):
-            out += text_differences(la, lb, spec.class_of(i, "legend"), f"{where} artist {j} label")
-        for part in ("x", "y", "z", "c"):
-            klass = spec.class_of(i, part, ca.get(f"{part}scale"))
-            if isinstance(klass, SolverPath):
-                continue  # how a solver got there (an iteration history): recorded, not compared
-            scale = _coordinate_scale(ca, part) if isinstance(klass, Converged) and klass.scale == "column" else None
-            for j, (a, b) in enumerate(zip(fa["artists"], ca["artists"])):
-                if (part in a) != (part in b):
-                    out.append(f"{where} artist {j}: {part} data in one figure only")
-                    continue
-                if part not in b:
-                    continue
-                x, y = _array(a[part]), _array(b[part])
-                if x.shape != y.shape:
-                    out.append(f"{where} artist {j} ({b['label'] or b['type']}): {x.size} {part} values != {y.size}")
-                    continue
-                bad = ~klass.accepts(x, y, scale=scale)
-                if bad.any():
-                    k = int(np.argmax(bad))
-                    out.append(
-                        f"{where} artist {j} ({b['label'] or b['type']}): {int(bad.sum())} of {y.size} {part} values "
-                        f"differ, e.g. [{k}] {x[k]:.9g} != committed {y[k]:.9g} ({klass.describe()})"
-                    )
-            limits = f"{part}lim"
-            if limits in ca and part != "c":
-                x, y = _array(fa[limits]), _array(ca[limits])
-                # limits follow the data: by the coordinate's class, at the resolution of the axis
-                lim_class = klass if not isinstance(klass, Converged) else Converged(klass.rtol, klass.atol, "column")
-                lim_scale = max(_coordinate_scale(ca, part), float(np.nanmax(np.abs(y)))) if y.size else None
-                if x.shape != y.shape or not lim_class.accepts(x, y, scale=lim_scale).all():
-                    out.append(f"{where}: {limits} {fa[limits]} != committed {ca[limits]}")
+        out += _figure_artists(fa, ca, spec, i, where)
+        out += _figure_limits(fa, ca, spec, i, where)
     return out
 
 
@@ -457,8 +500,16 @@ def guard(output_root: str | Path, reference: str | Path | None = None) -> Repor
     report = Report()
     if not records:
         report.differences.append(f"no run records under {output_root / RUNS}: did the notebooks run?")
+    seen = set()
     for path in records:
-        check_run(output_root, json.loads(path.read_text()), reference, contract, report)
+        record = json.loads(path.read_text())
+        seen.add(record["notebook"])
+        check_run(output_root, record, reference, contract, report)
+    if records:
+        report.differences += [
+            f"{nb}: the contract declares its files, but no run of it is recorded under {output_root / RUNS}"
+            for nb in sorted(set(contract.notebooks) - seen)
+        ]
     report.differences += [
         f"{rel}: committed, but no notebook's contract declares it"
         for rel in undeclared_committed_files(reference, contract)

@@ -22,6 +22,7 @@ import argparse
 import ast
 import html
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -214,37 +215,87 @@ def run(
     runs: str | Path | None = None,
     kernel: str = KERNEL_NAME,
     progress: bool = False,
-) -> Path:
-    """Execute a notebook into its run folder (:func:`compendium.outputs.run_folder`): the executed notebook,
-    its figures, tables and record side by side. ``runs``: the folder of run folders (default ``build/runs``).
-    Returns the run folder."""
+) -> tuple[Path, Path]:
+    """Execute a notebook into a run folder (:func:`compendium.outputs.run_folder`): the executed notebook, its
+    figures, tables and record side by side. ``runs``: the folder of run folders (default ``build/runs``).
+
+    Returns the folder of the executed notebook and that of the run's figures and tables, as the run's first output
+    line names it: a copy of a compendium notebook writes where the notebook it copies would.
+    """
     from .outputs import run_folder
 
     path, parameters = Path(path), dict(parameters or {})
     check_parameters(path, parameters)
-    folder = run_folder(path.stem, _run_parameters(path, parameters), runs)
+    defaults = literal_parameters(path)
+    folder = run_folder(path.stem, defaults | parameters, runs, defaults)
     env = {"OCPKIT_RUNS_DIR": str(Path(runs).resolve())} if runs is not None else {}
-    execute(path, folder / path.name, parameters, kernel=kernel, cwd=folder, progress=progress, env=env)
-    return folder
+    executed = execute(path, folder / path.name, parameters, kernel=kernel, cwd=folder, progress=progress, env=env)
+    return folder, written_to(executed) or folder
+
+
+_WRITES_TO = re.compile(r"^This run writes its figures and tables to (.+?)/ when it completes")
+
+
+def written_to(executed: str | Path) -> Path | None:
+    """The folder an executed notebook's run wrote its figures and tables to (its first output line says)."""
+    import nbformat
+
+    from . import paths
+
+    nb = nbformat.read(str(executed), as_version=4)
+    for cell in nb.cells:
+        for output in cell.get("outputs", []) if cell.cell_type == "code" else []:
+            m = _WRITES_TO.match(output.get("text", ""))
+            if m:
+                where = Path(m.group(1))
+                return where if where.is_absolute() else paths.repo_root() / where
+    return None
 
 
 class PublishError(ValueError):
     """A run that may not become the published record (the message says why)."""
 
 
+def committed_code(notebook: str) -> tuple[list[str], str]:
+    """Digests of the code cells of ``notebooks/<notebook>.ipynb`` as committed (git's ``HEAD``), and what they are
+    of; outside a git checkout, of the file itself."""
+    import subprocess
+
+    import nbformat
+
+    from . import paths
+    from .outputs import code_digest
+
+    root = paths.repo_root()
+    rel = f"notebooks/{notebook}.ipynb"
+    inside = subprocess.run(["git", "-C", str(root), "rev-parse", "--show-toplevel"], capture_output=True, text=True)
+    if inside.returncode != 0 or Path(inside.stdout.strip()).resolve() != root.resolve():
+        from .outputs import notebook_code
+
+        return notebook_code(root / rel), rel
+    shown = subprocess.run(["git", "-C", str(root), "show", f"HEAD:{rel}"], capture_output=True, text=True)
+    if shown.returncode != 0:
+        raise PublishError(f"{rel} is not committed: commit it, then run it again, to publish its run")
+    nb = nbformat.reads(shown.stdout, as_version=4)
+    code = [c for c in nb.cells if c.cell_type == "code" and "injected-parameters" not in c.metadata.get("tags", [])]
+    return [code_digest(c.source) for c in code], f"{rel} as committed (HEAD)"
+
+
 def publish_run(folder: str | Path) -> list[str]:
     """Copy a complete run into the published record (``figures/``, ``data/derived/``); the files copied.
 
-    Only a run of the committed notebook (the tracked ``notebooks/<name>.ipynb``, unchanged: the digests of the
-    code cells its kernel executed are those of the file's code cells, in order, once each) with its published
-    parameters publishes; anything else raises :class:`PublishError` naming the reason.
+    Only a complete run of the committed notebook publishes: the digests of the code cells its kernel executed are
+    those of ``notebooks/<name>.ipynb`` as committed (:func:`committed_code`), in order, once each; its parameters
+    are the published ones; it wrote every file the contract declares for the notebook and nothing else. Anything
+    else raises :class:`PublishError` naming the reason.
     """
     import json
     import os
     import shutil
 
     from . import paths
-    from .outputs import RUNS, notebook_code, published_parameters
+    from .contract import load_contract
+    from .outputs import RUNS, published_parameters
 
     folder = Path(folder)
     records = sorted((folder / RUNS).glob("*.json"))
@@ -255,16 +306,26 @@ def publish_run(folder: str | Path) -> list[str]:
     tracked = paths.notebooks_dir() / f"{notebook}.ipynb"
     if not tracked.is_file():
         raise PublishError(f"{notebook} is not a notebook of the compendium ({tracked} does not exist)")
+    if record.get("code") is None:
+        raise PublishError(f"the run of {notebook} in {folder} recorded no executed code (not run in a Jupyter kernel)")
+    code, what = committed_code(notebook)
+    if record["code"] != code:
+        raise PublishError(
+            f"the code the kernel ran in {folder} is not that of {what}: an edited or copied notebook, or cells run "
+            "out of order (commit the notebook, restart the kernel and run all cells)"
+        )
     published = published_parameters(notebook)
     if record["parameters"] != json.loads(json.dumps(published)):
         changed = sorted(k for k in published if record["parameters"].get(k) != json.loads(json.dumps(published[k])))
         raise PublishError(f"the run of {notebook} in {folder} has other parameters than the published run: {changed}")
-    if record.get("code") is None:
-        raise PublishError(f"the run of {notebook} in {folder} recorded no executed code (not run in a Jupyter kernel)")
-    if record["code"] != notebook_code(tracked):
+    contract = load_contract()
+    if notebook not in contract:
+        raise PublishError(f"notebooks/contract.toml has no section for {notebook}: declare what it publishes")
+    declared, written = set(contract[notebook].files()), set(record["files"])
+    if declared != written:
         raise PublishError(
-            f"the code the kernel ran in {folder} is not that of {tracked.relative_to(paths.repo_root())}: an edited "
-            "or copied notebook, or cells run out of order (restart the kernel and run all cells)"
+            f"the run of {notebook} in {folder} did not write what the contract declares: "
+            f"missing {sorted(declared - written)[:5]}, undeclared {sorted(written - declared)[:5]}"
         )
     missing = [rel for rel in record["files"] if not (folder / rel).is_file()]
     if missing:
@@ -432,8 +493,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "run":
             given = {k: _parse_value(v) for k, v in args.parameter}
             for nb in _each(args.notebooks, "run"):
-                folder = run(nb, given, runs=args.output, kernel=args.kernel, progress=True)
-                _say(f"executed {nb}: the executed notebook, figures and tables are in {_where(folder)}")
+                folder, outputs = run(nb, given, runs=args.output, kernel=args.kernel, progress=True)
+                if outputs.resolve() == folder.resolve():
+                    _say(f"executed {nb}: the executed notebook, figures and tables are in {_where(folder)}")
+                else:
+                    _say(f"executed {nb} into {_where(folder)}; its figures and tables are in {_where(outputs)}")
         elif args.command == "reproduce":
             for nb in _each(args.notebooks, "reproduce"):
                 params = published_overrides(nb)
@@ -455,6 +519,14 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # a cell that raised: papermill's error names it; the executed notebook shows it
+        if type(exc).__name__ != "PapermillExecutionError":
+            raise
+        print(f"error: the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -13,8 +13,8 @@ A notebook opens one :class:`Outputs` in its first code cell and publishes it in
    ``python -m compendium.notebooks publish RUN``) copy a run into the published record, and only a complete
    run of the committed notebook, unchanged, with its published parameters (:func:`published_parameters`):
    the run's record holds a digest of every code cell the kernel executed (:func:`executed_code`), which must
-   be the committed notebook's code cells. Lab's Run All, a copy of a notebook and an edited one stay in
-   ``build/runs/``.
+   be the code cells of the notebook as committed (git's ``HEAD``; :func:`compendium.notebooks.publish_run`).
+   Lab's Run All, a copy of a notebook and an edited one stay in ``build/runs/``.
 3. **All or nothing.** Files are staged in ``<folder>/.staging/`` and moved into place by :meth:`Outputs.publish`
    when the notebook completes: a run that fails midway leaves its folder as it was. The staging folder of a
    failed run is removed when its kernel exits, and that of a killed one by the next run into the same folder.
@@ -37,13 +37,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from . import paths
+from . import contract, paths
 from .figure_data import write_figure_data
 from .plotting import save_figure
 
 RUNS = Path("data") / "derived" / "runs"
 STAGING = ".staging"
-FIGURE_DATA = Path("figures") / "data"
+FIGURE_DATA = Path(contract.FIGURE_DATA)
 
 
 class ContractWarning(UserWarning):
@@ -72,14 +72,14 @@ def default_parameters(notebook: str) -> dict:
 _SLUG = re.compile(r"[A-Za-z0-9.+-]+")
 
 
-def run_key(notebook: str, parameters: dict) -> str:
+def run_key(notebook: str, parameters: dict, defaults: dict | None = None) -> str:
     """The name of a run's folder: ``defaults``, or the parameters that differ from the defaults.
 
     ``segments=40`` gives ``segments-40``; a value that is not a short plain word (a list, a path) is named by a
     digest of its ``repr``, and a key longer than 80 characters by a digest of all of it: the run's record holds
-    the parameters themselves.
+    the parameters themselves. ``defaults``: the notebook's (read from ``notebooks/<notebook>.ipynb`` if not given).
     """
-    defaults = default_parameters(notebook)
+    defaults = default_parameters(notebook) if defaults is None else defaults
     changed = {k: v for k, v in parameters.items() if k in defaults and v != defaults[k]}
     if not changed:
         return "defaults"
@@ -101,13 +101,14 @@ def runs_root() -> Path:
     return Path(given).resolve() if given else paths.repo_root() / "build" / "runs"
 
 
-def run_folder(notebook: str, parameters: dict, runs: Path | None = None) -> Path:
+def run_folder(notebook: str, parameters: dict, runs: Path | None = None, defaults: dict | None = None) -> Path:
     """Where a run of ``notebook`` with ``parameters`` writes: ``OCPKIT_OUTPUT_DIR`` when set, else its folder under
     ``runs`` (default :func:`runs_root`)."""
     explicit = os.environ.get("OCPKIT_OUTPUT_DIR")
     if explicit:
         return Path(explicit).resolve()
-    return (Path(runs).resolve() if runs is not None else runs_root()) / notebook / run_key(notebook, parameters)
+    key = run_key(notebook, parameters, defaults)
+    return (Path(runs).resolve() if runs is not None else runs_root()) / notebook / key
 
 
 def code_digest(source: str) -> str:
@@ -156,9 +157,17 @@ def _assigned(source: str) -> list[str]:
     ]
 
 
-def executed_code(inputs: list[str]) -> list[str]:
-    """Digests of the code cells a kernel executed, papermill's injected parameters cell left out."""
-    return [code_digest(s) for s in inputs if not _is_injected_parameters(s)]
+def executed_code(inputs: list[str], parameters_source: str | None = None) -> list[str]:
+    """Digests of the code cells a kernel executed, papermill's injected parameters cell left out: a cell of
+    ``# Parameters`` and assignments right after the notebook's parameters cell (``parameters_source``), where
+    papermill puts it; the same cell anywhere else is code like any other."""
+    parameters = code_digest(parameters_source) if parameters_source is not None else None
+    out = []
+    for k, source in enumerate(inputs):
+        after_parameters = k > 0 and code_digest(inputs[k - 1]) == parameters
+        if not (after_parameters and _is_injected_parameters(source)):
+            out.append(code_digest(source))
+    return out
 
 
 def notebook_code(path: Path) -> list[str]:
@@ -356,12 +365,15 @@ class Outputs:
         for rel in stale:  # what the earlier run of this notebook here wrote and this one did not
             (self.root / rel).unlink(missing_ok=True)
         inputs = _kernel_inputs()
+        from .notebooks import parameters_cell
+
+        tracked = paths.notebooks_dir() / f"{self.notebook}.ipynb"
         record = {
             "notebook": self.notebook,
             "published_parameters": self.is_published_run,
             "parameters": {k: _plain(v) for k, v in self.parameters.items()},
             "files": self.files,
-            "code": executed_code(inputs) if inputs is not None else None,
+            "code": executed_code(inputs, parameters_cell(tracked).source) if inputs is not None else None,
             "timings": self.timings,
         }
         (self.root / RUNS).mkdir(parents=True, exist_ok=True)
