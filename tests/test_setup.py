@@ -758,3 +758,23 @@ def test_unit_gets_chromium_first_and_requires_the_browser_tests(tmp_path):
         assert report.read_text() == expected
     dry = _make(project, "-n", "unit", f"PY={py}", "CHROMIUM_BIN=/nonexistent", env=_env(tmp_path)).stdout
     assert dry.index("apt-get install") < dry.index(f"{py} -m pytest tests/")
+
+
+@pytest.mark.parametrize("made_as", ["folder", "symlink", "file"])
+@pytest.mark.parametrize("name", [".venv", ".venv.previous"])
+def test_environment_folders_are_ignored_by_git_however_they_are_made(tmp_path, name, made_as):
+    # a CI runner or a user may share one environment between clones with a symlink; git status must stay clean
+    clone = tmp_path / "clone"
+    clone.mkdir()
+    shutil.copy(ROOT / ".gitignore", clone / ".gitignore")
+    subprocess.run(["git", "init", "-q", str(clone)], check=True)
+    target = clone / name
+    if made_as == "folder":
+        (target / "bin").mkdir(parents=True)
+        (target / "bin" / "python").write_text("")
+    elif made_as == "symlink":
+        target.symlink_to(tmp_path)
+    else:
+        target.write_text("")
+    status = subprocess.run(["git", "status", "--porcelain", "--", name], cwd=clone, capture_output=True, text=True)
+    assert status.returncode == 0 and status.stdout == "", f"{name} as a {made_as} is not ignored: {status.stdout!r}"
