@@ -67,3 +67,29 @@ def show(table) -> Shown:
     is shown as it formats by default."""
     styler = table.style if isinstance(table, pd.DataFrame) else table
     return Shown(styler)
+
+
+def show_summary(summary: Mapping, formats: Mapping[str, str] | None = None, digits: int = 6) -> Shown:
+    """A run's summary (a flat mapping) shown as a two-column table, the same on every machine.
+
+    A dict's own display prints every float to 17 digits, so a stored notebook would change with the last
+    rounding bit of a converged optimum or an error estimate. Here a float shows ``digits`` significant digits
+    unless ``formats`` (key -> format spec, e.g. ``{"max_error": ".1e"}``) says otherwise; other values as
+    ``str``.
+    """
+    formats = dict(formats or {})
+    unknown = sorted(set(formats) - set(summary))
+    if unknown:
+        raise KeyError(f"formats for unknown keys {unknown}")
+
+    def text(key, value) -> str:
+        if value is None:
+            return ""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return str(value)
+        if isinstance(value, int) and key not in formats:
+            return str(value)
+        return format(float(value), formats.get(key, f".{digits}g"))
+
+    df = pd.DataFrame({"value": [text(k, v) for k, v in summary.items()]}, index=[str(k) for k in summary])
+    return show(df.style.set_properties(**{"text-align": "right"}))
