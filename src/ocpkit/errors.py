@@ -10,7 +10,9 @@ class SolverError(RuntimeError):
     (``iterations``, counted in ``unit``: IPOPT iterations, integration steps,
     shooting-function evaluations) and what to do about it. ``result`` holds the
     last iterate (a :class:`~ocpkit.Solution` or a shooting result) when there is
-    one: never a converged answer, but what a diagnosis needs.
+    one: never a converged answer, but what a diagnosis needs. A failure inside mesh
+    refinement also carries ``best``, the most accurate converged solution of the
+    meshes before (None if the first mesh failed), with its ``mesh_history``.
     """
 
     def __init__(
@@ -21,11 +23,14 @@ class SolverError(RuntimeError):
         detail: str = "",
         unit: str = "iterations",
         result=None,
+        best=None,
     ):
         self.solver = solver
         self.status = status
         self.iterations = iterations
         self.result = result
+        self.best = best
+        self.detail = detail
         msg = f"{solver} failed with status {status!r}"
         if iterations is not None:
             msg += f" after {iterations} {unit}"

@@ -247,17 +247,18 @@ class SeparableNLP:
         self.objective_function = ca.Function("f", [w], [f])
 
     # ------------------------------------------------------------------------------
-    def multiplier_estimate(self, w, lbw, ubw) -> tuple[np.ndarray, np.ndarray]:
-        """First-order multiplier estimates ``(lam_g, lam_w)`` at a point ``w`` (scaled, within its bounds).
+    def multiplier_estimate(self, w, lbw, ubw) -> tuple[np.ndarray, np.ndarray] | None:
+        """First-order multiplier estimates ``(lam_g, lam_w)`` at a point ``w`` (scaled, within its bounds), or
+        None where they cost more than a solve would save.
 
         ``lam_g`` minimises the Lagrangian's gradient over the variables not at a bound, ``J_F^T lam_g =
-        -grad_F f`` in the least-squares sense (sparse normal equations); ``lam_w`` takes what remains of the
-        gradient at the variables on a bound. With :data:`WARM_START`, an interpolated point and these
-        estimates start IPOPT near the central path's end (mesh refinement: the entry landing's later meshes
-        take 6 to 10 IPOPT iterations instead of 26 to 31).
+        -grad_F f`` in the least-squares sense (:func:`least_squares_multipliers`: sparse normal equations, with
+        the few dense columns of a free time or a free parameter bordered instead of multiplied out); ``lam_w``
+        takes what remains of the gradient at the variables on a bound. With :data:`WARM_START`, an interpolated
+        point and these estimates start IPOPT near the central path's end (mesh refinement: the entry landing's
+        later meshes take 6 to 10 IPOPT iterations instead of 26 to 31).
         """
         import scipy.sparse as sps
-        from scipy.sparse.linalg import spsolve
 
         w = np.asarray(w, dtype=float)
         lbw, ubw = np.asarray(lbw, dtype=float), np.asarray(ubw, dtype=float)
@@ -270,9 +271,9 @@ class SeparableNLP:
             near_lower = np.isfinite(lbw) & ((w - lbw) <= 1e-9 * np.maximum(1.0, np.abs(lbw)))
             near_upper = np.isfinite(ubw) & ((ubw - w) <= 1e-9 * np.maximum(1.0, np.abs(ubw)))
         on_bound = near_lower | near_upper
-        A = J[:, ~on_bound]
-        normal = (A @ A.T + 1e-12 * sps.identity(A.shape[0], format="csc")).tocsc()
-        lam_g = np.atleast_1d(spsolve(normal, -(A @ grad[~on_bound])))
+        lam_g = least_squares_multipliers(J[:, ~on_bound], grad[~on_bound])
+        if lam_g is None:
+            return None
         residual = grad + J.T @ lam_g
         lam_w = np.where(on_bound, -residual, 0.0)
         return lam_g, lam_w
@@ -296,6 +297,66 @@ class SeparableNLP:
         if approximation == "exact":
             opts["hess_lag"] = self.hess_lag
         return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
+
+
+#: Work budget of :func:`least_squares_multipliers`: nonzeros of the normal matrix (8 bytes each, before fill).
+NORMAL_MATRIX_BUDGET = 4_000_000
+
+
+def dense_columns(A, factor: float = 10.0, minimum: int = 64) -> np.ndarray:
+    """Columns of a sparse ``A`` (m x n, CSC) with more than ``max(minimum, factor sqrt(m))`` nonzeros: the
+    variables that couple a whole mesh (a free initial or final time, a free parameter). ``A A'`` would be
+    dense through any of them (issue: a free t_f made the hang glider's 10,744 x 10,744 normal matrix full)."""
+    counts = np.diff(A.indptr)
+    return counts > max(minimum, factor * np.sqrt(A.shape[0]))
+
+
+def least_squares_multipliers(A, g, regularisation: float = 1e-12, budget: int | None = None, stats=None):
+    """``lam`` minimising ``|A' lam + g|`` (``A``: m x n sparse, m <= n), or None if its normal matrix would
+    hold more than ``budget`` nonzeros (default :data:`NORMAL_MATRIX_BUDGET`).
+
+    The normal equations ``(A A' + delta I) lam = -A g`` are solved directly when ``A`` has no dense column.
+    With ``k`` dense columns ``A_d`` (:func:`dense_columns`) and the rest ``A_s``, the same equations are solved
+    through the bordered, quasi-definite system
+
+        [ A_s A_s' + delta I   A_d ] [ lam ]   [ -A g ]
+        [ A_d'                 -I  ] [  y  ] = [   0  ],
+
+    whose first block row is ``(A_s A_s' + A_d A_d' + delta I) lam = -A g`` once ``y = A_d' lam`` is eliminated:
+    sparse whatever ``k``, factorised by SuperLU in a symmetric ordering with the dense rows last. Memory and
+    time are bounded by ``budget`` before anything is factorised. ``stats``, a dict, receives the dense columns'
+    count, the normal matrix's nonzeros and the factors' (``dense_columns``, ``normal_nnz``, ``factor_nnz``).
+    """
+    import scipy.sparse as sps
+    from scipy.sparse.linalg import spsolve, splu
+
+    budget = NORMAL_MATRIX_BUDGET if budget is None else budget
+    A = sps.csc_matrix(A)
+    m = A.shape[0]
+    if m == 0:
+        return np.zeros(0)
+    dense = dense_columns(A)
+    counts = np.diff(A.indptr)[~dense].astype(np.int64)
+    if int(np.sum(counts**2)) > budget:  # an upper bound of nnz(A_s A_s') and of the work of forming it
+        return None
+    rhs = -(A @ g)
+    A_s = A[:, ~dense]
+    normal = (A_s @ A_s.T + regularisation * sps.identity(m, format="csc")).tocsc()
+    if stats is not None:
+        stats.update(dense_columns=int(dense.sum()), normal_nnz=int(normal.nnz), factor_nnz=None)
+    if normal.nnz > budget:
+        return None
+    if not dense.any():
+        return np.atleast_1d(spsolve(normal, rhs))
+    A_d = A[:, dense]
+    k = A_d.shape[1]
+    bordered = sps.bmat([[normal, A_d], [A_d.T, -sps.identity(k)]], format="csc")
+    lu = splu(bordered, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    if stats is not None:
+        stats["factor_nnz"] = int(lu.L.nnz + lu.U.nnz)
+    if lu.L.nnz + lu.U.nnz > 4 * budget:
+        return None
+    return lu.solve(np.concatenate([rhs, np.zeros(k)]))[:m]
 
 
 @dataclass

@@ -606,8 +606,9 @@ class Transcription(ABC):
             result = run(np.clip(guess.raw["w"], lbw, ubw), warm_options, (guess.raw["lam_g"], guess.raw["lam_w"]))
             return settle(result, self._solution, raise_on_failure)
         w0 = np.clip(self.initial_point(guess), lbw, ubw)
-        if estimate_multipliers and isinstance(guess, Solution):
-            result = run(w0, warm_options, self.nlp.multiplier_estimate(w0, lbw, ubw))
+        multipliers = self.nlp.multiplier_estimate(w0, lbw, ubw) if estimate_multipliers and isinstance(guess, Solution) else None
+        if multipliers is not None:
+            result = run(w0, warm_options, multipliers)
             if result.success:
                 return settle(result, self._solution, raise_on_failure)
         return settle(run(w0, ipopt_options), self._solution, raise_on_failure)
@@ -623,18 +624,23 @@ class Transcription(ABC):
             raise ValueError(f"mesh_tolerance must be positive, got {tolerance!r}")
         if max_iterations < 1:
             raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
-        transcription, history, solution = self, [], None
+        transcription, history, solution, best = self, [], None, None
         for iteration in range(max_iterations):
             start = time.perf_counter()
-            solution = transcription._solve_once(
-                guess if solution is None else solution,
-                options["ipopt_options"],
-                options["allow_acceptable"],
-                options["raise_on_failure"],
-                options["parameters"],
-                estimate_multipliers=True,
-            )
-            errors = solution.interval_errors
+            try:
+                solution = transcription._solve_once(
+                    guess if solution is None else solution,
+                    options["ipopt_options"],
+                    options["allow_acceptable"],
+                    options["raise_on_failure"],
+                    options["parameters"],
+                    estimate_multipliers=True,
+                )
+                errors = solution.interval_errors
+            except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
+                if not history:  # the first mesh: the solve's own error (bad input, or IPOPT's status)
+                    raise
+                raise _refinement_failure(exc, iteration, transcription, best, history) from exc
             history.append(
                 MeshIteration(
                     iteration,
@@ -649,16 +655,22 @@ class Transcription(ABC):
                     time.perf_counter() - start,
                 )
             )
+            if solution.converged and (best is None or errors.max() <= best.mesh_history[-1].error_estimate):
+                best = solution
+                best.mesh_history = list(history)
             if errors.max() <= tolerance or not solution.converged:
                 break
             if iteration + 1 < max_iterations:
-                switches = control_switches(solution, solution.estimate_intervals)
                 try:
-                    transcription = transcription.refine(errors, tolerance, switches)
-                except TypeError as exc:  # a subclass with the two-argument refine of before the cuts
-                    if "positional argument" not in str(exc):
-                        raise
-                    transcription = transcription.refine(errors, tolerance)
+                    switches = control_switches(solution, solution.estimate_intervals)
+                    try:
+                        transcription = transcription.refine(errors, tolerance, switches)
+                    except TypeError as exc:  # a subclass with the two-argument refine of before the cuts
+                        if "positional argument" not in str(exc):
+                            raise
+                        transcription = transcription.refine(errors, tolerance)
+                except Exception as exc:  # noqa: BLE001
+                    raise _refinement_failure(exc, iteration + 1, transcription, best, history) from exc
         else:
             warnings.warn(
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
@@ -711,3 +723,24 @@ class Transcription(ABC):
             converged=result.success,
             **fields,
         )
+
+
+def _refinement_failure(exc: Exception, iteration: int, transcription, best, history) -> SolverError:
+    """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
+    solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
+    and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
+    where = f"on mesh iteration {iteration} ({transcription.label})"
+    if best is None:
+        kept = "no earlier mesh converged"
+    else:
+        kept = (
+            f"the best solution so far (estimate {best.mesh_history[-1].error_estimate:.1e} on "
+            f"{best.mesh_history[-1].transcription}) is error.best"
+        )
+    if isinstance(exc, SolverError):
+        detail = f"{where}: {exc.detail}; {kept}" if exc.detail else f"{where}; {kept}"
+        error = SolverError(exc.solver, exc.status, exc.iterations, detail, result=exc.result, best=best)
+    else:
+        error = SolverError("mesh refinement", type(exc).__name__, None, f"{exc} {where}; {kept}", best=best)
+    error.mesh_history = list(history)
+    return error

@@ -113,8 +113,14 @@ class Radau(Transcription):
     # -- sizes and layout ---------------------------------------------------------------
     @property
     def label(self) -> str:
-        n = int(self.counts[0]) if np.all(self.counts == self.counts[0]) else self.counts.tolist()
-        return f"Radau(nodes={n}, intervals={self.intervals})"
+        if np.all(self.counts == self.counts[0]):
+            return f"Radau(nodes={int(self.counts[0])}, intervals={self.intervals})"
+        if self.intervals <= 8:
+            return f"Radau(nodes={self.counts.tolist()}, intervals={self.intervals})"
+        return (
+            f"Radau(nodes={int(self.counts.min())}..{int(self.counts.max())}, intervals={self.intervals}, "
+            f"points={self.n_collocation})"
+        )
 
     @property
     def n_collocation(self) -> int:
@@ -229,16 +235,28 @@ class Radau(Transcription):
 
     #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015): nodes per interval in [N_MIN, N_MAX]
     N_MIN, N_MAX = 3, 12
+    #: An interval of at least STALL_NODES nodes whose degree was raised and whose error fell by less than
+    #: STALL_FACTOR is split instead (below, a raise can change the solution nearby more than its own error)
+    STALL_FACTOR, STALL_NODES = 0.5, 6
 
     def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Radau:
-        """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4): on an interval of ``N`` nodes whose
-        error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)`` more nodes; if ``N + P`` exceeds
-        :attr:`N_MAX`, the interval splits into ``max(ceil((N + P) / N_MIN), 2)`` intervals of :attr:`N_MIN` nodes
-        instead (the solution is not smooth enough there for a higher degree to pay).
+        """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4), with three safeguards.
 
-        ``switches`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
-        interval over the tolerance with a control switching inside is cut there into intervals of
-        :attr:`N_MIN` nodes, since no degree resolves a corner or a jump."""
+        On an interval of ``N`` nodes whose error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)``
+        more nodes; if ``N + P`` exceeds :attr:`N_MAX`, the interval splits into ``max(ceil((N + P) / N_MIN), 2)``
+        intervals of :attr:`N_MIN` nodes instead (the solution is not smooth enough there for a higher degree to
+        pay). The safeguards:
+
+        * ``switches`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
+          interval over the tolerance with a control switching inside is cut there, since no degree resolves a
+          corner or a jump; its nodes are shared among the pieces by length (each at least :attr:`N_MIN`, pieces
+          of more than ``max(N, N_MAX)`` split evenly), so a cut never coarsens (global collocation at N = 60
+          cut at a switch stays at 60 points or more, instead of becoming 4 intervals of 3 nodes);
+        * an interval of :attr:`STALL_NODES` nodes or more whose degree this refinement raised last time and
+          whose error fell by less than :attr:`STALL_FACTOR` is split in two at the same degree (the error does
+          not fall with the degree: a non-smooth or singular solution there);
+        * an interval never loses nodes, so no mesh has fewer points than the one before.
+        """
         errors = np.asarray(errors, dtype=float)
         over = errors > tolerance
         cuts = (
@@ -246,29 +264,47 @@ class Radau(Transcription):
             if switches is None
             else [c if o else np.zeros(0) for c, o in zip(switches, over)]
         )
+        raised_before = getattr(self, "_raised", None)
         fractions, origin = self.mesh.split_at(cuts)
-        counts, out = [], []
+        counts, out, raised = [], [], []
         for k in range(self.intervals):
             pieces = fractions[origin == k]
             e, n = errors[k], int(self.counts[k])
             if pieces.size > 1:
-                counts += [self.N_MIN] * pieces.size
-                out += list(pieces)
+                share = pieces / pieces.sum()
+                for f, q in zip(pieces, share):
+                    m = max(self.N_MIN, int(np.ceil(n * q)))
+                    parts = int(np.ceil(m / max(n, self.N_MAX)))
+                    per = max(self.N_MIN, int(np.ceil(m / parts)))
+                    counts += [per] * parts
+                    out += [f / parts] * parts
+                    raised += [None] * parts
                 continue
             f = pieces[0]
             if e <= tolerance:
                 counts.append(n)
                 out.append(f)
+                raised.append(None)
+                continue
+            stalled = raised_before is not None and raised_before[k] is not None and n >= self.STALL_NODES
+            if stalled and e > self.STALL_FACTOR * raised_before[k]:
+                counts += [n, n]
+                out += [f / 2, f / 2]
+                raised += [None, None]
                 continue
             wanted = n + max(1, int(np.ceil(np.log(e / tolerance) / np.log(n))))
             if wanted <= self.N_MAX:
                 counts.append(wanted)
                 out.append(f)
+                raised.append(e)
             else:
                 pieces = max(int(np.ceil(wanted / self.N_MIN)), 2)
                 counts += [self.N_MIN] * pieces
                 out += [f / pieces] * pieces
-        return Radau(self.problem, counts, mesh=out)
+                raised += [None] * pieces
+        refined = Radau(self.problem, counts, mesh=out)
+        refined._raised = raised  # per interval: its error before this refinement raised its degree, else None
+        return refined
 
     # -- bounds, guess, packing ---------------------------------------------------------------
     def _initial_point(self, tf, states, controls, t0=None):

@@ -1,0 +1,53 @@
+"""The hang glider, maximum range through a thermal (COPS 3.0; constants in ``data/problems/hang_glider.toml``).
+
+    maximise x(t_f)   subject to   x' = v_x,   y' = v_y,
+        v_x' = (-L sin(eta) - D cos(eta)) / m,   v_y' = (L cos(eta) - D sin(eta) - m g) / m,
+
+with the lift ``L = c_L rho S v_r^2 / 2`` and drag ``D = (c0 + k c_L^2) rho S v_r^2 / 2`` relative to the air,
+which rises in the thermal ``u_a = u_M (1 - X) exp(-X)``, ``X = (x / R - 2.5)^2``. From a glide at 1000 m to the
+same glide at 900 m, ``0 <= c_L <= c_max``, t_f free. A hard problem for collocation: a free final time on every
+defect, a control that reaches its upper bound, and dynamics stiff in x near the thermal (Betts 2020, Ex. 10.54).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+
+from ._data import load_problem_data
+
+
+def hang_glider() -> OptimalControlProblem:
+    d = load_problem_data("hang_glider")
+    c, b, lo_hi, guess = d["constants"], d["boundary"], d["bounds"]["tf"], d["guess"]
+
+    def dynamics(x, u, t):
+        vx, vy, cl = x[2], x[3], u[0]
+        X = (x[0] / c["R"] - 2.5) ** 2
+        Vy = vy - c["u_M"] * (1 - X) * ca.exp(-X)
+        vr = ca.sqrt(vx**2 + Vy**2)
+        q = 0.5 * c["rho"] * c["S"] * vr  # dynamic pressure over v_r; L sin(eta) = q c_L Vy, ...
+        lift, drag = q * cl, q * (c["c0"] + c["k"] * cl**2)
+        return ca.vertcat(
+            vx,
+            vy,
+            (-lift * Vy - drag * vx) / c["m"],
+            (lift * vx - drag * Vy) / c["m"] - c["g"],
+        )
+
+    return OptimalControlProblem(
+        "hang_glider",
+        states=[
+            State("x", 0.0, 1500.0, initial=b["x0"], scale=1000.0, guess=(b["x0"], guess["x_f"])),
+            State("y", 0.0, 1100.0, initial=b["y0"], final=b["y_f"], scale=1000.0, guess=(b["y0"], b["y_f"])),
+            State("vx", 0.0, 15.0, initial=b["vx0"], final=b["vx_f"], scale=10.0, guess=b["vx0"]),
+            State("vy", -4.0, 4.0, initial=b["vy0"], final=b["vy_f"], guess=b["vy0"]),
+        ],
+        controls=[Control("c_L", 0.0, c["c_max"], guess=c["c_max"] / 2)],
+        dynamics=dynamics,
+        tf=FreeFinalTime(lo_hi[0], lo_hi[1], guess["tf"], scale=100.0),
+        mayer=lambda x0, xf, t0, tf: -xf[0],
+        objective_scale=1000.0,
+        description="Hang glider, maximum range (COPS 3.0; Betts 2020, Ex. 10.54)",
+    )

@@ -1,0 +1,150 @@
+"""Refinement a user can trust on problems beyond the seeds: bounded warm starts, loud failures, no coarsening."""
+
+from __future__ import annotations
+
+import warnings
+
+import casadi as ca
+import numpy as np
+import pytest
+import scipy.sparse as sps
+
+from ocpkit import Control, FreeFinalTime, FreeParameter, HLGL, OptimalControlProblem, Radau, SolverError, State
+from ocpkit.accuracy import AccuracyWarning
+from ocpkit.nlp import dense_columns, least_squares_multipliers
+
+from compendium.problems import entry_landing
+from compendium.problems.hang_glider import hang_glider
+
+
+def free_time_with_parameters() -> OptimalControlProblem:
+    """Minimum time with an energy penalty and two free parameters: every defect row holds t_f, a and b."""
+    return OptimalControlProblem(
+        "free_time_parameters",
+        states=[State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        controls=[Control("u", -2.0, 2.0)],
+        dynamics=lambda x, u, t, p: ca.vertcat(x[1], p["a"] * u[0] - p["b"] * x[1]),
+        tf=FreeFinalTime(0.5, 10.0, 2.0),
+        lagrange=lambda x, u, t, p: 1 + 0.1 * u[0] ** 2 + (p["a"] - 1) ** 2 + (p["b"] - 0.5) ** 2,
+        free_parameters=[FreeParameter("a", 0.5, 2.0, guess=1.0), FreeParameter("b", 0.0, 1.0, guess=0.5)],
+    )
+
+
+def _jacobian(transcription):
+    w0 = transcription.initial_point(None)
+    _, jac = transcription.nlp.jac_g(w0, [])
+    jac = ca.DM(jac)
+    rows, cols = jac.sparsity().get_triplet()
+    J = sps.csc_matrix((np.asarray(jac.nonzeros()), (rows, cols)), shape=jac.shape)
+    return J, np.asarray(transcription.nlp._objective_gradient(w0)).ravel(), w0
+
+
+def test_the_multiplier_estimate_stays_sparse_with_a_free_time_and_free_parameters_at_ten_thousand_rows():
+    # 2 states x 4 nodes x 1300 intervals = 10,400 defect rows, each holding t_f, a and b: A A' would be full
+    # (10,400^2 = 1.1e8 nonzeros, 0.9 GB: SuperLU ran out of memory and killed the process on the hang glider)
+    tr = Radau(free_time_with_parameters(), 4, 1300)
+    J, g, w0 = _jacobian(tr)
+    assert J.shape[0] >= 10_000
+    dense = dense_columns(J)
+    assert dense.sum() == 3, "t_f and the two free parameters are the dense columns"
+    counts = np.diff(J.indptr)[dense]
+    assert counts.max() >= tr.n_defects and counts.min() >= tr.n_defects // 2  # t_f: all; a, b: every v' row
+    stats = {}
+    lam = least_squares_multipliers(J, g, stats=stats)
+    assert lam is not None and lam.shape == (J.shape[0],)
+    # memory: the normal matrix and its factors stay within a small multiple of the Jacobian
+    assert stats["normal_nnz"] < 10 * J.nnz and stats["factor_nnz"] < 40 * J.nnz
+    # and it is the least-squares solution: the normal equations hold
+    residual = J @ (J.T @ lam + g)
+    assert np.abs(residual).max() < 1e-8 * max(1.0, np.abs(J @ g).max())
+    # the estimate a transcription uses is the same, with the bound columns left out
+    lbw, ubw, _, _ = tr.nlp_bounds()
+    lam_g, lam_w = tr.nlp.multiplier_estimate(w0, lbw, ubw)
+    assert np.all(np.isfinite(lam_g)) and np.all(np.isfinite(lam_w))
+
+
+def test_the_bordered_solve_is_the_normal_equations_solution():
+    rng = np.random.default_rng(0)
+    m = 200
+    A = sps.random(m, 300, density=0.01, random_state=1, format="csc") + sps.eye(m, 300, format="csc")
+    A = sps.hstack([A, sps.csc_matrix(rng.normal(size=(m, 2)))], format="csc")  # two full columns
+    g = rng.normal(size=A.shape[1])
+    assert dense_columns(A).tolist() == [False] * 300 + [True, True]
+    stats = {}
+    lam = least_squares_multipliers(A, g, stats=stats)
+    full = np.linalg.solve((A @ A.T).toarray() + 1e-12 * np.eye(m), -(A @ g))
+    assert stats["dense_columns"] == 2 and stats["factor_nnz"] is not None
+    assert np.allclose(lam, full, rtol=1e-9, atol=1e-12)
+
+
+def test_a_budget_too_small_gives_no_estimate_rather_than_a_huge_factorisation():
+    J, g, _ = _jacobian(HLGL(hang_glider(), 50))
+    assert least_squares_multipliers(J, g, budget=100) is None
+
+
+def test_hang_glider_refinement_from_radau_4x50_reaches_the_published_range():
+    # from 4 x 50 the first solve is wrong (x on its bound 1500 m, estimate 0.23); refinement used to die in SuperLU
+    # on the 4th mesh. Betts (2020, Ex. 10.54): 1248.03103 m.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        sol = Radau(hang_glider(), 4, 50).solve(mesh_tolerance=1e-5, max_mesh_iterations=12)
+    assert sol.converged and sol.error_estimate <= 1e-5
+    assert abs(-sol.objective - 1248.03103) < 1e-3
+
+
+def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_solution(monkeypatch):
+    tr = Radau(entry_landing(), 4, 10)
+    calls = {"n": 0}
+    original = Radau._solve_once
+
+    def fail_on_third(self, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise MemoryError("not enough memory to perform factorisation")
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Radau, "_solve_once", fail_on_third)
+    with pytest.raises(SolverError) as info:
+        tr.solve(mesh_tolerance=1e-7)
+    err = info.value
+    assert err.status == "MemoryError" and "mesh iteration 2" in str(err) and "error.best" in str(err)
+    assert err.best is not None and err.best.converged and len(err.best.mesh_history) == 2
+    assert err.best.mesh_history[-1].error_estimate == min(h.error_estimate for h in err.mesh_history)
+
+
+def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(monkeypatch):
+    tr = Radau(entry_landing(), 4, 10)
+    calls = {"n": 0}
+    original = Radau._solve_once
+
+    def starve_second(self, guess, ipopt_options, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            ipopt_options = {**(ipopt_options or {}), "max_iter": 1}
+            kwargs["estimate_multipliers"] = False
+        return original(self, guess, ipopt_options, *args, **kwargs)
+
+    monkeypatch.setattr(Radau, "_solve_once", starve_second)
+    with pytest.raises(SolverError) as info:
+        tr.solve(mesh_tolerance=1e-7)
+    err = info.value
+    assert err.status == "Maximum_Iterations_Exceeded" and "mesh iteration 1" in str(err)
+    assert err.result is not None and not err.result.converged
+    assert err.best is not None and err.best.converged
+
+
+def test_a_cut_at_a_switch_never_coarsens_global_collocation():
+    tr = Radau(hang_glider(), 60)
+    refined = tr.refine(np.array([1.0]), 1e-6, [np.array([0.2, 0.25, 0.6])])
+    assert refined.n_collocation >= 60 and refined.intervals >= 4
+    assert refined.counts.min() >= Radau.N_MIN and refined.counts.max() <= max(60, Radau.N_MAX)
+
+
+def test_no_interval_loses_nodes_and_a_stalled_interval_is_split():
+    tr = Radau(hang_glider(), 7, 3)
+    once = tr.refine(np.array([1e-3, 1e-9, 1e-9]), 1e-6)
+    assert once.counts.tolist()[0] > 7 and once.n_collocation > tr.n_collocation
+    # its error did not fall with the degree: the next refinement splits it at the same degree
+    twice = once.refine(np.array([0.9e-3, 1e-9, 1e-9]), 1e-6)
+    assert twice.intervals == 4 and twice.counts.tolist()[:2] == [once.counts[0]] * 2
+    assert np.allclose(twice.mesh.fractions[:2], once.mesh.fractions[0] / 2)
