@@ -150,3 +150,154 @@ def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, 
             AccuracyWarning,
             stacklevel=3,
         )
+
+
+# -- the whole solution: objective and path constraints ------------------------------------------------------------
+
+#: Points per interval at which path constraints are checked between the scheme's own points
+PATH_SAMPLES = 16
+
+
+def flown_objective(trajectory, rtol: float = 1e-10, atol: float = 1e-10) -> float:
+    """The cost the trajectory's admissible control achieves: the dynamics and the running cost integrated together
+    (DOP853) from ``x(t0)``, ``J = phi(x(t0), x(t_f), t0, t_f) + int L``; the integration restarts at every
+    breakpoint, where the control may jump or kink (as :meth:`~ocpkit.Trajectory.reintegrate` does). ``atol`` is
+    scaled by each state's scale (and the cost's magnitude)."""
+    from scipy.integrate import solve_ivp
+
+    problem = trajectory.problem
+    P = problem.parameter_vector() if problem.parameters else np.zeros(0)
+    f, L = problem.f, problem.L
+    nx = problem.nx
+    stops = np.asarray(trajectory.breakpoints, dtype=float)
+    y = np.append(np.asarray(trajectory.initial_state(), dtype=float), 0.0)
+    tol = np.append(atol * problem.state_scale, atol * max(1.0, abs(float(trajectory.objective))))
+    for a, b in zip(stops[:-1], stops[1:]):
+        b_left = np.nextafter(b, a)
+
+        def rhs(t, z, b_left=b_left):
+            u = trajectory.control(np.array(min(t, b_left)))
+            dx = np.asarray(f(z[:nx], u, t, P)).ravel()
+            dq = float(L(z[:nx], u, t, P)) if L is not None else 0.0
+            return np.append(dx, dq)
+
+        sol = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=rtol, atol=tol)
+        if sol.status != 0:
+            raise RuntimeError(f"flying the control failed on [{a}, {b}]: {sol.message}")
+        y = sol.y[:, -1]
+    phi = problem.phi
+    mayer = float(phi(trajectory.initial_state(), y[:nx], trajectory.t0, trajectory.tf, P)) if phi is not None else 0.0
+    return mayer + float(y[nx])
+
+
+def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
+    """The largest violation of each path constraint between the scheme's points, in units of its scale.
+
+    On each interval the state interpolant and the admissible control are sampled at ``samples`` interior
+    points; ``max(g - upper, lower - g, 0) / scale`` per expression. Returns ``(labels, worst, where)``: the
+    expressions' labels, their largest violation (``(n_expr,)``) and, per interval, the position in (0, 1) of
+    its worst violation over the constraint tolerance (NaN where there is none) with its size (``(K, 2)``).
+    """
+    cs = trajectory.problem.functions.path
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    K = bp.size - 1
+    if cs is None:
+        return [], np.zeros(0), np.full((K, 2), np.nan)
+    s = (np.arange(samples) + 0.5) / samples
+    t = bp[:-1, None] + np.diff(bp)[:, None] * s[None, :]  # (K, samples)
+    X = trajectory.state(t).reshape(K * samples, -1)
+    U = trajectory.control(t).reshape(K * samples, -1)
+    problem = trajectory.problem
+    P = problem.parameter_vector() if problem.parameters else np.zeros(0)
+    G = np.asarray(cs.function.map(K * samples)(X.T, U.T, t.reshape(1, -1), P)).T  # (K * samples, n_expr)
+    with np.errstate(invalid="ignore"):
+        v = np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale
+    v = np.nan_to_num(v, nan=np.inf).reshape(K, samples, -1).max(axis=2)  # (K, samples): the worst expression
+    worst = np.nan_to_num(
+        np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale, nan=np.inf
+    ).max(axis=0)
+    j = np.argmax(v, axis=1)
+    where = np.stack([s[j], v[np.arange(K), j]], axis=1)
+    where[where[:, 1] <= 0, 0] = np.nan
+    return list(cs.labels), worst, where
+
+
+class Accuracy:
+    """The parts of a solution's estimated error, each compared with a tolerance by :meth:`failing`.
+
+    * ``state``: the relative state error (:func:`interval_errors`, the largest over intervals);
+    * ``objective``: ``|J_flown - J| / max(|J|, objective_scale * 1e-3)``, the cost its admissible control
+      achieves (:func:`flown_objective`) against the NLP's (``J_flown > J``: the NLP claims a better value than
+      its control gives, as a path constraint violated between points or an under-resolved singular arc does);
+    * ``path``: per path constraint expression, the largest violation between the scheme's points
+      (:func:`path_violations`), in units of the constraint's scale.
+    """
+
+    def __init__(self, solution):
+        self.solution = solution
+        self.state = float(solution.interval_errors.max())
+        self.objective_nlp = float(solution.objective)
+        self.objective_flown = flown_objective(solution)
+        floor = 1e-3 * float(solution.problem.objective_scale)
+        self.objective = abs(self.objective_flown - self.objective_nlp) / max(abs(self.objective_nlp), floor)
+        labels, worst, self.path_where = path_violations(solution, solution.estimate_intervals)
+        self.path = dict(zip(labels, worst.tolist()))
+
+    @property
+    def parts(self) -> dict[str, float]:
+        """Every part by name: ``state``, ``objective``, ``path <label>``."""
+        return {"state": self.state, "objective": self.objective, **{f"path {k}": v for k, v in self.path.items()}}
+
+    def failing(self, tolerance: float) -> list[str]:
+        """The names of the parts above ``tolerance``."""
+        return [k for k, v in self.parts.items() if not v <= tolerance]
+
+    @property
+    def worst(self) -> tuple[str, float]:
+        """The largest part and its name."""
+        name = max(self.parts, key=lambda k: self.parts[k])
+        return name, self.parts[name]
+
+    def describe(self, tolerance: float | None = None) -> str:
+        bad = set(self.failing(tolerance)) if tolerance is not None else set()
+        items = [f"{k} {v:.1e}" + (" (over)" if k in bad else "") for k, v in self.parts.items()]
+        flown = f"; J {self.objective_nlp:.10g}, flown {self.objective_flown:.10g}"
+        return ", ".join(items) + flown
+
+    def __repr__(self) -> str:
+        return f"Accuracy({self.describe()})"
+
+
+def warn_if_inaccurate_parts(label: str, accuracy: Accuracy, threshold: float | None) -> None:
+    """Warn (:class:`AccuracyWarning`) naming each part of ``accuracy`` over ``threshold`` (the state part names
+    its interval, as :func:`warn_if_inaccurate`)."""
+    if threshold is None:
+        return
+    sol = accuracy.solution
+    failing = accuracy.failing(threshold)
+    if failing == ["state"]:
+        warn_if_inaccurate(label, sol.interval_errors, sol.estimate_intervals, threshold)
+        return
+    if failing:
+        warnings.warn(
+            f"{label}: estimated error exceeds {threshold:g} in {', '.join(failing)} ({accuracy.describe(threshold)}); "
+            "refine the mesh (solve(mesh_tolerance=...)) or check the solution (reintegrate())",
+            AccuracyWarning,
+            stacklevel=3,
+        )
+
+
+def warn_if_path_violated(label: str, solution, threshold: float | None) -> None:
+    """Warn (:class:`AccuracyWarning`) naming each path constraint violated between the scheme's points by more
+    than ``threshold`` (in units of its scale; :func:`path_violations`)."""
+    if threshold is None or solution.problem.functions.path is None:
+        return
+    labels, worst, _ = path_violations(solution, solution.estimate_intervals)
+    bad = [f"{k} by {v:.1e}" for k, v in zip(labels, worst) if not v <= threshold]
+    if bad:
+        warnings.warn(
+            f"{label}: path constraints violated between collocation points ({', '.join(bad)}, in units of each "
+            f"constraint's scale) by more than {threshold:g}; refine the mesh (solve(mesh_tolerance=...))",
+            AccuracyWarning,
+            stacklevel=3,
+        )

@@ -84,8 +84,18 @@ class Solution(Trajectory):
 
     @property
     def error_estimate(self) -> float:
-        """The largest of :attr:`interval_errors`: the solution's estimated relative discretisation error."""
+        """The largest of :attr:`interval_errors`: the solution's estimated relative state error (the other parts
+        of its error, the objective's and the path constraints', are in :attr:`accuracy`)."""
         return float(self.interval_errors.max())
+
+    @cached_property
+    def accuracy(self):
+        """Every part of the solution's estimated error (:class:`ocpkit.accuracy.Accuracy`): the state's, the
+        objective's (the cost its admissible control achieves against the NLP's) and each path constraint's
+        largest violation between the scheme's points."""
+        from .accuracy import Accuracy
+
+        return Accuracy(self)
 
     # -- the trajectory -------------------------------------------------------------
     def _state(self, t):

@@ -1,12 +1,14 @@
-"""The seeds' test problems, each reading its constants from ``data/problems``."""
+"""The seeds' test problems and published problems beyond them, each reading its constants from ``data/problems``."""
 
 from ._data import load_problem_data
 from .attitude_ascent import attitude_ascent
+from .beyond_the_seeds import catalyst_mixing, free_flying_robot, tumour
 from .bryson_denham import bryson_denham, bryson_denham_solution
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .goddard import goddard_constants, goddard_rocket
+from .hang_glider import hang_glider
 from .hyper_sensitive import hyper_sensitive
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants
 from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
@@ -20,6 +22,10 @@ from .orbit_transfer import (
 
 __all__ = [
     "attitude_ascent",
+    "catalyst_mixing",
+    "free_flying_robot",
+    "hang_glider",
+    "tumour",
     "bryson_denham",
     "bryson_denham_solution",
     "delta3_constants",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from abc import ABC, abstractmethod
@@ -10,7 +11,14 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..accuracy import AccuracyWarning, control_switches, warn_if_inaccurate
+from ..accuracy import (
+    PATH_SAMPLES,
+    AccuracyWarning,
+    control_switches,
+    path_violations,
+    warn_if_inaccurate,
+    warn_if_path_violated,
+)
 from ..errors import SolverError
 from ..nlp import WARM_START, Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
@@ -67,6 +75,9 @@ class MeshIteration:
     build_s: float
     solve_s: float
     total_s: float
+    #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
+    #: met it; empty where the state part did not (the other parts are not computed then) or all met it
+    failing: tuple = ()
 
 
 @dataclass
@@ -536,12 +547,19 @@ class Transcription(ABC):
         error_threshold : float or None
             Warn (:class:`~ocpkit.accuracy.AccuracyWarning`) when the solution's estimated relative
             state error (:attr:`Solution.error_estimate`, :mod:`ocpkit.accuracy`) exceeds it, naming
-            the interval; None: no estimate at solve time.
+            the interval, or when a path constraint is violated between the scheme's points by more
+            than it (in units of the constraint's scale, :func:`~ocpkit.accuracy.path_violations`);
+            None: no estimate at solve time. The objective's part of the error costs an integration
+            of the flown control: it is in :attr:`Solution.accuracy`, and refinement checks it.
         mesh_tolerance : float or None
-            Refine the mesh (:meth:`refine`) until the error estimate is at most this, at most
-            ``max_mesh_iterations`` solves, each warm-started from the previous solution; the
-            returned solution's ``mesh_history`` lists every iteration (and a warning says so if
-            the tolerance is not met).
+            Refine the mesh (:meth:`refine`) until every part of the error estimate
+            (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
+            violation between points) is at most this, at most ``max_mesh_iterations`` solves, each
+            warm-started from the previous solution; the returned solution's ``mesh_history`` lists
+            every iteration (and a warning names the parts if the tolerance is not met). Where the
+            state meets the tolerance and another part does not, the next mesh cuts the intervals at
+            their worst path violation, and refines to a tolerance tightened by the objective's
+            excess.
         parameters : mapping, optional
             New values of some of the problem's parameters (:attr:`OptimalControlProblem.parameters`) for
             this solve. They are NLP variables pinned by their bounds, so the NLP and the IPOPT instance are
@@ -565,6 +583,7 @@ class Transcription(ABC):
         solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         if error_threshold is not None and solution.converged:
             warn_if_inaccurate(self.label, solution.interval_errors, solution.estimate_intervals, error_threshold)
+            warn_if_path_violated(self.label, solution, error_threshold)
         return solution
 
     def nlp_bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -658,23 +677,46 @@ class Transcription(ABC):
             if solution.converged and (best is None or errors.max() <= best.mesh_history[-1].error_estimate):
                 best = solution
                 best.mesh_history = list(history)
-            if errors.max() <= tolerance or not solution.converged:
+            if not solution.converged:
                 break
+            target = tolerance
+            try:
+                # path constraints between points at every mesh (cheap); the objective once the state meets the
+                # tolerance (it integrates the flown control)
+                _, _, where = path_violations(solution, solution.estimate_intervals)
+                accuracy = solution.accuracy if errors.max() <= tolerance else None
+            except Exception as exc:  # noqa: BLE001
+                raise _refinement_failure(exc, iteration, transcription, best, history) from exc
+            violated = where[:, 1] > tolerance
+            if accuracy is not None:
+                failing = accuracy.failing(tolerance)
+                if not failing:
+                    break
+                history[-1] = dataclasses.replace(history[-1], failing=tuple(failing))
+                if "objective" in failing and accuracy.objective > 0:
+                    target = tolerance * min(1.0, accuracy.state / accuracy.objective)
+            cuts = [
+                np.clip([w - 1.0 / PATH_SAMPLES, w + 1.0 / PATH_SAMPLES], 0.02, 0.98) if v else np.zeros(0)
+                for w, v in zip(where[:, 0], violated)
+            ]
+            errors = np.where(violated, np.maximum(errors, 2 * target), errors)
             if iteration + 1 < max_iterations:
                 try:
                     switches = control_switches(solution, solution.estimate_intervals)
+                    switches = [np.union1d(a, b) for a, b in zip(switches, cuts)]
                     try:
-                        transcription = transcription.refine(errors, tolerance, switches)
+                        transcription = transcription.refine(errors, target, switches)
                     except TypeError as exc:  # a subclass with the two-argument refine of before the cuts
                         if "positional argument" not in str(exc):
                             raise
-                        transcription = transcription.refine(errors, tolerance)
+                        transcription = transcription.refine(errors, target)
                 except Exception as exc:  # noqa: BLE001
                     raise _refinement_failure(exc, iteration + 1, transcription, best, history) from exc
         else:
+            parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
             warnings.warn(
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
-                f"(estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})",
+                f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})",
                 AccuracyWarning,
                 stacklevel=3,
             )

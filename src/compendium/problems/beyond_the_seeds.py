@@ -1,0 +1,96 @@
+"""Published problems beyond the seeds, for the refinement's trust (issue 22); constants in
+``data/problems/beyond_the_seeds.toml``, published values in ``data/paper/beyond_the_seeds.csv``.
+
+* :func:`tumour`: tumour anti-angiogenesis (Ledzewicz & Schättler 2008; Betts 2010, Ex. 6.17), a bang, singular,
+  bang-off control with a free final time;
+* :func:`catalyst_mixing`: COPS 3.0's catalyst mixing, bang, singular, bang on a fixed horizon (a Mayer cost: a
+  transcription that resolves the singular arc poorly reports a yield its own control does not give);
+* :func:`free_flying_robot`: Sakawa's free-flying robot (Betts 2010, Ex. 6.13), an L1 cost with bang-bang thrusters.
+"""
+
+from __future__ import annotations
+
+
+import casadi as ca
+
+from ocpkit.problem import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
+
+from ._data import load_problem_data
+
+
+def tumour() -> OptimalControlProblem:
+    c = load_problem_data("beyond_the_seeds")["tumour"]
+    p_max = ((c["b"] - c["mu"]) / c["d"]) ** 1.5
+
+    def dynamics(x, u, t):
+        p, q = x[0], x[1]
+        return ca.vertcat(
+            -c["xi"] * p * ca.log(p / q),
+            q * (c["b"] - (c["mu"] + c["d"] * p ** (2 / 3) + c["G"] * u[0])),
+            u[0],
+        )
+
+    return OptimalControlProblem(
+        "tumour_anti_angiogenesis",
+        states=[
+            State("p", c["p_min"], p_max, initial=p_max / 2, scale=p_max, guess=(p_max / 2, p_max / 4)),
+            State("q", c["p_min"], p_max, initial=p_max / 4, scale=p_max, guess=p_max / 4),
+            State("y", 0.0, c["A"], initial=0.0, scale=c["A"], guess=(0.0, c["A"])),
+        ],
+        controls=[Control("u", 0.0, c["a"], scale=c["a"], guess=c["a"] / 2)],
+        dynamics=dynamics,
+        tf=FreeFinalTime(c["tf"][0], c["tf"][1], c["tf_guess"]),
+        mayer=lambda x0, xf, t0, tf: xf[0],
+        objective_scale=p_max,
+        description="Tumour anti-angiogenesis (Ledzewicz & Schättler 2008; Betts 2010, Ex. 6.17)",
+    )
+
+
+def catalyst_mixing() -> OptimalControlProblem:
+    c = load_problem_data("beyond_the_seeds")["catalyst"]
+    return OptimalControlProblem(
+        "catalyst_mixing",
+        states=[
+            State("x1", 0.0, 1.0, initial=c["x0"][0], guess=(1.0, 0.9)),
+            State("x2", 0.0, 1.0, initial=c["x0"][1], guess=0.05),
+        ],
+        controls=[Control("u", 0.0, 1.0, guess=0.5)],
+        dynamics=lambda x, u, t: ca.vertcat(
+            u[0] * (10 * x[1] - x[0]), u[0] * (x[0] - 10 * x[1]) - (1 - u[0]) * x[1]
+        ),
+        tf=c["tf"],
+        mayer=lambda x0, xf, t0, tf: -1 + xf[0] + xf[1],
+        objective_scale=0.1,
+        description="Catalyst mixing (COPS 3.0)",
+    )
+
+
+def free_flying_robot() -> OptimalControlProblem:
+    c = load_problem_data("beyond_the_seeds")["robot"]
+    names = ["x", "y", "theta", "vx", "vy", "omega"]
+
+    def dynamics(x, u, t):
+        F1, F2 = u[0] - u[1], u[2] - u[3]
+        return ca.vertcat(
+            x[3], x[4], x[5], (F1 + F2) * ca.cos(x[2]), (F1 + F2) * ca.sin(x[2]), c["alpha"] * F1 - c["beta"] * F2
+        )
+
+    return OptimalControlProblem(
+        "free_flying_robot",
+        states=[
+            State(n, initial=a, final=b, guess=(a, b), scale=10.0 if n in ("x", "y") else 1.0)
+            for n, a, b in zip(names, c["initial"], c["final"])
+        ],
+        controls=[Control(f"u{i}", 0.0, c["u_max"], guess=0.5, scale=1.0) for i in range(1, 5)],
+        dynamics=dynamics,
+        tf=c["tf"],
+        lagrange=lambda x, u, t: u[0] + u[1] + u[2] + u[3],
+        path_constraints=[
+            Constraint("thrusters_1", lambda x, u, t: u[0] + u[1], upper=1.0),
+            Constraint("thrusters_2", lambda x, u, t: u[2] + u[3], upper=1.0),
+        ],
+        description="Free-flying robot (Sakawa 1999; Betts 2010, Ex. 6.13)",
+    )
+
+
+__all__ = ["catalyst_mixing", "free_flying_robot", "tumour"]
