@@ -223,3 +223,32 @@ def test_refinement_stops_only_when_every_part_meets_the_tolerance():
     sol = tr.solve(mesh_tolerance=1e-6)
     assert sol.accuracy.failing(1e-6) == []
     assert all(h.error_estimate > 1e-6 or h.failing for h in sol.mesh_history[:-1])
+
+
+def test_a_singular_arc_is_named_with_the_regularisation_to_try():
+    from ocpkit.accuracy import linear_controls, singular_arcs
+
+    assert linear_controls(catalyst_mixing()) == ["u"] and linear_controls(hang_glider()) == []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        with pytest.raises(SolverError) as info:
+            HLGL(catalyst_mixing(), 10).solve(mesh_tolerance=1e-6)
+        arcs = singular_arcs(HLGL(catalyst_mixing(), 20).solve())
+    assert "singular arc" in str(info.value) and "penalise_control" in str(info.value)
+    (name, start, end), = arcs
+    assert name == "u" and 0.05 < start < 0.2 and 0.6 < end < 0.8  # COPS: bang, singular, bang
+    # a bang-bang control is not singular
+    from compendium.problems import free_flying_robot
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        assert singular_arcs(HLGL(free_flying_robot(), 20).solve()) == []
+
+
+def test_a_refinement_that_stalls_on_a_singular_arc_stops_and_says_why():
+    """Goddard from HLGL 20 at 1e-6 used to run past 170 s: the estimate stays near 4e-4 on a singular arc."""
+    from compendium.problems import goddard_rocket
+
+    with pytest.warns(AccuracyWarning, match=r"stalled short of 1e-06.*singular arc.*'T'.*penalise_control"):
+        sol = HLGL(goddard_rocket(), 20).solve(mesh_tolerance=1e-6, max_mesh_iterations=25)
+    assert len(sol.mesh_history) < 10 and sol.converged

@@ -11,6 +11,7 @@ from .problem import (
     OptimalControlProblem,
     State,
 )
+from .scaling import autoscale
 from .solution import Reintegration, Solution
 from .trajectory import Trajectory
 from .transcription import HLGL, Link, MultiPhase, MultiPhaseSolution, MultiRateHLGL, Radau, Transcription
@@ -37,4 +38,5 @@ __all__ = [
     "State",
     "Trajectory",
     "Transcription",
+    "autoscale",
 ]

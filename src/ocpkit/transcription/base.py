@@ -16,6 +16,7 @@ from ..accuracy import (
     AccuracyWarning,
     control_switches,
     path_violations,
+    singular_arc_hint,
     warn_if_inaccurate,
     warn_if_path_violated,
 )
@@ -700,6 +701,16 @@ class Transcription(ABC):
                 for w, v in zip(where[:, 0], violated)
             ]
             errors = np.where(violated, np.maximum(errors, 2 * target), errors)
+            stalled = _stalled(history)
+            if stalled:
+                hint = singular_arc_hint(solution)
+                warnings.warn(
+                    f"{self.label}: mesh refinement stalled short of {tolerance:g}: {stalled}; stopped on "
+                    f"{history[-1].transcription}" + (f"; {hint}" if hint else ""),
+                    AccuracyWarning,
+                    stacklevel=3,
+                )
+                break
             if iteration + 1 < max_iterations:
                 try:
                     switches = control_switches(solution, solution.estimate_intervals)
@@ -714,9 +725,11 @@ class Transcription(ABC):
                     raise _refinement_failure(exc, iteration + 1, transcription, best, history) from exc
         else:
             parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
+            hint = singular_arc_hint(solution)
             warnings.warn(
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
-                f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})",
+                f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
+                + (f"; {hint}" if hint else ""),
                 AccuracyWarning,
                 stacklevel=3,
             )
@@ -767,6 +780,25 @@ class Transcription(ABC):
         )
 
 
+#: Refinement stalls when, over STALL_MESHES meshes, the state estimate fell by less than STALL_FALL while the mesh
+#: grew by more than STALL_GROWTH (a singular arc or a non-smooth control the scheme cannot resolve)
+STALL_MESHES, STALL_FALL, STALL_GROWTH = 4, 0.5, 1.5
+
+
+def _stalled(history) -> str:
+    """Why refinement stalls (module constants), or the empty string."""
+    if len(history) <= STALL_MESHES:
+        return ""
+    then, now = history[-1 - STALL_MESHES], history[-1]
+    if now.error_estimate > STALL_FALL * then.error_estimate and now.collocation_points > STALL_GROWTH * then.collocation_points:
+        return (
+            f"over the last {STALL_MESHES} meshes the state estimate went from {then.error_estimate:.1e} to "
+            f"{now.error_estimate:.1e} while the mesh grew from {then.collocation_points} to {now.collocation_points} "
+            "points"
+        )
+    return ""
+
+
 def _refinement_failure(exc: Exception, iteration: int, transcription, best, history) -> SolverError:
     """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
     solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
@@ -779,6 +811,9 @@ def _refinement_failure(exc: Exception, iteration: int, transcription, best, his
             f"the best solution so far (estimate {best.mesh_history[-1].error_estimate:.1e} on "
             f"{best.mesh_history[-1].transcription}) is error.best"
         )
+    hint = singular_arc_hint(best) if best is not None else ""
+    if hint:
+        kept = f"{kept}; {hint}"
     if isinstance(exc, SolverError):
         detail = f"{where}: {exc.detail}; {kept}" if exc.detail else f"{where}; {kept}"
         error = SolverError(exc.solver, exc.status, exc.iterations, detail, result=exc.result, best=best)

@@ -1,0 +1,78 @@
+"""Automatic scaling (ocpkit.autoscale): defaults filled in from bounds and the guess, what the user set kept."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import casadi as ca
+import pytest
+
+from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Radau, State, autoscale
+
+from compendium.problems import hang_glider
+
+
+def unscaled_hang_glider() -> OptimalControlProblem:
+    pr = hang_glider()
+    return pr.replace(
+        states=[dataclasses.replace(s, scale=1.0) for s in pr.states],
+        tf=dataclasses.replace(pr.tf, scale=1.0),
+        objective_scale=1.0,
+    )
+
+
+def test_bounds_give_a_shift_and_a_scale_and_the_guess_gives_the_rest():
+    raw = unscaled_hang_glider()
+    auto = autoscale(raw)
+    x = auto.states[0]
+    assert (x.scale, x.shift) == (1500.0, 750.0)  # bounds [0, 1500]: the NLP variable in [-1/2, 1/2]
+    assert auto.tf.scale == pytest.approx(raw.tf.guess)
+    assert auto.objective_scale == pytest.approx(1250.0)  # -x(t_f) at the guess
+    problem = OptimalControlProblem(
+        "one_sided",
+        states=[State("r", lower=0.0, initial=6.4e6, guess=6.4e6)],
+        controls=[Control("u", guess=0.0)],
+        dynamics=lambda x, u, t: u[0],
+        tf=FreeFinalTime(1.0, 1e3, 200.0),
+        lagrange=lambda x, u, t: u[0] ** 2,
+        path_constraints=[Constraint("q", lambda x, u, t: x[0], upper=7e6)],
+    )
+    auto = autoscale(problem)
+    assert auto.states[0].scale == pytest.approx(6.4e6) and auto.states[0].shift == 0.0
+    assert auto.path_constraints[0].scale == pytest.approx(7e6)
+    assert auto.objective_scale == 1.0  # a zero cost at the guess: left alone
+
+
+def test_what_the_user_set_is_kept():
+    pr = hang_glider()
+    auto = autoscale(pr)
+    for given, filled in zip(pr.states, auto.states):
+        if given.scale != 1.0:  # x, y, vx are scaled by hand; vy is not and gets its bounds' width
+            assert (filled.scale, filled.shift) == (given.scale, given.shift)
+    assert auto.states[3].scale == 8.0
+    assert auto.tf.scale == pr.tf.scale and auto.objective_scale == pr.objective_scale
+
+
+def test_autoscaling_saves_most_of_the_iterations_an_unscaled_problem_costs():
+    raw = unscaled_hang_glider()
+    unscaled = Radau(raw, 4, 50).solve(error_threshold=None)
+    scaled = Radau(autoscale(raw), 4, 50).solve(error_threshold=None)
+    assert scaled.converged and scaled.iterations <= 0.3 * unscaled.iterations  # measured 31 against 180
+    assert scaled.objective == pytest.approx(unscaled.objective, rel=1e-6)
+
+
+def test_scaling_does_not_change_the_optimum_of_a_smooth_problem():
+    def problem(**scales):
+        return OptimalControlProblem(
+            "energy",
+            states=[State("x", initial=0.0, final=100.0), State("v", initial=0.0, final=0.0)],
+            controls=[Control("u", -1e3, 1e3)],
+            dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+            tf=10.0,
+            lagrange=lambda x, u, t: u[0] ** 2,
+            **scales,
+        )
+
+    a = Radau(problem(), 6, 4).solve(error_threshold=None)
+    b = Radau(autoscale(problem()), 6, 4).solve(error_threshold=None)
+    assert b.objective == pytest.approx(a.objective, rel=1e-9)
