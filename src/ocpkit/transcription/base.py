@@ -780,9 +780,9 @@ class Transcription(ABC):
         )
 
 
-#: Refinement stalls when, over STALL_MESHES meshes, the state estimate fell by less than STALL_FALL while the mesh
+#: Refinement stalls when, over STALL_MESHES meshes, the state estimate fell by less than 1 / STALL_FALL while the mesh
 #: grew by more than STALL_GROWTH (a singular arc or a non-smooth control the scheme cannot resolve)
-STALL_MESHES, STALL_FALL, STALL_GROWTH = 4, 0.5, 1.5
+STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
 
 
 def _stalled(history) -> str:
