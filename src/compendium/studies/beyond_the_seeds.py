@@ -1,0 +1,112 @@
+"""Refinement on published problems beyond the seeds (notebook 07, section 5; issue 22).
+
+Each case is a problem, a starting mesh and a published value (``data/paper/beyond_the_seeds.csv``, or a closed
+form); :func:`run_case` refines it to a tolerance and reports the outcome: ``met`` (every part of the estimate,
+:class:`ocpkit.accuracy.Accuracy`, at most the tolerance), ``stalled`` or ``not met`` (with the warning's reason),
+or IPOPT's status when a mesh's solve failed (then only the outcome is reported: no number of a failed solve).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Callable
+
+
+from ocpkit import HLGL, Radau, SolverError
+from ocpkit.accuracy import AccuracyWarning
+
+from ..paper import paper_table
+from ..problems import bryson_denham, catalyst_mixing, free_flying_robot, hang_glider, tumour
+
+
+@dataclass(frozen=True)
+class Case:
+    """A problem, how to start (``scheme``: ``"HLGL"`` or ``"Radau"``, ``start``: segments, or nodes and intervals)
+    and the published value its objective is compared with (``published``: problem and quantity in
+    ``data/paper/beyond_the_seeds.csv``, or a number from a closed form), with ``sign``: the objective in the
+    published quantity's sense (-1 for a maximisation posed as the minimisation of -J)."""
+
+    problem: str
+    make: Callable
+    scheme: str
+    start: tuple
+    published: tuple | float
+    sign: float = 1.0
+
+    @property
+    def label(self) -> str:
+        return f"{self.scheme} {' x '.join(str(s) for s in self.start)}"
+
+    def transcription(self):
+        problem = self.make()
+        return HLGL(problem, *self.start) if self.scheme == "HLGL" else Radau(problem, *self.start)
+
+    def published_value(self) -> float:
+        if not isinstance(self.published, tuple):
+            return float(self.published)
+        table = paper_table("beyond_the_seeds")
+        problem, quantity = self.published
+        return float(table[(table.problem == problem) & (table.quantity == quantity)].value.iloc[0])
+
+
+CASES = [
+    Case("hang glider", hang_glider, "HLGL", (50,), ("hang_glider", "final_range_m"), -1.0),
+    Case("hang glider", hang_glider, "Radau", (4, 50), ("hang_glider", "final_range_m"), -1.0),
+    Case("hang glider", hang_glider, "Radau", (60, 1), ("hang_glider", "final_range_m"), -1.0),
+    Case("tumour", tumour, "HLGL", (10,), ("tumour_anti_angiogenesis", "final_tumour_volume")),
+    Case("tumour", tumour, "Radau", (4, 10), ("tumour_anti_angiogenesis", "final_tumour_volume")),
+    Case("free-flying robot", free_flying_robot, "HLGL", (10,), float("nan")),
+    Case("free-flying robot", free_flying_robot, "Radau", (4, 10), float("nan")),
+    Case("catalyst mixing", catalyst_mixing, "HLGL", (10,), ("catalyst_mixing", "objective")),
+    Case("catalyst mixing", catalyst_mixing, "Radau", (4, 10), ("catalyst_mixing", "objective")),
+    Case("Bryson-Denham", bryson_denham, "HLGL", (10,), 4.0),  # J = 4 / (9 l), l = 1/9 (bryson_denham_solution)
+]
+
+
+def run_case(case: Case, tolerance: float, max_mesh_iterations: int = 25) -> dict:
+    """One refinement: a row of the section's table, and the solution (None when a mesh failed)."""
+    start = time.perf_counter()
+    row = {"problem": case.problem, "start": case.label, "published": case.published_value()}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AccuracyWarning)
+        try:
+            sol = case.transcription().solve(mesh_tolerance=tolerance, max_mesh_iterations=max_mesh_iterations)
+        except SolverError as exc:
+            row.update(outcome=exc.status, met=False, reason=str(exc), mesh_iterations=len(exc.mesh_history))
+            row["total_s"] = time.perf_counter() - start
+            return row | {"solution": None}
+    accuracy = sol.accuracy
+    messages = [str(w.message) for w in caught if issubclass(w.category, AccuracyWarning)]
+    stalled = [m for m in messages if "stalled" in m]
+    not_met = [m for m in messages if "not met" in m]
+    met = not accuracy.failing(tolerance) and not stalled and not not_met
+    value = case.sign * sol.objective
+    row.update(
+        outcome="met" if met else ("stalled" if stalled else "not met"),
+        met=met,
+        reason=(stalled or not_met or [""])[0],
+        mesh_iterations=len(sol.mesh_history),
+        collocation_points=sol.mesh_history[-1].collocation_points,
+        state_error=accuracy.state,
+        objective_error=accuracy.objective,
+        path_violation=max(accuracy.path.values(), default=float("nan")),
+        objective=value,
+        relative_difference=abs(value - row["published"]) / abs(row["published"]),
+        total_s=time.perf_counter() - start,
+    )
+    return row | {"solution": sol}
+
+
+def run_cases(tolerance: float, max_mesh_iterations: int = 25, cases=CASES):
+    """Every case: ``(rows, solutions)``, the solutions by ``(problem, start)`` (None where a mesh failed)."""
+    rows, solutions = [], {}
+    for case in cases:
+        row = run_case(case, tolerance, max_mesh_iterations)
+        solutions[case.problem, case.label] = row.pop("solution")
+        rows.append(row)
+    return rows, solutions
+
+
+__all__ = ["CASES", "Case", "run_case", "run_cases"]
