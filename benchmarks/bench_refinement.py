@@ -80,7 +80,9 @@ def main() -> None:
         row = min(runs, key=lambda r: r.get("total_s", float("inf")))
         rows.append(row)
         if "total_s" in row:
-            print(f"{label}: {row['status']}, {row['total_s']:.3f} s in total, {row['ratio']:.1f} x the final mesh alone")
+            print(
+                f"{label}: {row['status']}, {row['total_s']:.3f} s in total, {row['ratio']:.1f} x the final mesh alone"
+            )
         else:
             print(f"{label}: failed, {row['status']}", flush=True)
     cols = [

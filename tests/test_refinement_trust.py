@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from ocpkit import Control, FreeFinalTime, FreeParameter, HLGL, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import HLGL, Control, FreeFinalTime, FreeParameter, OptimalControlProblem, Radau, SolverError, State
 from ocpkit.accuracy import AccuracyWarning
 from ocpkit.nlp import dense_columns, least_squares_multipliers
 
@@ -235,7 +235,7 @@ def test_a_singular_arc_is_named_with_the_regularisation_to_try():
             HLGL(catalyst_mixing(), 10).solve(mesh_tolerance=1e-6)
         arcs = singular_arcs(HLGL(catalyst_mixing(), 20).solve())
     assert "singular arc" in str(info.value) and "penalise_control" in str(info.value)
-    (name, start, end), = arcs
+    ((name, start, end),) = arcs
     assert name == "u" and 0.05 < start < 0.2 and 0.6 < end < 0.8  # COPS: bang, singular, bang
     # a bang-bang control is not singular
     from compendium.problems import free_flying_robot

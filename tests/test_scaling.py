@@ -1,4 +1,4 @@
-"""Automatic scaling (ocpkit.autoscale): defaults filled in from bounds and the guess, what the user set kept."""
+"""Automatic scaling (ocpkit.autoscale) and periodic controls (Control(period=...)): what the NLP sees, not the optimum."""
 
 from __future__ import annotations
 
@@ -76,3 +76,47 @@ def test_scaling_does_not_change_the_optimum_of_a_smooth_problem():
     a = Radau(problem(), 6, 4).solve(error_threshold=None)
     b = Radau(autoscale(problem()), 6, 4).solve(error_threshold=None)
     assert b.objective == pytest.approx(a.objective, rel=1e-9)
+
+
+# -- periodic controls (angles) ------------------------------------------------------------------------------------
+
+
+def _heading_problem(period):
+    from ocpkit import Control as C
+
+    return OptimalControlProblem(
+        "heading",
+        states=[State("x", initial=0.0, final=1.0), State("y", initial=0.0, final=1.0)],
+        controls=[C("theta", period=period)],
+        dynamics=lambda x, u, t: ca.vertcat(ca.cos(u[0]), ca.sin(u[0])),
+        tf=FreeFinalTime(0.5, 5.0, 1.5),
+        mayer=lambda x0, xf, t0, tf: tf,
+    )
+
+
+def test_a_periodic_control_is_interpolated_the_short_way_round():
+    import math
+
+    import numpy as np
+
+    from ocpkit import Guess
+
+    def wrapped(t):  # the optimum pi/4, moved by whole turns from node to node
+        return math.pi / 4 + 2 * math.pi * (np.round(np.asarray(t) * 7) % 3 - 1)
+
+    out = {}
+    for period in (None, 2 * math.pi):
+        tr = Radau(_heading_problem(period), 5, 3)
+        sol = tr.solve(Guess(controls={"theta": wrapped}), error_threshold=None)
+        assert sol.tf == pytest.approx(math.sqrt(2), rel=1e-8)  # the nodes see only cos and sin
+        t = sol.time_grid(601)
+        out[period] = (np.abs(np.cos(sol.control(t)[:, 0]) - math.cos(math.pi / 4)).max(), sol.error_estimate)
+    jumps, estimate = out[None]
+    assert jumps > 0.1 and estimate > 1e-3  # between nodes the polynomial sweeps whole turns
+    jumps, estimate = out[2 * math.pi]
+    assert jumps < 1e-8 and estimate < 1e-8
+
+
+def test_a_period_must_be_positive():
+    with pytest.raises(ValueError, match="period of 'theta' must be positive"):
+        Control("theta", period=0.0)

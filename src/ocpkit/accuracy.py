@@ -248,9 +248,7 @@ def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
     with np.errstate(invalid="ignore"):
         v = np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale
     v = np.nan_to_num(v, nan=np.inf).reshape(K, samples, -1).max(axis=2)  # (K, samples): the worst expression
-    worst = np.nan_to_num(
-        np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale, nan=np.inf
-    ).max(axis=0)
+    worst = np.nan_to_num(np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale, nan=np.inf).max(axis=0)
     j = np.argmax(v, axis=1)
     where = np.stack([s[j], v[np.arange(K), j]], axis=1)
     where[where[:, 1] <= 0, 0] = np.nan

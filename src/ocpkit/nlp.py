@@ -328,7 +328,7 @@ def least_squares_multipliers(A, g, regularisation: float = 1e-12, budget: int |
     count, the normal matrix's nonzeros and the factors' (``dense_columns``, ``normal_nnz``, ``factor_nnz``).
     """
     import scipy.sparse as sps
-    from scipy.sparse.linalg import spsolve, splu
+    from scipy.sparse.linalg import splu, spsolve
 
     budget = NORMAL_MATRIX_BUDGET if budget is None else budget
     A = sps.csc_matrix(A)

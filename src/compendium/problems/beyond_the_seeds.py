@@ -10,7 +10,6 @@
 
 from __future__ import annotations
 
-
 import casadi as ca
 
 from ocpkit.problem import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
@@ -55,9 +54,7 @@ def catalyst_mixing() -> OptimalControlProblem:
             State("x2", 0.0, 1.0, initial=c["x0"][1], guess=0.05),
         ],
         controls=[Control("u", 0.0, 1.0, guess=0.5)],
-        dynamics=lambda x, u, t: ca.vertcat(
-            u[0] * (10 * x[1] - x[0]), u[0] * (x[0] - 10 * x[1]) - (1 - u[0]) * x[1]
-        ),
+        dynamics=lambda x, u, t: ca.vertcat(u[0] * (10 * x[1] - x[0]), u[0] * (x[0] - 10 * x[1]) - (1 - u[0]) * x[1]),
         tf=c["tf"],
         mayer=lambda x0, xf, t0, tf: -1 + xf[0] + xf[1],
         objective_scale=0.1,

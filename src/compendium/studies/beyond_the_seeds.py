@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
-
 
 from ocpkit import HLGL, Radau, SolverError
 from ocpkit.accuracy import AccuracyWarning

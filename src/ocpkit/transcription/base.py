@@ -626,7 +626,9 @@ class Transcription(ABC):
             result = run(np.clip(guess.raw["w"], lbw, ubw), warm_options, (guess.raw["lam_g"], guess.raw["lam_w"]))
             return settle(result, self._solution, raise_on_failure)
         w0 = np.clip(self.initial_point(guess), lbw, ubw)
-        multipliers = self.nlp.multiplier_estimate(w0, lbw, ubw) if estimate_multipliers and isinstance(guess, Solution) else None
+        multipliers = (
+            self.nlp.multiplier_estimate(w0, lbw, ubw) if estimate_multipliers and isinstance(guess, Solution) else None
+        )
         if multipliers is not None:
             result = run(w0, warm_options, multipliers)
             if result.success:
@@ -790,7 +792,10 @@ def _stalled(history) -> str:
     if len(history) <= STALL_MESHES:
         return ""
     then, now = history[-1 - STALL_MESHES], history[-1]
-    if now.error_estimate > STALL_FALL * then.error_estimate and now.collocation_points > STALL_GROWTH * then.collocation_points:
+    if (
+        now.error_estimate > STALL_FALL * then.error_estimate
+        and now.collocation_points > STALL_GROWTH * then.collocation_points
+    ):
         return (
             f"over the last {STALL_MESHES} meshes the state estimate went from {then.error_estimate:.1e} to "
             f"{now.error_estimate:.1e} while the mesh grew from {then.collocation_points} to {now.collocation_points} "

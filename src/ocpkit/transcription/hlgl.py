@@ -26,7 +26,7 @@ import numpy as np
 from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
-from ..problem import OptimalControlProblem
+from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
@@ -234,7 +234,7 @@ class HLGL(Transcription):
         breaks = self._times(tf, self.mesh.breaks, t0)
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
-        Useg = segment_points(U, self.segments)
+        Useg = unwrap_periodic(segment_points(U, self.segments), pr.controls, axis=0)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
         return dict(

@@ -53,7 +53,7 @@ import numpy as np
 from .. import nodes
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
-from ..problem import OptimalControlProblem
+from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
@@ -512,7 +512,8 @@ class MultiRateHLGL(Transcription):
         h = np.diff(breaks)
 
         nq = N * self.control_quartics
-        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), segment_points(U, nq))
+        U_seg = unwrap_periodic(segment_points(U, nq), pr.controls, axis=0)
+        ucoef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.EQUISPACED_CONTROL_NODES), U_seg)
         control_breaks = breaks if self.control_quartics == 1 else t_u[::4]
         controls = PiecewiseEvaluator(piecewise_polynomial(control_breaks, ucoef))
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
-from ..problem import OptimalControlProblem
+from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, n_globals, parameter_vector, segment_clock
 
@@ -342,7 +342,7 @@ class Radau(Transcription):
         x_pieces, u_pieces = [], []
         for o, n, tau in zip(self.offsets, self.counts, self.tau):
             x_pieces.append((np.append(tau, 1.0), X[o : o + n + 1]))
-            u_pieces.append((tau, U[o : o + n]))
+            u_pieces.append((tau, unwrap_periodic(U[o : o + n], pr.controls)))
         t_x = self._times(tf, self.state_point_fractions(), t0)
         return dict(
             t0=t0,
