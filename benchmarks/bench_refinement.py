@@ -50,7 +50,9 @@ def run(label, make, start, tolerance, opts):
         except SolverError as exc:
             return {"problem": label, "tolerance": tolerance, "status": f"{exc.status} (mesh {len(exc.mesh_history)})"}
     total = time.perf_counter() - t0
-    met = not any("not met" in str(w.message) for w in caught)
+    messages = [str(w.message) for w in caught]
+    stalled = any("stalled" in m for m in messages)
+    met = not stalled and not any("not met" in m for m in messages) and not sol.accuracy.failing(tolerance)
     final = sol.raw["transcription"]
     t1 = time.perf_counter()
     _same_mesh(final).solve(ipopt_options=opts, error_threshold=None)
@@ -58,7 +60,7 @@ def run(label, make, start, tolerance, opts):
     return {
         "problem": label,
         "tolerance": tolerance,
-        "status": "met" if met else "not met",
+        "status": "met" if met else ("stalled" if stalled else "not met"),
         "mesh_iterations": len(sol.mesh_history),
         "collocation_points": final.n_collocation_points,
         "error_estimate": sol.error_estimate,

@@ -172,6 +172,12 @@ def test_no_interval_loses_nodes_and_a_stalled_interval_is_split():
     twice = once.refine(np.array([0.9e-3, 1e-9, 1e-9]), 1e-6)
     assert twice.intervals == 4 and twice.counts.tolist()[:2] == [once.counts[0]] * 2
     assert np.allclose(twice.mesh.fractions[:2], once.mesh.fractions[0] / 2)
+    # the intervals within the tolerance keep their nodes and lengths
+    assert twice.counts.tolist()[2:] == tr.counts.tolist()[1:]
+    assert np.allclose(twice.mesh.fractions[2:], tr.mesh.fractions[1:])
+    # an interval whose estimate is not a number is refined, not left as it is
+    nan = tr.refine(np.array([np.nan, 1e-9, 1e-9]), 1e-6)
+    assert nan.n_collocation > tr.n_collocation
 
 
 # -- the whole solution: objective and path parts ------------------------------------------------------------------
@@ -237,12 +243,19 @@ def test_a_singular_arc_is_named_with_the_regularisation_to_try():
     assert "singular arc" in str(info.value) and "penalise_control" in str(info.value)
     ((name, start, end),) = arcs
     assert name == "u" and 0.05 < start < 0.2 and 0.6 < end < 0.8  # COPS: bang, singular, bang
-    # a bang-bang control is not singular
-    from compendium.problems import free_flying_robot
-
+    # a bang-bang control is not singular: minimum time of the double integrator, one switch from -1 to +1
+    bang_bang = OptimalControlProblem(
+        "minimum_time",
+        states=[State("x", initial=1.0, final=0.0), State("v", initial=0.0, final=0.0)],
+        controls=[Control("u", -1.0, 1.0)],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=FreeFinalTime(0.5, 5.0, 2.0),
+        mayer=lambda x0, xf, t0, tf: tf,
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
-        assert singular_arcs(HLGL(free_flying_robot(), 20).solve()) == []
+        sol = HLGL(bang_bang, 20).solve()
+    assert linear_controls(bang_bang) == ["u"] and singular_arcs(sol) == []
 
 
 def test_a_refinement_that_stalls_on_a_singular_arc_stops_and_says_why():

@@ -5,9 +5,10 @@ from __future__ import annotations
 import dataclasses
 
 import casadi as ca
+import numpy as np
 import pytest
 
-from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Radau, State, autoscale
+from ocpkit import HLGL, Constraint, Control, FreeFinalTime, OptimalControlProblem, Radau, State, autoscale
 
 from compendium.problems import hang_glider
 
@@ -24,10 +25,12 @@ def unscaled_hang_glider() -> OptimalControlProblem:
 def test_bounds_give_a_shift_and_a_scale_and_the_guess_gives_the_rest():
     raw = unscaled_hang_glider()
     auto = autoscale(raw)
-    x = auto.states[0]
-    assert (x.scale, x.shift) == (1500.0, 750.0)  # bounds [0, 1500]: the NLP variable in [-1/2, 1/2]
+    x, given = auto.states[0], raw.states[0]
+    # bounds [lower, upper]: shifted to their midpoint, scaled by their width (the NLP variable in [-1/2, 1/2])
+    assert (x.scale, x.shift) == (given.upper - given.lower, (given.upper + given.lower) / 2)
     assert auto.tf.scale == pytest.approx(raw.tf.guess)
-    assert auto.objective_scale == pytest.approx(1250.0)  # -x(t_f) at the guess
+    x_f = given.guess_at(np.array([1.0]))[0]  # -x(t_f) at the guess
+    assert auto.objective_scale == pytest.approx(abs(x_f))
     problem = OptimalControlProblem(
         "one_sided",
         states=[State("r", lower=0.0, initial=6.4e6, guess=6.4e6)],
@@ -49,7 +52,8 @@ def test_what_the_user_set_is_kept():
     for given, filled in zip(pr.states, auto.states):
         if given.scale != 1.0:  # x, y, vx are scaled by hand; vy is not and gets its bounds' width
             assert (filled.scale, filled.shift) == (given.scale, given.shift)
-    assert auto.states[3].scale == 8.0
+        else:
+            assert filled.scale == given.upper - given.lower
     assert auto.tf.scale == pr.tf.scale and auto.objective_scale == pr.objective_scale
 
 
@@ -104,17 +108,46 @@ def test_a_periodic_control_is_interpolated_the_short_way_round():
     def wrapped(t):  # the optimum pi/4, moved by whole turns from node to node
         return math.pi / 4 + 2 * math.pi * (np.round(np.asarray(t) * 7) % 3 - 1)
 
-    out = {}
-    for period in (None, 2 * math.pi):
-        tr = Radau(_heading_problem(period), 5, 3)
-        sol = tr.solve(Guess(controls={"theta": wrapped}), error_threshold=None)
-        assert sol.tf == pytest.approx(math.sqrt(2), rel=1e-8)  # the nodes see only cos and sin
-        t = sol.time_grid(601)
-        out[period] = (np.abs(np.cos(sol.control(t)[:, 0]) - math.cos(math.pi / 4)).max(), sol.error_estimate)
-    jumps, estimate = out[None]
-    assert jumps > 0.1 and estimate > 1e-3  # between nodes the polynomial sweeps whole turns
-    jumps, estimate = out[2 * math.pi]
-    assert jumps < 1e-8 and estimate < 1e-8
+    for scheme in (lambda p: Radau(p, 5, 3), lambda p: HLGL(p, 3)):
+        out = {}
+        for period in (None, 2 * math.pi):
+            sol = scheme(_heading_problem(period)).solve(Guess(controls={"theta": wrapped}), error_threshold=None)
+            assert sol.tf == pytest.approx(math.sqrt(2), rel=1e-8)  # the nodes see only cos and sin
+            t = sol.time_grid(601)
+            out[period] = (np.abs(np.cos(sol.control(t)[:, 0]) - math.cos(math.pi / 4)).max(), sol.error_estimate)
+        jumps, estimate = out[None]
+        assert jumps > 0.1 and estimate > 1e-3  # between nodes the polynomial sweeps whole turns
+        jumps, estimate = out[2 * math.pi]
+        assert jumps < 1e-8 and estimate < 1e-8
+
+
+def test_a_bounded_periodic_control_is_wrapped_into_its_bounds_not_clipped():
+    """A heading in [-pi, pi] that crosses pi: unwrapped between nodes, then wrapped back into the bounds (clipping
+    it would fly pi where the solution flies pi + d)."""
+    import math
+
+    from ocpkit import Control as C
+    from ocpkit import Guess
+
+    problem = OptimalControlProblem(
+        "tracking",
+        states=[State("e", initial=0.0)],
+        controls=[C("theta", -math.pi, math.pi, period=2 * math.pi)],
+        # follow r(t) = pi - 0.5 + t through the bound at pi: the cost sees theta only through cos and sin
+        dynamics=lambda x, u, t: (1 - ca.cos(u[0] - (math.pi - 0.5 + t))) + ca.sin(u[0] - (math.pi - 0.5 + t)) ** 2,
+        tf=1.0,
+        mayer=lambda x0, xf, t0, tf: xf[0],
+    )
+
+    def heading(t):
+        return np.angle(np.exp(1j * (math.pi - 0.5 + np.asarray(t))))  # the reference, wrapped into [-pi, pi]
+
+    sol = Radau(problem, 8, 2).solve(Guess(controls={"theta": heading}), error_threshold=None)
+    t = sol.time_grid(401)
+    miss = np.angle(np.exp(1j * (sol.control(t)[:, 0] - (math.pi - 0.5 + t))))
+    # the tracking error is quadratic in the cost: IPOPT's tolerance leaves about 1e-5 of it (clipped: 0.5)
+    assert np.abs(miss).max() < 1e-4 and sol.error_estimate < 1e-6
+    assert np.all(sol.control(t)[:, 0] >= -math.pi) and np.all(sol.control(t)[:, 0] <= math.pi)
 
 
 def test_a_period_must_be_positive():

@@ -174,6 +174,8 @@ def flown_objective(trajectory, rtol: float = 1e-9, atol: float = 1e-9) -> float
     cost = problem.L(x, u, t, p) if problem.L is not None else ca.SX(0)
     rate = ca.Function("flown_rate", [x, u, t, p], [ca.vertcat(problem.f(x, u, t, p), cost)])
     stops = np.asarray(trajectory.breakpoints, dtype=float)
+    if hasattr(trajectory, "control_breakpoints"):  # a control mesh finer than the state's (multi-rate)
+        stops = np.union1d(stops, trajectory.control_breakpoints)
     pieces = _control_pieces(trajectory, stops)
     y = np.append(np.asarray(trajectory.initial_state(), dtype=float), 0.0)
     tol = np.append(atol * problem.state_scale, atol * max(1.0, abs(float(trajectory.objective))))
@@ -197,8 +199,9 @@ def flown_objective(trajectory, rtol: float = 1e-9, atol: float = 1e-9) -> float
 def _control_pieces(trajectory, stops):
     """The admissible control on each interval between ``stops`` as a fast scalar function: the trajectory's own
     polynomial on the interval, interpolated exactly at Chebyshev points (degree 16, or the interval's number of
-    estimate points when larger: a transcription's control polynomial has a lower degree), then projected onto the
-    control bounds as :meth:`~ocpkit.Trajectory.control` does."""
+    estimate points when larger: a transcription's control polynomial has a lower degree; ``stops`` include the
+    control's own breakpoints), then made admissible as :meth:`~ocpkit.Trajectory.control` does
+    (:meth:`~ocpkit.Solution.admissible`)."""
     from numpy.polynomial import chebyshev
 
     raw = getattr(trajectory, "control_interpolant", None)
@@ -206,7 +209,6 @@ def _control_pieces(trajectory, stops):
     if raw is None or trajectory.problem.nu == 0:
         return [lambda s, a=a, b=b: trajectory.control(np.array(min(max(s, a), np.nextafter(b, a)))) for a, b in
                 zip(stops[:-1], stops[1:])]  # fmt: skip
-    lo, hi = trajectory._control_bounds
     points = np.full(K, 16)
     est = getattr(trajectory, "estimate_points", None)
     if est is not None and np.size(est) == K and trajectory.estimate_breakpoints is None:
@@ -219,7 +221,7 @@ def _control_pieces(trajectory, stops):
         coef = chebyshev.chebfit(xi, U, n - 1)
 
         def piece(s, a=a, b=b, coef=coef):
-            return np.clip(chebyshev.chebval(min(max(2 * (s - a) / (b - a) - 1, -1.0), 1.0), coef), lo, hi)
+            return trajectory.admissible(chebyshev.chebval(min(max(2 * (s - a) / (b - a) - 1, -1.0), 1.0), coef))
 
         out.append(piece)
     return out
@@ -231,7 +233,7 @@ def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
     On each interval the state interpolant and the admissible control are sampled at ``samples`` interior
     points; ``max(g - upper, lower - g, 0) / scale`` per expression. Returns ``(labels, worst, where)``: the
     expressions' labels, their largest violation (``(n_expr,)``) and, per interval, the position in (0, 1) of
-    its worst violation over the constraint tolerance (NaN where there is none) with its size (``(K, 2)``).
+    its worst violation with its size (``(K, 2)``; the position NaN where nothing is violated).
     """
     cs = trajectory.problem.functions.path
     bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
@@ -262,6 +264,8 @@ class Accuracy:
     * ``objective``: ``|J_flown - J| / max(|J|, objective_scale * 1e-3)``, the cost its admissible control
       achieves (:func:`flown_objective`) against the NLP's (``J_flown > J``: the NLP claims a better value than
       its control gives, as a path constraint violated between points or an under-resolved singular arc does);
+      infinite when the control cannot be flown (``objective_failure`` says why: on open-loop unstable dynamics
+      the flown cost measures the instability as much as the discretisation);
     * ``path``: per path constraint expression, the largest violation between the scheme's points
       (:func:`path_violations`), in units of the constraint's scale.
     """
@@ -270,9 +274,14 @@ class Accuracy:
         self.solution = solution
         self.state = float(solution.interval_errors.max())
         self.objective_nlp = float(solution.objective)
-        self.objective_flown = flown_objective(solution)
+        self.objective_failure = ""
+        try:
+            self.objective_flown = flown_objective(solution)
+        except (RuntimeError, ValueError, ArithmeticError) as exc:  # the control cannot be flown: unknown, not small
+            self.objective_flown, self.objective_failure = float("nan"), str(exc)
         floor = 1e-3 * float(solution.problem.objective_scale)
-        self.objective = abs(self.objective_flown - self.objective_nlp) / max(abs(self.objective_nlp), floor)
+        difference = abs(self.objective_flown - self.objective_nlp)
+        self.objective = difference / max(abs(self.objective_nlp), floor) if np.isfinite(difference) else np.inf
         labels, worst, self.path_where = path_violations(solution, solution.estimate_intervals)
         self.path = dict(zip(labels, worst.tolist()))
 
@@ -299,25 +308,6 @@ class Accuracy:
 
     def __repr__(self) -> str:
         return f"Accuracy({self.describe()})"
-
-
-def warn_if_inaccurate_parts(label: str, accuracy: Accuracy, threshold: float | None) -> None:
-    """Warn (:class:`AccuracyWarning`) naming each part of ``accuracy`` over ``threshold`` (the state part names
-    its interval, as :func:`warn_if_inaccurate`)."""
-    if threshold is None:
-        return
-    sol = accuracy.solution
-    failing = accuracy.failing(threshold)
-    if failing == ["state"]:
-        warn_if_inaccurate(label, sol.interval_errors, sol.estimate_intervals, threshold)
-        return
-    if failing:
-        warnings.warn(
-            f"{label}: estimated error exceeds {threshold:g} in {', '.join(failing)} ({accuracy.describe(threshold)}); "
-            "refine the mesh (solve(mesh_tolerance=...)) or check the solution (reintegrate())",
-            AccuracyWarning,
-            stacklevel=3,
-        )
 
 
 def warn_if_path_violated(label: str, solution, threshold: float | None) -> None:
@@ -363,14 +353,16 @@ def linear_controls(problem) -> list[str]:
 def singular_arcs(trajectory, samples: int = 2001, share: float = 0.02) -> list[tuple[str, float, float]]:
     """For each control that enters linearly (:func:`linear_controls`), where it is singular: ``(name, t_start,
     t_end)`` from its first to its last sample off its bounds (by more than ``share`` of its range), when that
-    stretch is longer than 2 % of the horizon and the control is off its bounds on at least 30 % of it (a
-    transcription's control chatters on a singular arc; a bang-bang control leaves its bounds only at switches)."""
+    stretch is longer than 2 % of the horizon, touches at least 3 mesh intervals, and the control is off its bounds
+    on at least 30 % of it (a transcription's control chatters on a singular arc; a bang-bang control leaves its
+    bounds only at switches, each smeared over an interval or two)."""
     problem = trajectory.problem
     names = linear_controls(problem)
     if not names:
         return []
     t = np.linspace(trajectory.t0, trajectory.tf, samples)
     U = trajectory.control(t)
+    bp = np.asarray(trajectory.breakpoints, dtype=float)
     out = []
     for name in names:
         i = problem.control_names.index(name)
@@ -382,7 +374,8 @@ def singular_arcs(trajectory, samples: int = 2001, share: float = 0.02) -> list[
         if inside.size == 0:
             continue
         first, last = int(inside[0]), int(inside[-1])
-        if last - first > 0.02 * samples and inside.size >= 0.3 * (last - first + 1):
+        spans = np.count_nonzero((bp > t[first]) & (bp < t[last])) + 1  # mesh intervals the stretch touches
+        if last - first > 0.02 * samples and inside.size >= 0.3 * (last - first + 1) and spans >= 3:
             out.append((name, float(t[first]), float(t[last])))
     return out
 

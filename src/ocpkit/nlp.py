@@ -271,8 +271,11 @@ class SeparableNLP:
             near_lower = np.isfinite(lbw) & ((w - lbw) <= 1e-9 * np.maximum(1.0, np.abs(lbw)))
             near_upper = np.isfinite(ubw) & ((ubw - w) <= 1e-9 * np.maximum(1.0, np.abs(ubw)))
         on_bound = near_lower | near_upper
-        lam_g = least_squares_multipliers(J[:, ~on_bound], grad[~on_bound])
-        if lam_g is None:
+        try:  # a warm-start aid: whatever goes wrong here, the solve starts without it
+            lam_g = least_squares_multipliers(J[:, ~on_bound], grad[~on_bound])
+        except (RuntimeError, MemoryError, ValueError, ArithmeticError):
+            return None
+        if lam_g is None or not np.all(np.isfinite(lam_g)):
             return None
         residual = grad + J.T @ lam_g
         lam_w = np.where(on_bound, -residual, 0.0)
@@ -323,9 +326,11 @@ def least_squares_multipliers(A, g, regularisation: float = 1e-12, budget: int |
         [ A_d'                 -I  ] [  y  ] = [   0  ],
 
     whose first block row is ``(A_s A_s' + A_d A_d' + delta I) lam = -A g`` once ``y = A_d' lam`` is eliminated:
-    sparse whatever ``k``, factorised by SuperLU in a symmetric ordering with the dense rows last. Memory and
-    time are bounded by ``budget`` before anything is factorised. ``stats``, a dict, receives the dense columns'
-    count, the normal matrix's nonzeros and the factors' (``dense_columns``, ``normal_nnz``, ``factor_nnz``).
+    sparse whatever ``k``, factorised by SuperLU in a symmetric minimum-degree ordering (which leaves the k dense
+    rows, of high degree, to the end). What is formed before any factorisation is bounded by ``budget`` (the
+    normal matrix's nonzeros); the factors' fill is checked after, and an estimate whose factors exceed four
+    budgets is not used. ``stats``, a dict, receives the dense columns' count, the normal matrix's nonzeros and the
+    factors' (``dense_columns``, ``normal_nnz``, ``factor_nnz``).
     """
     import scipy.sparse as sps
     from scipy.sparse.linalg import splu, spsolve

@@ -1,8 +1,9 @@
 """Automatic scaling: every variable, constraint and the cost of order one in the NLP, from bounds and the guess.
 
 IPOPT's steps, its barrier and its convergence tests all act on the NLP's numbers, so a state in metres next to
-one in radians, or a cost of 10^4, costs iterations or the solve (the hang glider unscaled: 2224 IPOPT
-iterations on Radau 4 x 50 against 57 scaled). :func:`autoscale` chooses what a user would write by hand, the
+one in radians, or a cost of 10^4, costs iterations or the solve (the hang glider without its scales: 180 IPOPT
+iterations on Radau 4 x 50, autoscaled 31, scaled by hand 30). :func:`autoscale` chooses what a user would write by
+hand, the
 way GPOPS-II scales from bounds and Dymos from ``ref``/``ref0``:
 
 * a state, control or free parameter with both bounds finite is shifted to their midpoint and scaled by their

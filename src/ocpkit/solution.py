@@ -108,8 +108,27 @@ class Solution(Trajectory):
         touches (and an LGR control, extrapolated past the last collocation point,
         can leave it); the projection gives the only values the dynamics admit.
         """
+        return self.admissible(self.control_interpolant(t))
+
+    def admissible(self, values) -> np.ndarray:
+        """Control values (last axis: the controls) as the dynamics admit them: a periodic control
+        (:attr:`~ocpkit.Control.period`) wrapped into ``[lower, lower + period)`` when its bounds are finite and
+        at least a period apart, then every control clipped to its bounds."""
         lo, hi = self._control_bounds
-        return np.clip(self.control_interpolant(t), lo, hi)
+        values = np.array(values, dtype=float, copy=True)
+        for j, c in enumerate(self.problem.controls):
+            if c.period is not None and np.isfinite(lo[j]) and hi[j] - lo[j] >= c.period:
+                values[..., j] = lo[j] + np.mod(values[..., j] - lo[j], c.period)
+        return np.clip(values, lo, hi)
+
+    @property
+    def control_breakpoints(self) -> np.ndarray:
+        """Where the control interpolant's pieces meet (the mesh's breakpoints, or a finer control mesh's)."""
+        raw = self.control_interpolant
+        for breaks in (getattr(raw, "breaks", None), getattr(getattr(raw, "poly", None), "x", None)):
+            if breaks is not None:
+                return np.asarray(breaks, dtype=float)
+        return np.asarray(self.breakpoints, dtype=float)
 
     def _raw_control(self, t):
         return self.control_interpolant(self._check_times(t))

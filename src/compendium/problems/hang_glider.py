@@ -20,7 +20,7 @@ from ._data import load_problem_data
 
 def hang_glider() -> OptimalControlProblem:
     d = load_problem_data("hang_glider")
-    c, b, lo_hi, guess = d["constants"], d["boundary"], d["bounds"]["tf"], d["guess"]
+    c, b, box, guess = d["constants"], d["boundary"], d["bounds"], d["guess"]
 
     def dynamics(x, u, t):
         vx, vy, cl = x[2], x[3], u[0]
@@ -39,14 +39,14 @@ def hang_glider() -> OptimalControlProblem:
     return OptimalControlProblem(
         "hang_glider",
         states=[
-            State("x", 0.0, 1500.0, initial=b["x0"], scale=1000.0, guess=(b["x0"], guess["x_f"])),
-            State("y", 0.0, 1100.0, initial=b["y0"], final=b["y_f"], scale=1000.0, guess=(b["y0"], b["y_f"])),
-            State("vx", 0.0, 15.0, initial=b["vx0"], final=b["vx_f"], scale=10.0, guess=b["vx0"]),
-            State("vy", -4.0, 4.0, initial=b["vy0"], final=b["vy_f"], guess=b["vy0"]),
+            State("x", *box["x"], initial=b["x0"], scale=1000.0, guess=(b["x0"], guess["x_f"])),
+            State("y", *box["y"], initial=b["y0"], final=b["y_f"], scale=1000.0, guess=(b["y0"], b["y_f"])),
+            State("vx", *box["vx"], initial=b["vx0"], final=b["vx_f"], scale=10.0, guess=b["vx0"]),
+            State("vy", *box["vy"], initial=b["vy0"], final=b["vy_f"], guess=b["vy0"]),
         ],
         controls=[Control("c_L", 0.0, c["c_max"], guess=c["c_max"] / 2)],
         dynamics=dynamics,
-        tf=FreeFinalTime(lo_hi[0], lo_hi[1], guess["tf"], scale=100.0),
+        tf=FreeFinalTime(*box["tf"], guess["tf"], scale=100.0),
         mayer=lambda x0, xf, t0, tf: -xf[0],
         objective_scale=1000.0,
         description="Hang glider, maximum range (COPS 3.0; Betts 2020, Ex. 10.54)",

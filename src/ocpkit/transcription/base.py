@@ -79,6 +79,9 @@ class MeshIteration:
     #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
     #: met it; empty where the state part did not (the other parts are not computed then) or all met it
     failing: tuple = ()
+    #: the largest part measured on this mesh (the state's, the path violations', and the objective's once the
+    #: state meets the tolerance): what the stall rule follows
+    worst: float = float("nan")
 
 
 @dataclass
@@ -526,7 +529,7 @@ class Transcription(ABC):
         raise_on_failure: bool = True,
         error_threshold: float | None = 1e-3,
         mesh_tolerance: float | None = None,
-        max_mesh_iterations: int = 10,
+        max_mesh_iterations: int = 25,
         parameters=None,
     ) -> Solution:
         """Solve with IPOPT from ``guess``.
@@ -560,7 +563,13 @@ class Transcription(ABC):
             every iteration (and a warning names the parts if the tolerance is not met). Where the
             state meets the tolerance and another part does not, the next mesh cuts the intervals at
             their worst path violation, and refines to a tolerance tightened by the objective's
-            excess.
+            excess. A failed solve on any mesh raises :class:`~ocpkit.SolverError` with the best
+            solution before it (``error.best``); an estimate that stops falling while the mesh grows
+            (:data:`STALL_MESHES`) stops the refinement with a warning saying so, naming a singular
+            arc where a control enters linearly (:func:`~ocpkit.accuracy.singular_arc_hint`).
+        max_mesh_iterations : int
+            At most this many meshes (default 25: bang-bang and singular problems from coarse meshes
+            take 13 to 20; a stalled refinement stops sooner).
         parameters : mapping, optional
             New values of some of the problem's parameters (:attr:`OptimalControlProblem.parameters`) for
             this solve. They are NLP variables pinned by their bounds, so the NLP and the IPOPT instance are
@@ -658,7 +667,7 @@ class Transcription(ABC):
                     options["parameters"],
                     estimate_multipliers=True,
                 )
-                errors = solution.interval_errors
+                estimate = solution.interval_errors
             except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
                 if not history:  # the first mesh: the solve's own error (bad input, or IPOPT's status)
                     raise
@@ -670,14 +679,16 @@ class Transcription(ABC):
                     np.diff(solution.estimate_intervals) / (solution.tf - solution.t0),
                     transcription.n_collocation_points,
                     solution.nlp_parameters,
-                    float(errors.max()),
+                    float(estimate.max()),
                     solution.iterations,
                     transcription.build_s,
                     solution.solve_s,
                     time.perf_counter() - start,
                 )
             )
-            if solution.converged and (best is None or errors.max() <= best.mesh_history[-1].error_estimate):
+            # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
+            errors = np.where(np.isfinite(estimate), estimate, 1e3)
+            if solution.converged and (best is None or errors.max() <= _worst(best.mesh_history[-1])):
                 best = solution
                 best.mesh_history = list(history)
             if not solution.converged:
@@ -691,13 +702,18 @@ class Transcription(ABC):
             except Exception as exc:  # noqa: BLE001
                 raise _refinement_failure(exc, iteration, transcription, best, history) from exc
             violated = where[:, 1] > tolerance
+            worst = max(float(errors.max()), float(np.max(where[:, 1], initial=0.0)))
             if accuracy is not None:
                 failing = accuracy.failing(tolerance)
                 if not failing:
                     break
-                history[-1] = dataclasses.replace(history[-1], failing=tuple(failing))
+                worst = max(worst, accuracy.objective)
                 if "objective" in failing and accuracy.objective > 0:
-                    target = tolerance * min(1.0, accuracy.state / accuracy.objective)
+                    # the state error drives the objective's: tighten by the excess (at most a thousandfold)
+                    target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
+                history[-1] = dataclasses.replace(history[-1], failing=tuple(failing), worst=worst)
+            else:
+                history[-1] = dataclasses.replace(history[-1], worst=worst)
             cuts = [
                 np.clip([w - 1.0 / PATH_SAMPLES, w + 1.0 / PATH_SAMPLES], 0.02, 0.98) if v else np.zeros(0)
                 for w, v in zip(where[:, 0], violated)
@@ -706,8 +722,9 @@ class Transcription(ABC):
             stalled = _stalled(history)
             if stalled:
                 hint = singular_arc_hint(solution)
+                parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
                 warnings.warn(
-                    f"{self.label}: mesh refinement stalled short of {tolerance:g}: {stalled}; stopped on "
+                    f"{self.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
                     f"{history[-1].transcription}" + (f"; {hint}" if hint else ""),
                     AccuracyWarning,
                     stacklevel=3,
@@ -724,7 +741,7 @@ class Transcription(ABC):
                             raise
                         transcription = transcription.refine(errors, target)
                 except Exception as exc:  # noqa: BLE001
-                    raise _refinement_failure(exc, iteration + 1, transcription, best, history) from exc
+                    raise _refinement_failure(exc, iteration, transcription, best, history, "refining") from exc
         else:
             parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
             hint = singular_arc_hint(solution)
@@ -787,28 +804,32 @@ class Transcription(ABC):
 STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
 
 
+def _worst(h: MeshIteration) -> float:
+    return h.worst if np.isfinite(h.worst) else h.error_estimate
+
+
 def _stalled(history) -> str:
-    """Why refinement stalls (module constants), or the empty string."""
+    """Why refinement stalls (module constants, on the largest part measured on each mesh), or the empty string."""
     if len(history) <= STALL_MESHES:
         return ""
     then, now = history[-1 - STALL_MESHES], history[-1]
-    if (
-        now.error_estimate > STALL_FALL * then.error_estimate
-        and now.collocation_points > STALL_GROWTH * then.collocation_points
-    ):
+    if _worst(now) > STALL_FALL * _worst(then) and now.collocation_points > STALL_GROWTH * then.collocation_points:
         return (
-            f"over the last {STALL_MESHES} meshes the state estimate went from {then.error_estimate:.1e} to "
-            f"{now.error_estimate:.1e} while the mesh grew from {then.collocation_points} to {now.collocation_points} "
-            "points"
+            f"over the last {STALL_MESHES} meshes the estimate went from {_worst(then):.1e} to {_worst(now):.1e} "
+            f"while the mesh grew from {then.collocation_points} to {now.collocation_points} points"
         )
     return ""
 
 
-def _refinement_failure(exc: Exception, iteration: int, transcription, best, history) -> SolverError:
+def _refinement_failure(exc: Exception, iteration: int, transcription, best, history, doing="on") -> SolverError:
     """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
     solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
     and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
-    where = f"on mesh iteration {iteration} ({transcription.label})"
+    where = (
+        f"on mesh iteration {iteration} ({transcription.label})"
+        if doing == "on"
+        else f"refining mesh iteration {iteration} ({transcription.label}) for the next"
+    )
     if best is None:
         kept = "no earlier mesh converged"
     else:

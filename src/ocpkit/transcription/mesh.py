@@ -161,7 +161,8 @@ def h_refined(mesh: Mesh, errors, tolerance: float, switches=None) -> np.ndarray
     ``switches`` when it has any, else split into ``ceil((error / tolerance)^(1/6))`` equal parts (2 to 6;
     HLGL's states converge at about h^6)."""
     errors = np.asarray(errors, dtype=float)
-    over = errors > tolerance
+    over = ~(errors <= tolerance)  # NaN counts as over
+    errors = np.where(np.isfinite(errors), errors, 1e3)
     pieces = np.where(over, np.clip(np.ceil((errors / tolerance) ** (1 / 6)), 2, 6), 1).astype(np.int64)
     cuts = []
     for k in range(mesh.n):

@@ -249,16 +249,17 @@ class Radau(Transcription):
 
         * ``switches`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
           interval over the tolerance with a control switching inside is cut there, since no degree resolves a
-          corner or a jump; its nodes are shared among the pieces by length (each at least :attr:`N_MIN`, pieces
-          of more than ``max(N, N_MAX)`` split evenly), so a cut never coarsens (global collocation at N = 60
-          cut at a switch stays at 60 points or more, instead of becoming 4 intervals of 3 nodes);
+          corner or a jump; its nodes are shared among the pieces by length (each at least :attr:`N_MIN`), so a
+          cut never coarsens (global collocation at N = 60 cut at a switch keeps 60 points or more, instead of
+          becoming 4 intervals of 3 nodes); a piece above :attr:`N_MAX` nodes splits by the ph rule next time;
         * an interval of :attr:`STALL_NODES` nodes or more whose degree this refinement raised last time and
           whose error fell by less than :attr:`STALL_FACTOR` is split in two at the same degree (the error does
           not fall with the degree: a non-smooth or singular solution there);
         * an interval never loses nodes, so no mesh has fewer points than the one before.
         """
         errors = np.asarray(errors, dtype=float)
-        over = errors > tolerance
+        over = ~(errors <= tolerance)  # NaN counts as over
+        errors = np.where(np.isfinite(errors), errors, 1e3)
         cuts = (
             [np.zeros(0)] * self.intervals
             if switches is None
@@ -273,12 +274,9 @@ class Radau(Transcription):
             if pieces.size > 1:
                 share = pieces / pieces.sum()
                 for f, q in zip(pieces, share):
-                    m = max(self.N_MIN, int(np.ceil(n * q)))
-                    parts = int(np.ceil(m / max(n, self.N_MAX)))
-                    per = max(self.N_MIN, int(np.ceil(m / parts)))
-                    counts += [per] * parts
-                    out += [f / parts] * parts
-                    raised += [None] * parts
+                    counts.append(max(self.N_MIN, int(np.ceil(n * q))))
+                    out.append(f)
+                    raised.append(None)
                 continue
             f = pieces[0]
             if e <= tolerance:
