@@ -79,8 +79,8 @@ class MeshIteration:
     #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
     #: met it; empty where the state part did not (the other parts are not computed then) or all met it
     failing: tuple = ()
-    #: the largest part measured on this mesh (the state's, the path violations', and the objective's once the
-    #: state meets the tolerance): what the stall rule follows
+    #: what drives the refinement on this mesh, which the stall rule follows: the state part while it is over the
+    #: tolerance, else the largest of the others (path violations between points, the objective)
     worst: float = float("nan")
 
 
@@ -702,12 +702,13 @@ class Transcription(ABC):
             except Exception as exc:  # noqa: BLE001
                 raise _refinement_failure(exc, iteration, transcription, best, history) from exc
             violated = where[:, 1] > tolerance
-            worst = max(float(errors.max()), float(np.max(where[:, 1], initial=0.0)))
+            # what drives this refinement: the state while it is over the tolerance, else the other parts
+            worst = float(errors.max())
             if accuracy is not None:
                 failing = accuracy.failing(tolerance)
                 if not failing:
                     break
-                worst = max(worst, accuracy.objective)
+                worst = max(float(np.max(where[:, 1], initial=0.0)), accuracy.objective)
                 if "objective" in failing and accuracy.objective > 0:
                     # the state error drives the objective's: tighten by the excess (at most a thousandfold)
                     target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
@@ -809,7 +810,8 @@ def _worst(h: MeshIteration) -> float:
 
 
 def _stalled(history) -> str:
-    """Why refinement stalls (module constants, on the largest part measured on each mesh), or the empty string."""
+    """Why refinement stalls (module constants, on what drives each mesh: :attr:`MeshIteration.worst`), or the
+    empty string."""
     if len(history) <= STALL_MESHES:
         return ""
     then, now = history[-1 - STALL_MESHES], history[-1]
