@@ -234,7 +234,11 @@ def test_refinement_stops_only_when_every_part_meets_the_tolerance():
 def test_a_singular_arc_is_named_with_the_regularisation_to_try():
     from ocpkit.accuracy import linear_controls, singular_arcs
 
-    assert linear_controls(catalyst_mixing()) == ["u"] and linear_controls(hang_glider()) == []
+    from compendium.problems import double_integrator, goddard_rocket
+
+    assert linear_controls(catalyst_mixing()) == ["u"] and linear_controls(goddard_rocket()) == ["T"]
+    assert linear_controls(hang_glider()) == []  # c_L enters through the lift and the drag's c_L^2
+    assert linear_controls(double_integrator(1.0)) == []  # an L1 cost |u|: its "off" arc is not singular
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         with pytest.raises(SolverError) as info:
