@@ -375,17 +375,23 @@ class _Dom(HTMLParser):
             self.title += data
 
 
+#: Headless Chromium as every browser test starts it (test_lab_roundtrip too)
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",  # root in a container
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
 def _dump_dom(url: str, profile: Path) -> _Dom:
     cmd = [
         _chromium(),
-        "--headless",
-        "--no-sandbox",  # root in a container
-        "--disable-gpu",
-        "--disable-quic",
-        "--no-first-run",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
+        *CHROMIUM_FLAGS,
         f"--user-data-dir={profile}",
         f"--virtual-time-budget={VIRTUAL_TIME_BUDGET}",
         "--dump-dom",

@@ -29,7 +29,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
-from test_lab import HAVE_LAB, _chromium, _kernel_installed, _running_lab, needs_chromium
+from test_lab import CHROMIUM_FLAGS, HAVE_LAB, _chromium, _kernel_installed, _running_lab, needs_chromium
 
 from compendium.notebooks import KERNEL_NAME
 
@@ -44,17 +44,7 @@ MAKE_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 PAGE_TIMEOUT = 60.0  # Lab's page loaded, the notebook open, its kernel idle
 RUN_TIMEOUT = 120.0 if NOTEBOOKS == [DEFAULT_NOTEBOOK] else 900.0  # every cell run (the default: about 20 s)
 SAVE_TIMEOUT = 30.0
-CHROMIUM_FLAGS = [
-    "--headless",
-    "--no-sandbox",  # root in a container
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--window-size=1280,1024",
-]
+WINDOW = "--window-size=1280,1024"
 
 pytestmark = [
     pytest.mark.skipif(not HAVE_LAB, reason="jupyterlab is not installed"),
@@ -103,7 +93,14 @@ class _Browser:
         import websocket  # websocket-client, pinned in environment.txt (jupyter_server's dependency)
 
         profile.mkdir(parents=True, exist_ok=True)
-        cmd = [_chromium(), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0", "about:blank"]
+        cmd = [
+            _chromium(),
+            *CHROMIUM_FLAGS,
+            WINDOW,
+            f"--user-data-dir={profile}",
+            "--remote-debugging-port=0",
+            "about:blank",
+        ]
         self._log = log
         with open(log, "wb") as err:
             self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)

@@ -247,15 +247,10 @@ def test_a_singular_arc_is_named_with_the_regularisation_to_try():
     assert "singular arc" in str(info.value) and "penalise_control" in str(info.value)
     ((name, start, end),) = arcs
     assert name == "u" and 0.05 < start < 0.2 and 0.6 < end < 0.8  # COPS: bang, singular, bang
-    # a bang-bang control is not singular: minimum time of the double integrator, one switch from -1 to +1
-    bang_bang = OptimalControlProblem(
-        "minimum_time",
-        states=[State("x", initial=1.0, final=0.0), State("v", initial=0.0, final=0.0)],
-        controls=[Control("u", -1.0, 1.0)],
-        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
-        tf=FreeFinalTime(0.5, 5.0, 2.0),
-        mayer=lambda x0, xf, t0, tf: tf,
-    )
+    # a bang-bang control is not singular: minimum time of the double integrator, one switch from +1 to -1
+    from test_accuracy import minimum_time_double_integrator
+
+    bang_bang = minimum_time_double_integrator()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         sol = HLGL(bang_bang, 20).solve()
