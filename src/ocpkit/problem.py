@@ -382,6 +382,12 @@ class ProblemFunctions:
     def hamiltonian(self) -> Hamiltonian:
         return Hamiltonian.of(self)
 
+    @cached_property
+    def derived(self) -> dict:
+        """Functions built from these once and kept for every copy of the problem that shares them (e.g. the
+        integrator of :func:`ocpkit.flight.fly`), keyed by what else they depend on."""
+        return {}
+
 
 @dataclass(frozen=True)
 class Hamiltonian:
