@@ -137,8 +137,47 @@ def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES
     return out
 
 
-def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None) -> None:
-    """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``."""
+def path_junctions(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, band: float = SWITCH_BAND):
+    """Where a path constraint becomes active or inactive inside each interval: cuts (fractions in (0, 1)) around
+    it, or none.
+
+    The junction of a constrained arc with a free one is a corner of the control (the shuttle's heating-limited
+    arc, Bryson-Denham's boundary arc), which no polynomial degree on the interval resolves: a polynomial control
+    through the collocation points on both sides of it overshoots, and violates the constraint between the
+    points, most where Radau extrapolates past its last collocation point. Cutting an interval where the
+    violation is largest only moves its end, and the junction with it, a little at a time (the shuttle's heating
+    limit on Radau 4 x 40: 9 meshes, stalled at 2e-3); cutting at the junction resolves it, as
+    :func:`control_switches` does for a bounded control (met in 7 meshes). On each interval the constraints are
+    sampled at ``samples`` midpoints; each expression is on its lower bound, on its upper bound or between them
+    (within ``band`` times its scale); the first and the last place on the interval where that status changes
+    are bracketed, each by two cuts a sample either side.
+    """
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    K = bp.size - 1
+    cs = trajectory.problem.functions.path
+    if cs is None or K < 1:
+        return [np.zeros(0) for _ in range(K)]
+    _, G = _path_samples(trajectory, bp, samples)
+    width = band * np.asarray(cs.scale, dtype=float)
+    with np.errstate(invalid="ignore"):
+        status = np.where(G <= cs.lower + width, -1, 0) + np.where(G >= cs.upper - width, 1, 0)
+    changed = (status[:, 1:] != status[:, :-1]).any(axis=2)  # (K, samples - 1): between samples j and j + 1
+    out = []
+    for k in range(K):
+        j = np.flatnonzero(changed[k])
+        if j.size == 0:
+            out.append(np.zeros(0))
+            continue
+        cuts = np.unique(np.concatenate([np.array([c, c + 2]) / samples for c in {int(j[0]), int(j[-1])}]))
+        out.append(cuts[(cuts > 0.0) & (cuts < 1.0)])
+    return out
+
+
+def warn_if_inaccurate(
+    label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None, hint=None
+) -> None:
+    """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``
+    (``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint` of the solution)."""
     if threshold is None or errors.size == 0:
         return
     k = int(np.argmax(errors))
@@ -146,7 +185,8 @@ def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, 
         warnings.warn(
             f"{label}: estimated relative state error {errors[k]:.1e} on interval {k} "
             f"[{breakpoints[k]:.6g}, {breakpoints[k + 1]:.6g}] exceeds {threshold:g}; refine the mesh "
-            "(solve(mesh_tolerance=...)) or check the solution (reintegrate())",
+            "(solve(mesh_tolerance=...)) or check the solution (reintegrate())"
+            + (f"; {text}" if hint is not None and (text := hint()) else ""),
             AccuracyWarning,
             stacklevel=3,
         )
@@ -158,114 +198,100 @@ def warn_if_inaccurate(label: str, errors: np.ndarray, breakpoints: np.ndarray, 
 PATH_SAMPLES = 16
 
 
-def flown_objective(trajectory, rtol: float = 1e-9, atol: float = 1e-9) -> float:
+def flown_objective(trajectory, tol: float | None = None) -> float:
     """The cost the trajectory's admissible control achieves: the dynamics and the running cost integrated together
-    (DOP853) from ``x(t0)``, ``J = phi(x(t0), x(t_f), t0, t_f) + int L``; the integration restarts at every
-    breakpoint, where the control may jump or kink (as :meth:`~ocpkit.Trajectory.reintegrate` does). ``atol`` is
-    scaled by each state's scale (and the cost's magnitude)."""
-    import casadi as ca
-    from scipy.integrate import solve_ivp
+    from ``x(t0)``, ``J = phi(x(t0), x(t_f), t0, t_f) + int L``, restarting at every breakpoint, where the control
+    may jump or kink (:func:`ocpkit.flight.fly`: CVODES at ``tol``, default :data:`ocpkit.flight.TOLERANCE`)."""
+    from .flight import TOLERANCE, fly
 
-    problem = trajectory.problem
-    P = problem.parameter_vector() if problem.parameters else np.zeros(0)
-    nx, nu = problem.nx, problem.nu
-    x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("t")
-    p = ca.SX.sym("P", problem.f.size1_in(3))
-    cost = problem.L(x, u, t, p) if problem.L is not None else ca.SX(0)
-    rate = ca.Function("flown_rate", [x, u, t, p], [ca.vertcat(problem.f(x, u, t, p), cost)])
-    stops = np.asarray(trajectory.breakpoints, dtype=float)
-    if hasattr(trajectory, "control_breakpoints"):  # a control mesh finer than the state's (multi-rate)
-        stops = np.union1d(stops, trajectory.control_breakpoints)
-    pieces = _control_pieces(trajectory, stops)
-    y = np.append(np.asarray(trajectory.initial_state(), dtype=float), 0.0)
-    tol = np.append(atol * problem.state_scale, atol * max(1.0, abs(float(trajectory.objective))))
-    step = None  # each interval starts with the largest step of the one before (cheaper than DOP853's own guess)
-    for a, b, control in zip(stops[:-1], stops[1:], pieces):
-        step = None if step is None else min(step, b - a)
-
-        def rhs(s, z, control=control):
-            return np.asarray(rate(z[:nx], control(s), s, P)).ravel()
-
-        sol = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=rtol, atol=tol, first_step=step)
-        step = float(np.diff(sol.t).max()) if sol.t.size > 1 else None
-        if sol.status != 0:
-            raise RuntimeError(f"flying the control failed on [{a}, {b}]: {sol.message}")
-        y = sol.y[:, -1]
-    phi = problem.phi
-    mayer = float(phi(trajectory.initial_state(), y[:nx], trajectory.t0, trajectory.tf, P)) if phi is not None else 0.0
-    return mayer + float(y[nx])
+    return fly(trajectory, TOLERANCE if tol is None else tol).objective
 
 
-def _control_pieces(trajectory, stops):
-    """The admissible control on each interval between ``stops`` as a fast scalar function: the trajectory's own
-    polynomial on the interval, interpolated exactly at Chebyshev points (degree 16, or the interval's number of
-    estimate points when larger: a transcription's control polynomial has a lower degree; ``stops`` include the
-    control's own breakpoints), then made admissible as :meth:`~ocpkit.Trajectory.control` does
-    (:meth:`~ocpkit.Solution.admissible`)."""
-    from numpy.polynomial import chebyshev
-
-    raw = getattr(trajectory, "control_interpolant", None)
-    K = stops.size - 1
-    if raw is None or trajectory.problem.nu == 0:
-        return [lambda s, a=a, b=b: trajectory.control(np.array(min(max(s, a), np.nextafter(b, a)))) for a, b in
-                zip(stops[:-1], stops[1:])]  # fmt: skip
-    points = np.full(K, 16)
-    est = getattr(trajectory, "estimate_points", None)
-    if est is not None and np.size(est) == K and trajectory.estimate_breakpoints is None:
-        points = np.maximum(points, np.asarray(est, dtype=int))
-    out = []
-    for k, (a, b) in enumerate(zip(stops[:-1], stops[1:])):
-        n = int(points[k]) + 1
-        xi = np.cos(np.pi * (np.arange(n) + 0.5) / n)  # Chebyshev points of the first kind, inside (-1, 1)
-        U = np.asarray(raw(a + (b - a) * (xi + 1) / 2), dtype=float).reshape(n, -1)
-        coef = chebyshev.chebfit(xi, U, n - 1)
-
-        def piece(s, a=a, b=b, coef=coef):
-            return trajectory.admissible(chebyshev.chebval(min(max(2 * (s - a) / (b - a) - 1, -1.0), 1.0), coef))
-
-        out.append(piece)
-    return out
-
-
-def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
-    """The largest violation of each path constraint between the scheme's points, in units of its scale.
+def path_violation_table(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
+    """The violation of each path constraint expression between the scheme's points, per interval.
 
     On each interval the state interpolant and the admissible control are sampled at ``samples`` interior
-    points; ``max(g - upper, lower - g, 0) / scale`` per expression. Returns ``(labels, worst, where)``: the
-    expressions' labels, their largest violation (``(n_expr,)``) and, per interval, the position in (0, 1) of
-    its worst violation with its size (``(K, 2)``; the position NaN where nothing is violated).
+    points; ``max(g - upper, lower - g, 0) / scale`` per expression (NaN counts as infinite). Returns
+    ``(labels, V, S)``: the expressions' labels, ``V`` (K, samples, n_expr) the violations in units of each
+    expression's scale, and ``S`` (samples,) the positions of the samples in (0, 1) of their interval; None for
+    ``V`` and ``S`` without path constraints.
     """
     cs = trajectory.problem.functions.path
-    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
-    K = bp.size - 1
     if cs is None:
-        return [], np.zeros(0), np.full((K, 2), np.nan)
+        return [], None, None
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    s, G = _path_samples(trajectory, bp, samples)
+    with np.errstate(invalid="ignore"):
+        v = np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale
+    return list(cs.labels), np.nan_to_num(v, nan=np.inf), s
+
+
+def _path_samples(trajectory, bp: np.ndarray, samples: int):
+    """The path constraints' values ``G`` (K, samples, n_expr) at ``samples`` midpoints ``s`` of every interval
+    between ``bp``, on the state interpolant and the admissible control; ``(s, G)``."""
+    K = bp.size - 1
     s = (np.arange(samples) + 0.5) / samples
     t = bp[:-1, None] + np.diff(bp)[:, None] * s[None, :]  # (K, samples)
     X = trajectory.state(t).reshape(K * samples, -1)
     U = trajectory.control(t).reshape(K * samples, -1)
     problem = trajectory.problem
     P = problem.parameter_vector() if problem.parameters else np.zeros(0)
-    G = np.asarray(cs.function.map(K * samples)(X.T, U.T, t.reshape(1, -1), P)).T  # (K * samples, n_expr)
-    with np.errstate(invalid="ignore"):
-        v = np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale
-    v = np.nan_to_num(v, nan=np.inf).reshape(K, samples, -1).max(axis=2)  # (K, samples): the worst expression
-    worst = np.nan_to_num(np.maximum(np.maximum(G - cs.upper, cs.lower - G), 0.0) / cs.scale, nan=np.inf).max(axis=0)
+    G = np.asarray(problem.functions.path.function.map(K * samples)(X.T, U.T, t.reshape(1, -1), P)).T
+    return s, G.reshape(K, samples, -1)
+
+
+def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES, table=None):
+    """The largest violation of each path constraint between the scheme's points, in units of its scale
+    (:func:`path_violation_table`, or its result ``table``). Returns ``(labels, worst, where)``: the expressions' labels, their largest
+    violation (``(n_expr,)``) and, per interval, the position in (0, 1) of its worst violation with its size
+    (``(K, 2)``; the position NaN where nothing is violated).
+    """
+    bp = np.asarray(trajectory.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    K = bp.size - 1
+    labels, V, s = path_violation_table(trajectory, bp, samples) if table is None else table
+    if V is None:
+        return [], np.zeros(0), np.full((K, 2), np.nan)
+    v = V.max(axis=2)  # (K, samples): the worst expression
     j = np.argmax(v, axis=1)
     where = np.stack([s[j], v[np.arange(K), j]], axis=1)
     where[where[:, 1] <= 0, 0] = np.nan
-    return list(cs.labels), worst, where
+    return labels, V.max(axis=(0, 1)), where
+
+
+def path_cost_sensitivity(solution, breakpoints=None, table=None) -> float:
+    """How much better a cost the NLP can claim through its path constraints' violations between its points:
+    ``sum_k sum_e |mu_ke| v_ke scale_e``, the multiplier of expression ``e`` at path point ``k`` (a discrete
+    measure, :attr:`~ocpkit.Solution.path_multipliers`, in cost per unit of the constraint) times the largest
+    violation on the interval of the point (of the two intervals a point on a breakpoint belongs to), in the
+    constraint's units: the first-order change of the optimal cost were the constraint relaxed by that much
+    (Bryson-Denham, HLGL from 10 segments: J 1.8e-6 below its closed form with every violation below 1e-6).
+    0 without path constraints or multipliers. ``table``: :func:`path_violation_table`'s result, if at hand."""
+    cs = solution.problem.functions.path
+    times = getattr(solution, "path_times", None)
+    mu = getattr(solution, "path_multipliers", None)
+    if cs is None or times is None or mu is None or len(times) == 0:
+        return 0.0
+    bp = np.asarray(solution.breakpoints if breakpoints is None else breakpoints, dtype=float)
+    K = bp.size - 1
+    _, V, _ = path_violation_table(solution, bp) if table is None else table
+    worst = V.max(axis=1) * np.asarray(cs.scale, dtype=float)  # (K, n_expr), in the constraints' units
+    right = np.clip(np.searchsorted(bp, times, side="right") - 1, 0, K - 1)
+    left = np.clip(np.searchsorted(bp, times, side="left") - 1, 0, K - 1)  # the interval ending at a breakpoint
+    v = np.maximum(worst[right], worst[left])
+    return float(np.sum(np.abs(np.asarray(mu, dtype=float)) * v))
 
 
 class Accuracy:
     """The parts of a solution's estimated error, each compared with a tolerance by :meth:`failing`.
 
     * ``state``: the relative state error (:func:`interval_errors`, the largest over intervals);
-    * ``objective``: ``|J_flown - J| / max(|J|, objective_scale * 1e-3)``, the cost its admissible control
-      achieves (:func:`flown_objective`) against the NLP's (``J_flown > J``: the NLP claims a better value than
-      its control gives, as a path constraint violated between points or an under-resolved singular arc does);
-      infinite when the control cannot be flown (``objective_failure`` says why: on open-loop unstable dynamics
-      the flown cost measures the instability as much as the discretisation);
+    * ``objective``: ``(|J_flown - J| + dJ_path) / max(|J|, objective_scale * 1e-3)``: the cost its admissible
+      control achieves (:func:`flown_objective`) against the NLP's (``J_flown > J``: the NLP claims a better value
+      than its control gives, as an under-resolved singular arc does), plus ``dJ_path``
+      (``objective_path``, :func:`path_cost_sensitivity`), what the path constraints' violations between the
+      points are worth in cost (the flown control violates them too, so flying it does not show what they
+      gain); infinite when the control cannot be flown (``objective_failure`` says why: on open-loop unstable
+      dynamics the flown cost measures the instability as much as the discretisation);
     * ``path``: per path constraint expression, the largest violation between the scheme's points
       (:func:`path_violations`), in units of the constraint's scale.
     """
@@ -280,9 +306,11 @@ class Accuracy:
         except (RuntimeError, ValueError, ArithmeticError) as exc:  # the control cannot be flown: unknown, not small
             self.objective_flown, self.objective_failure = float("nan"), str(exc)
         floor = 1e-3 * float(solution.problem.objective_scale)
-        difference = abs(self.objective_flown - self.objective_nlp)
+        table = path_violation_table(solution, solution.estimate_intervals)
+        self.objective_path = path_cost_sensitivity(solution, solution.estimate_intervals, table)
+        difference = abs(self.objective_flown - self.objective_nlp) + self.objective_path
         self.objective = difference / max(abs(self.objective_nlp), floor) if np.isfinite(difference) else np.inf
-        labels, worst, self.path_where = path_violations(solution, solution.estimate_intervals)
+        labels, worst, self.path_where = path_violations(solution, solution.estimate_intervals, table=table)
         self.path = dict(zip(labels, worst.tolist()))
 
     @property
@@ -396,3 +424,69 @@ def singular_arc_hint(trajectory) -> str:
         "collocation resolves poorly (chattering, a cost better than the optimum, IPOPT's acceptable level); "
         f"regularise it, ocpkit.regularisation.penalise_control(problem, 1e-6, {names!r}), and continue the weight towards zero"
     )
+
+
+# -- angles -----------------------------------------------------------------------------------------------------------
+
+#: The periods tried for a control the problem's functions see only through periodic functions (radians, degrees)
+PERIODS = (2 * np.pi, 360.0)
+
+
+def undeclared_periodic_controls(trajectory) -> list[tuple[str, float]]:
+    """The controls that are angles in all but name: not declared periodic (:attr:`~ocpkit.Control.period`), while
+    the dynamics and the running cost do not change when the control moves by a whole period (:data:`PERIODS`,
+    tried at the trajectory's own node values, to 1e-9), and the control's values move by more than half a period
+    between consecutive nodes somewhere: a polynomial through them sweeps whole turns the dynamics never saw
+    (orbit raising on Radau 4 x 20: 233.7, -109.7 and -417 degrees in one interval). ``(name, period)`` each."""
+    problem = trajectory.problem
+    values = getattr(trajectory, "control_values", None)
+    times = getattr(trajectory, "control_times", None)
+    if problem.nu == 0 or values is None or times is None or len(values) < 2:
+        return []
+    X, U, t = trajectory.state(np.asarray(times)), np.asarray(values, dtype=float), np.asarray(times, dtype=float)
+    P = problem.parameter_vector() if problem.parameters else np.zeros(0)
+    n = t.size
+
+    def rates(U):
+        out = [np.asarray(problem.f.map(n)(X.T, U.T, t.reshape(1, -1), P))]
+        if problem.L is not None:
+            out.append(np.asarray(problem.L.map(n)(X.T, U.T, t.reshape(1, -1), P)))
+        return np.vstack(out)
+
+    base = rates(U)
+    found = []
+    for j, c in enumerate(problem.controls):
+        if c.period is not None:
+            continue
+        for period in PERIODS:
+            if c.upper - c.lower < period or np.abs(np.diff(U[:, j])).max(initial=0.0) <= period / 2:
+                continue
+            moved = U.copy()
+            moved[:, j] += period
+            if np.all(np.abs(rates(moved) - base) <= 1e-9 * (1.0 + np.abs(base))):
+                found.append((c.name, period))
+                break
+    return found
+
+
+def periodic_control_hint(trajectory) -> str:
+    """A sentence naming the controls of :func:`undeclared_periodic_controls` and how to declare them, or ``""``."""
+    try:
+        found = undeclared_periodic_controls(trajectory)
+    except Exception:  # noqa: BLE001 - a hint never hides the error it accompanies
+        return ""
+    if not found:
+        return ""
+    names = ", ".join(f"{n!r} (period {p:g})" for n, p in found)
+    declare = ", ".join(f"Control({n!r}, period={'2 * math.pi' if p == PERIODS[0] else f'{p:g}'})" for n, p in found)
+    return (
+        f"an angle not declared periodic: the dynamics see {names} only through periodic functions, and its node "
+        f"values jump by more than half a period, so its polynomial sweeps whole turns between them; declare it, "
+        f"{declare}"
+    )
+
+
+def refinement_hint(trajectory) -> str:
+    """What to try when a solution cannot be refined to a tolerance: the singular arcs (:func:`singular_arc_hint`)
+    and the undeclared angles (:func:`periodic_control_hint`) it shows, or ``""``."""
+    return "; ".join(h for h in (singular_arc_hint(trajectory), periodic_control_hint(trajectory)) if h)

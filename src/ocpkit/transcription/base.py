@@ -12,11 +12,12 @@ import casadi as ca
 import numpy as np
 
 from ..accuracy import (
-    PATH_SAMPLES,
     AccuracyWarning,
     control_switches,
+    path_junctions,
     path_violations,
-    singular_arc_hint,
+    periodic_control_hint,
+    refinement_hint,
     warn_if_inaccurate,
     warn_if_path_violated,
 )
@@ -566,7 +567,8 @@ class Transcription(ABC):
             excess. A failed solve on any mesh raises :class:`~ocpkit.SolverError` with the best
             solution before it (``error.best``); an estimate that stops falling while the mesh grows
             (:data:`STALL_MESHES`) stops the refinement with a warning saying so, naming a singular
-            arc where a control enters linearly (:func:`~ocpkit.accuracy.singular_arc_hint`).
+            arc where a control enters linearly and an angle not declared periodic
+            (:func:`~ocpkit.accuracy.refinement_hint`).
         max_mesh_iterations : int
             At most this many meshes (default 25: bang-bang and singular problems from coarse meshes
             take 13 to 20; a stalled refinement stops sooner).
@@ -592,7 +594,13 @@ class Transcription(ABC):
             )
         solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         if error_threshold is not None and solution.converged:
-            warn_if_inaccurate(self.label, solution.interval_errors, solution.estimate_intervals, error_threshold)
+            warn_if_inaccurate(
+                self.label,
+                solution.interval_errors,
+                solution.estimate_intervals,
+                error_threshold,
+                lambda: periodic_control_hint(solution),
+            )
             warn_if_path_violated(self.label, solution, error_threshold)
         return solution
 
@@ -693,7 +701,7 @@ class Transcription(ABC):
                 best.mesh_history = list(history)
             if not solution.converged:
                 break
-            target = tolerance
+            target = path_target = tolerance
             try:
                 # path constraints between points at every mesh (cheap); the objective once the state meets the
                 # tolerance (it integrates the flown control)
@@ -701,7 +709,6 @@ class Transcription(ABC):
                 accuracy = solution.accuracy if errors.max() <= tolerance else None
             except Exception as exc:  # noqa: BLE001
                 raise _refinement_failure(exc, iteration, transcription, best, history) from exc
-            violated = where[:, 1] > tolerance
             # what drives this refinement: the state while it is over the tolerance, else the other parts
             worst = float(errors.max())
             if accuracy is not None:
@@ -710,19 +717,26 @@ class Transcription(ABC):
                     break
                 worst = max(float(np.max(where[:, 1], initial=0.0)), accuracy.objective)
                 if "objective" in failing and accuracy.objective > 0:
-                    # the state error drives the objective's: tighten by the excess (at most a thousandfold)
-                    target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
+                    flown = abs(accuracy.objective_flown - accuracy.objective_nlp)
+                    if accuracy.objective_path > flown:
+                        # what the violations between points are worth in cost: they must fall by its excess
+                        largest = float(np.max(where[:, 1], initial=0.0))
+                        path_target = max(min(largest, tolerance) * tolerance / accuracy.objective, 1e-3 * tolerance)
+                    else:
+                        # the state error drives the objective's: tighten by the excess (at most a thousandfold)
+                        target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
                 history[-1] = dataclasses.replace(history[-1], failing=tuple(failing), worst=worst)
             else:
                 history[-1] = dataclasses.replace(history[-1], worst=worst)
-            cuts = [
-                np.clip([w - 1.0 / PATH_SAMPLES, w + 1.0 / PATH_SAMPLES], 0.02, 0.98) if v else np.zeros(0)
-                for w, v in zip(where[:, 0], violated)
-            ]
-            errors = np.where(violated, np.maximum(errors, 2 * target), errors)
+            # an interval whose path constraints are violated between its points by more than their target is
+            # refined as if that violation were its error: on a constrained arc the constraint oscillates about its
+            # bound between the points, by less as the degree rises or the interval shrinks; where an arc begins or
+            # ends, path_junctions cuts the interval there instead
+            violated = where[:, 1] > path_target
+            errors = np.where(violated, np.maximum(errors, where[:, 1] * target / path_target), errors)
             stalled = _stalled(history)
             if stalled:
-                hint = singular_arc_hint(solution)
+                hint = refinement_hint(solution)
                 parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
                 warnings.warn(
                     f"{self.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
@@ -734,7 +748,8 @@ class Transcription(ABC):
             if iteration + 1 < max_iterations:
                 try:
                     switches = control_switches(solution, solution.estimate_intervals)
-                    switches = [np.union1d(a, b) for a, b in zip(switches, cuts)]
+                    junctions = path_junctions(solution, solution.estimate_intervals)
+                    switches = [np.union1d(a, b) for a, b in zip(switches, junctions)]
                     try:
                         transcription = transcription.refine(errors, target, switches)
                     except TypeError as exc:  # a subclass with the two-argument refine of before the cuts
@@ -743,9 +758,19 @@ class Transcription(ABC):
                         transcription = transcription.refine(errors, target)
                 except Exception as exc:  # noqa: BLE001
                     raise _refinement_failure(exc, iteration, transcription, best, history, "refining") from exc
+                if _same_mesh(transcription, solution.raw["transcription"]):
+                    parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
+                    warnings.warn(
+                        f"{self.label}: mesh refinement stopped short of {tolerance:g}{parts}: no interval is over "
+                        f"what the failing parts ask of it, so the next mesh would be this one; stopped on "
+                        f"{history[-1].transcription}",
+                        AccuracyWarning,
+                        stacklevel=3,
+                    )
+                    break
         else:
             parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
-            hint = singular_arc_hint(solution)
+            hint = refinement_hint(solution)
             warnings.warn(
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
                 f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
@@ -805,6 +830,17 @@ class Transcription(ABC):
 STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
 
 
+def _same_mesh(a, b) -> bool:
+    """Whether two transcriptions of a refinement have the same mesh (a refinement that changed nothing)."""
+    if type(a) is not type(b) or a.n_variables != b.n_variables:
+        return False
+    ma, mb = getattr(a, "mesh", None), getattr(b, "mesh", None)
+    if ma is None or mb is None:
+        return a.label == b.label
+    same_counts = np.array_equal(getattr(a, "counts", np.zeros(0)), getattr(b, "counts", np.zeros(0)))
+    return same_counts and np.array_equal(ma.fractions, mb.fractions)
+
+
 def _worst(h: MeshIteration) -> float:
     return h.worst if np.isfinite(h.worst) else h.error_estimate
 
@@ -839,7 +875,7 @@ def _refinement_failure(exc: Exception, iteration: int, transcription, best, his
             f"the best solution so far (estimate {best.mesh_history[-1].error_estimate:.1e} on "
             f"{best.mesh_history[-1].transcription}) is error.best"
         )
-    hint = singular_arc_hint(best) if best is not None else ""
+    hint = refinement_hint(best) if best is not None else ""
     if hint:
         kept = f"{kept}; {hint}"
     if isinstance(exc, SolverError):

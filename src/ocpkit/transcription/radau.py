@@ -43,12 +43,19 @@ class PiecewiseBarycentric:
         LGR control beyond the last collocation point, up to the interval's end).
         """
         self.breaks = np.asarray(breaks, dtype=float)
-        self.pieces = [(np.asarray(tau, float), np.asarray(v, float), barycentric_weights(tau)) for tau, v in pieces]
-        self.dim = self.pieces[0][1].shape[1]
-        # pieces on the same support points are evaluated together: one Lagrange matrix per group
+        # pieces on the same support points are evaluated together: one Lagrange matrix (and one set of
+        # barycentric weights) per group
         groups: dict[bytes, list[int]] = {}
-        for i, (tau, _, _) in enumerate(self.pieces):
-            groups.setdefault(tau.tobytes(), []).append(i)
+        weights: dict[bytes, np.ndarray] = {}
+        self.pieces = []
+        for i, (tau, v) in enumerate(pieces):
+            tau = np.asarray(tau, float)
+            key = tau.tobytes()
+            if key not in weights:
+                weights[key] = barycentric_weights(tau)
+            self.pieces.append((tau, np.asarray(v, float), weights[key]))
+            groups.setdefault(key, []).append(i)
+        self.dim = self.pieces[0][1].shape[1]
         self._group = np.empty(len(self.pieces), dtype=np.int64)
         self._slot = np.empty(len(self.pieces), dtype=np.int64)
         self._groups = []
@@ -151,7 +158,8 @@ class Radau(Transcription):
 
     def _collocation_weights(self) -> np.ndarray:
         """LGR weights on [-1, 1] of every collocation point, in layout order."""
-        return np.concatenate([lgr_weights(tau) for tau in self.tau])
+        weights = {int(n): lgr_weights(lgr_nodes(int(n))) for n in np.unique(self.counts)}  # one per degree
+        return np.concatenate([weights[int(n)] for n in self.counts])
 
     # -- NLP blocks ---------------------------------------------------------------------
     def _blocks(self) -> list[Block]:
