@@ -2,7 +2,7 @@
 
 from ._data import load_problem_data
 from .attitude_ascent import attitude_ascent
-from .beyond_the_seeds import catalyst_mixing, free_flying_robot, tumour
+from .beyond_the_seeds import catalyst_mixing, free_flying_robot, miser3_state_constraint, orbit_raising, tumour
 from .bryson_denham import bryson_denham, bryson_denham_solution
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
@@ -19,11 +19,17 @@ from .orbit_transfer import (
     orbit_transfer_constants,
     thrust_units,
 )
+from .shuttle_reentry import shuttle_heating, shuttle_reentry, shuttle_reentry_constants
 
 __all__ = [
     "attitude_ascent",
     "catalyst_mixing",
     "free_flying_robot",
+    "miser3_state_constraint",
+    "orbit_raising",
+    "shuttle_heating",
+    "shuttle_reentry",
+    "shuttle_reentry_constants",
     "hang_glider",
     "tumour",
     "bryson_denham",

@@ -5,10 +5,18 @@
   bang-off control with a free final time;
 * :func:`catalyst_mixing`: COPS 3.0's catalyst mixing, bang, singular, bang on a fixed horizon (a Mayer cost: a
   transcription that resolves the singular arc poorly reports a yield its own control does not give);
-* :func:`free_flying_robot`: Sakawa's free-flying robot (Betts 2010, Ex. 6.13), an L1 cost with bang-bang thrusters.
+* :func:`free_flying_robot`: Sakawa's free-flying robot (Betts 2010, Ex. 6.13), an L1 cost with bang-bang thrusters;
+* :func:`miser3_state_constraint`: MISER3's linear-quadratic problem under a time-varying ceiling on a state, active
+  on an interior arc (a path constraint that collocation holds at its points only);
+* :func:`orbit_raising`: Bryson & Ho's maximum-radius orbit transfer, the thrust angle as the control (an angle:
+  declared periodic), and a terminal condition that couples two states (a boundary constraint).
+
+The shuttle's reentry is in :mod:`.shuttle_reentry`.
 """
 
 from __future__ import annotations
+
+import math
 
 import casadi as ca
 
@@ -90,4 +98,58 @@ def free_flying_robot() -> OptimalControlProblem:
     )
 
 
-__all__ = ["catalyst_mixing", "free_flying_robot", "tumour"]
+def miser3_state_constraint() -> OptimalControlProblem:
+    c = load_problem_data("beyond_the_seeds")["miser3"]
+    a, b, ceiling = c["ceiling"]
+    box, ubox, w = c["state_box"], c["control_box"], c["control_weight"]
+    return OptimalControlProblem(
+        "miser3_state_constraint",
+        states=[
+            State("x1", -box, box, initial=c["x0"][0], guess=c["x0"][0]),
+            State("x2", -box, box, initial=c["x0"][1], guess=c["x0"][1]),
+        ],
+        controls=[Control("u", -ubox, ubox, guess=0.0)],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], -x[1] + u[0]),
+        tf=c["tf"],
+        lagrange=lambda x, u, t: x[0] ** 2 + x[1] ** 2 + w * u[0] ** 2,
+        path_constraints=[Constraint("ceiling", lambda x, u, t: x[1] - (a * (t - b) ** 2 + ceiling), upper=0.0)],
+        description="MISER3's state-constrained problem (Teo, Goh & Wong 1991; PROPT, PSOPT stc1)",
+    )
+
+
+def orbit_raising(periodic: bool = True) -> OptimalControlProblem:
+    """``periodic=False`` states the thrust angle as a plain unbounded control, as a user might first write it: the
+    NLP may then move its node values by whole turns (issue 22: 233.7, -109.7 and -417 degrees in one interval)."""
+    c = load_problem_data("beyond_the_seeds")["orbit_raising"]
+    mu, thrust, rate = c["mu"], c["thrust"], c["mass_rate"]
+
+    def dynamics(x, u, t):
+        r, v_r, v_t, phi = x[0], x[2], x[3], u[0]
+        acceleration = thrust / (1.0 - rate * t)
+        return ca.vertcat(
+            v_r,
+            v_t / r,
+            v_t**2 / r - mu / r**2 + acceleration * ca.sin(phi),
+            -v_r * v_t / r + acceleration * ca.cos(phi),
+        )
+
+    return OptimalControlProblem(
+        "orbit_raising",
+        states=[
+            State("r", 0.5, 3.0, initial=1.0, guess=(1.0, 1.5)),
+            State("theta", initial=0.0, guess=(0.0, math.pi)),
+            State("v_r", initial=0.0, final=0.0, guess=0.1),
+            State("v_t", initial=math.sqrt(mu), guess=(1.0, 0.8)),
+        ],
+        controls=[Control("phi", period=2 * math.pi if periodic else None, guess=0.5)],
+        dynamics=dynamics,
+        tf=c["tf"],
+        mayer=lambda x0, xf, t0, tf: -xf[0],
+        boundary_constraints=[
+            Constraint("circular", lambda x0, xf, t0, tf: xf[3] - ca.sqrt(mu / xf[0]), lower=0.0, upper=0.0)
+        ],
+        description="Orbit raising, maximum radius (Bryson & Ho 1975, Sec. 2.7)",
+    )
+
+
+__all__ = ["catalyst_mixing", "free_flying_robot", "miser3_state_constraint", "orbit_raising", "tumour"]
