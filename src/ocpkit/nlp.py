@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
@@ -243,8 +244,6 @@ class SeparableNLP:
         self.nnz_hessian = sp_h.nnz()
         #: CasADi instructions of one evaluation of the blocks' Hessians (the work of ``hess_lag`` before assembly)
         self.hessian_instructions = int(hessian_instructions)
-        self.constraint_function = ca.Function("g", [w], [g])
-        self.objective_function = ca.Function("f", [w], [f])
 
     # ------------------------------------------------------------------------------
     def multiplier_estimate(self, w, lbw, ubw) -> tuple[np.ndarray, np.ndarray] | None:
@@ -280,6 +279,16 @@ class SeparableNLP:
         residual = grad + J.T @ lam_g
         lam_w = np.where(on_bound, -residual, 0.0)
         return lam_g, lam_w
+
+    @cached_property
+    def constraint_function(self) -> ca.Function:
+        """``g(w)``, the constraint values (built when first asked for: a solve does not need it)."""
+        return ca.Function("g", [self.w], [self.g])
+
+    @cached_property
+    def objective_function(self) -> ca.Function:
+        """``f(w)``, the objective (built when first asked for)."""
+        return ca.Function("f", [self.w], [self.f])
 
     @property
     def _objective_gradient(self) -> ca.Function:
