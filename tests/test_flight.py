@@ -117,3 +117,50 @@ def test_the_integrator_is_built_once_per_problem_and_shared_by_its_copies():
     assert copy.functions is problem.functions
     fly(quiet(lambda: Radau(copy, 4, 6).solve()))
     assert {k: v for k, v in problem.functions.derived.items() if k in built} == built
+
+
+def test_parameters_a_later_start_and_a_mayer_term_of_both_ends_are_flown_as_stated():
+    from ocpkit import FreeParameter
+
+    problem = OptimalControlProblem(
+        "later",
+        states=[State("x", initial=1.0), State("v", initial=0.0)],
+        controls=[Control("u", -2.0, 2.0)],
+        dynamics=lambda x, u, t, p: ca.vertcat(x[1], p["k"] * u[0] - p["c"] * x[0]),
+        t0=1.0,
+        tf=3.0,
+        mayer=lambda x0, xf, t0, tf, p: (xf[0] - 0.5) ** 2 + 0.1 * x0[0] * tf,
+        lagrange=lambda x, u, t, p: (t - 1.0) * u[0] ** 2,
+        parameters={"k": 1.5},
+        free_parameters=[FreeParameter("c", 0.5, 2.0, guess=1.0)],
+    )
+    sol = quiet(lambda: HLGL(problem, 6).solve())
+    assert sol.t0 == 1.0 and "c" in sol.problem.parameters
+    xf, running, objective = dop853_flight(sol)
+    flight = fly(sol)
+    assert np.abs(flight.final_state - xf).max() < 1e-9
+    assert flight.running_cost == pytest.approx(running, rel=1e-9, abs=1e-10)  # CVODES: 1e-12 of max(1, |J|) a step
+    assert flight.objective == pytest.approx(objective, rel=1e-10)
+
+
+def test_a_problem_without_controls_is_flown():
+    problem = OptimalControlProblem(
+        "free_fall",
+        states=[State("h", initial=10.0), State("v", initial=0.0)],
+        controls=[],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], -9.81 - 0.1 * x[1]),
+        tf=1.0,
+        lagrange=lambda x, u, t: x[0],
+    )
+    sol = quiet(lambda: Radau(problem, 5, 3).solve())
+    xf, running, objective = dop853_flight(sol)
+    assert fly(sol).objective == pytest.approx(objective, rel=1e-10)
+
+
+def test_a_periodic_control_with_bounds_narrower_than_its_period_is_only_clipped():
+    problem = periodic_angle_problem().replace(controls=[Control("heading", -1.0, 1.0, period=2 * np.pi)])
+    sol = quiet(lambda: Radau(problem, 5, 4).solve())
+    assert np.isclose(sol.control(sol.time_grid(401)), 1.0).any(), "the control reaches its bound"
+    _, _, objective = dop853_flight(sol)
+    # clipped where the polynomial crosses the bound inside an interval: a kink both integrators step through
+    assert fly(sol).objective == pytest.approx(objective, rel=1e-8)

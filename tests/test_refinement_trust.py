@@ -9,7 +9,17 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from ocpkit import HLGL, Control, FreeFinalTime, FreeParameter, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import (
+    HLGL,
+    Constraint,
+    Control,
+    FreeFinalTime,
+    FreeParameter,
+    OptimalControlProblem,
+    Radau,
+    SolverError,
+    State,
+)
 from ocpkit.accuracy import AccuracyWarning
 from ocpkit.nlp import dense_columns, least_squares_multipliers
 
@@ -197,6 +207,8 @@ def test_bryson_denham_from_ten_segments_is_refined_until_its_path_constraint_ho
         warnings.simplefilter("error", AccuracyWarning)
         refined = HLGL(bryson_denham(), 10).solve(mesh_tolerance=1e-6)
     assert refined.mesh_history[0].failing == ("objective", "path x_max") and len(refined.mesh_history) >= 2
+    # a mesh where only the cost of the violations failed was refined further, by the violations
+    assert any(h.failing == ("objective",) for h in refined.mesh_history[:-1])
     assert refined.accuracy.failing(1e-6) == []
     assert abs(refined.objective - 4.0) < 1e-5 < abs(single.objective - 4.0)
 
@@ -291,6 +303,25 @@ def test_a_junction_of_a_constrained_arc_is_cut_and_the_shuttle_heating_limit_ho
     assert sol.tf == pytest.approx(published("shuttle_reentry_heating", "final_time_s"), abs=5e-3)
 
 
+def test_an_equality_path_constraint_has_no_junction():
+    from ocpkit.accuracy import path_junctions
+
+    problem = OptimalControlProblem(
+        "tracking",
+        states=[State("x", initial=0.0), State("v", initial=0.0)],
+        controls=[Control("u")],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=2.0,
+        lagrange=lambda x, u, t: x[0] ** 2 + x[1] ** 2,
+        path_constraints=[
+            Constraint("follow", lambda x, u, t: u[0] + x[0] - ca.sin(3 * t), lower=0.0, upper=0.0, scale=0.01)
+        ],  # fmt: skip
+    )
+    sol = HLGL(problem, 4).solve(error_threshold=None)
+    assert sol.accuracy.path["follow"] > 1e-6  # violated between points, everywhere: no junction to cut at
+    assert all(c.size == 0 for c in path_junctions(sol))
+
+
 def test_what_a_violation_between_points_is_worth_in_cost_is_part_of_the_objective_error():
     """Bryson-Denham, HLGL 16: the violation of x <= 1/9 between points lets J fall below its closed form 4; the
     multipliers times the violations estimate by how much."""
@@ -316,9 +347,25 @@ def test_a_refinement_whose_next_mesh_would_be_this_one_stops_and_says_so(monkey
     from compendium.problems import bryson_denham
 
     monkeypatch.setattr(HLGL, "refine", lambda self, errors, tolerance, switches=None: self)
+    tr = HLGL(bryson_denham(), 10)
     with pytest.warns(AccuracyWarning, match="the next mesh would be this one"):
-        sol = HLGL(bryson_denham(), 10).solve(mesh_tolerance=1e-6)
-    assert len(sol.mesh_history) == 1
+        sol = tr.solve(mesh_tolerance=1e-6)
+    assert len(sol.mesh_history) == 1 and sol.refinement_outcome == "stopped"
+    assert "next mesh would be this one" in sol.refinement_reason and sol.raw["transcription"] is tr
+
+
+def test_a_refinement_says_how_it_ended():
+    from compendium.problems import bryson_denham, goddard_rocket
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        met = HLGL(bryson_denham(), 10).solve(mesh_tolerance=1e-6)
+        out = HLGL(bryson_denham(), 10).solve(mesh_tolerance=1e-9, max_mesh_iterations=2)
+        stalled = HLGL(goddard_rocket(), 20).solve(mesh_tolerance=1e-6)
+    assert (met.refinement_outcome, met.refinement_reason) == ("met", "")
+    assert out.refinement_outcome == "not met" and "not met after 2 mesh iterations" in out.refinement_reason
+    assert stalled.refinement_outcome == "stalled" and "singular arc" in stalled.refinement_reason
+    assert HLGL(bryson_denham(), 10).solve(error_threshold=None).refinement_outcome is None
 
 
 def test_an_angle_not_declared_periodic_is_named_with_how_to_declare_it():

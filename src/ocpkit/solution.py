@@ -68,6 +68,12 @@ class Solution(Trajectory):
     estimate_breakpoints: np.ndarray | None = field(default=None, repr=False)
     estimate_points: np.ndarray | int | None = field(default=None, repr=False)
     mesh_history: list | None = field(default=None, repr=False)
+    #: how a refinement (``solve(mesh_tolerance=...)``) ended: ``"met"`` (every part of the estimate within the
+    #: tolerance), ``"stalled"``, ``"stopped"`` (the next mesh would have been this one), ``"not met"`` (out of
+    #: meshes) or ``"failed"`` (the last mesh's solve did not succeed, with ``raise_on_failure=False``); None for a
+    #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
+    refinement_outcome: str | None = field(default=None, repr=False)
+    refinement_reason: str = field(default="", repr=False)
 
     # -- accuracy ---------------------------------------------------------------------
     @cached_property

@@ -664,6 +664,7 @@ class Transcription(ABC):
         if max_iterations < 1:
             raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
         transcription, history, solution, best = self, [], None, None
+        outcome, reason = "met", ""
         for iteration in range(max_iterations):
             start = time.perf_counter()
             try:
@@ -700,6 +701,7 @@ class Transcription(ABC):
                 best = solution
                 best.mesh_history = list(history)
             if not solution.converged:
+                outcome, reason = "failed", f"IPOPT's status {solution.status} on {transcription.label}"
                 break
             target = path_target = tolerance
             try:
@@ -738,12 +740,12 @@ class Transcription(ABC):
             if stalled:
                 hint = refinement_hint(solution)
                 parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-                warnings.warn(
+                outcome = "stalled"
+                reason = (
                     f"{self.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
-                    f"{history[-1].transcription}" + (f"; {hint}" if hint else ""),
-                    AccuracyWarning,
-                    stacklevel=3,
+                    f"{history[-1].transcription}" + (f"; {hint}" if hint else "")
                 )
+                warnings.warn(reason, AccuracyWarning, stacklevel=3)
                 break
             if iteration + 1 < max_iterations:
                 try:
@@ -759,26 +761,28 @@ class Transcription(ABC):
                 except Exception as exc:  # noqa: BLE001
                     raise _refinement_failure(exc, iteration, transcription, best, history, "refining") from exc
                 if _same_mesh(transcription, solution.raw["transcription"]):
+                    transcription = solution.raw["transcription"]  # the solved one, which the solution belongs to
                     parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-                    warnings.warn(
+                    outcome = "stopped"
+                    reason = (
                         f"{self.label}: mesh refinement stopped short of {tolerance:g}{parts}: no interval is over "
                         f"what the failing parts ask of it, so the next mesh would be this one; stopped on "
-                        f"{history[-1].transcription}",
-                        AccuracyWarning,
-                        stacklevel=3,
+                        f"{history[-1].transcription}"
                     )
+                    warnings.warn(reason, AccuracyWarning, stacklevel=3)
                     break
         else:
             parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
             hint = refinement_hint(solution)
-            warnings.warn(
+            outcome = "not met"
+            reason = (
                 f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
                 f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
-                + (f"; {hint}" if hint else ""),
-                AccuracyWarning,
-                stacklevel=3,
+                + (f"; {hint}" if hint else "")
             )
+            warnings.warn(reason, AccuracyWarning, stacklevel=3)
         solution.mesh_history = history
+        solution.refinement_outcome, solution.refinement_reason = outcome, reason
         solution.raw["transcription"] = transcription
         return solution
 
