@@ -212,8 +212,7 @@ def flown_objective(trajectory, tol: float | None = None, *, rtol: float | None 
 
     if rtol is not None or atol is not None:
         warnings.warn(
-            "flown_objective(rtol=, atol=) is deprecated (the control is flown by CVODES at one tolerance): "
-            "pass tol=",
+            "flown_objective(rtol=, atol=) is deprecated (the control is flown by CVODES at one tolerance): pass tol=",
             DeprecationWarning,
             stacklevel=2,
         )
