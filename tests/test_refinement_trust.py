@@ -414,3 +414,18 @@ def test_the_unscaled_shuttle_solves_with_autoscale_in_a_fraction_of_the_iterati
     assert np.degrees(auto.state(auto.tf)[2]) == pytest.approx(np.degrees(by_hand.state(by_hand.tf)[2]), rel=1e-8)
     assert auto.iterations <= 4 * by_hand.iterations and 3 * auto.iterations < 300
     assert not raw.converged  # unscaled: not within 300 iterations (646 here to IPOPT's tolerance)
+
+
+def test_the_values_of_another_meshs_vector_are_refused_not_misread():
+    """After a refinement, raw["w"] belongs to the last mesh: reading it with the first transcription used to return
+    wrong parameter and final-time values without a word."""
+    tr = Radau(free_time_with_parameters(), 4, 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        sol = tr.solve(mesh_tolerance=1e-6)
+    assert sol.raw["transcription"] is not tr
+    with pytest.raises(ValueError, match=r"belongs to its last mesh, solution.raw\['transcription'\]"):
+        tr.global_values(sol.raw["w"])
+    values = sol.raw["transcription"].global_values(sol.raw["w"])
+    assert values["tf"] == pytest.approx(sol.tf)
+    assert values["parameters"]["a"] == pytest.approx(sol.problem.parameters["a"])

@@ -212,7 +212,13 @@ class Transcription(ABC):
         """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector
         (``pinned``: the problem's parameters as solved with; ``parameters``: the free ones)."""
         pr = self.problem
-        z = np.asarray(w, dtype=float).ravel()[self.global_indices()]
+        w = np.asarray(w, dtype=float).ravel()
+        if w.size != self.n_variables:
+            raise ValueError(
+                f"an NLP vector of {w.size} entries for {self.label}, which has {self.n_variables}: a refined "
+                "solution's vector belongs to its last mesh, solution.raw['transcription']"
+            )
+        z = w[self.global_indices()]
         n_pinned, nf = len(pr.parameters), len(pr.free_parameters)
         values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
         t0 = float(z[n_pinned + nf] * pr.initial_time.scale) if pr.free_initial_time else pr.t0
