@@ -80,3 +80,49 @@ def test_a_free_initial_time_meets_the_previous_phase():
     sol = MultiPhase([Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 6), Radau(second, 6)]).solve()
     assert sol.phases[1].t0 == pytest.approx(0.5, abs=1e-10)
     assert sol.objective == pytest.approx(6.0, rel=1e-9)
+
+
+def gain_leg(t0, tf, initial=(None, None), final=(None, None)):
+    """The double integrator with a free gain k (x'' = k u) and a pull of k towards 2 + t on [t0, tf]."""
+    from ocpkit import FreeParameter
+
+    return OptimalControlProblem(
+        f"gain_leg_{t0}_{tf}",
+        states=[State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
+        controls=[Control("u")],
+        dynamics=lambda x, u, t, p: ca.vertcat(x[1], p["k"] * u[0]),
+        t0=t0,
+        tf=tf,
+        lagrange=lambda x, u, t, p: u[0] ** 2 / 2 + (p["k"] - 2.0 - t) ** 2,
+        free_parameters=[FreeParameter("k", 0.5, 4.0, guess=1.0)],
+    )
+
+
+def test_a_free_parameter_named_by_several_phases_is_one_parameter_of_the_trajectory():
+    """k is pulled towards 2 + t: shared, k is the value the single-phase statement of the same problem finds on
+    the same mesh (to the solver's tolerance); phase-local (``local_parameters``), each phase has its own, the first
+    below the shared one and the second above. (The COPS gas-oil fit as 20 linked phases used to fit one set of
+    rates per phase and report success.)"""
+    phases = [HLGL(gain_leg(0.0, 0.5, initial=(0.0, 0.0)), 6), HLGL(gain_leg(0.5, 1.0, final=(1.0, 0.0)), 6)]
+    mp = MultiPhase(phases)
+    shared = mp.solve()
+    assert mp.shared_parameters == ["k"] and mp.n_constraints == sum(p.n_constraints for p in phases) + 3
+    assert [p.parameters["k"] for p in shared.phases] == pytest.approx([shared.parameters["k"]] * 2, abs=1e-10)
+    one = HLGL(gain_leg(0.0, 1.0, initial=(0.0, 0.0), final=(1.0, 0.0)), 12).solve()
+    assert shared.parameters["k"] == pytest.approx(one.parameters["k"], rel=1e-8)
+    assert shared.objective == pytest.approx(one.objective, rel=1e-8)
+    local = MultiPhase(phases, local_parameters=["k"]).solve()
+    k0, k1 = (p.parameters["k"] for p in local.phases)
+    assert k0 < shared.parameters["k"] < k1 and local.objective < shared.objective and local.parameters == {}
+    with pytest.raises(ValueError, match=r"local_parameters \['c'\] are not free parameters of any phase"):
+        MultiPhase(phases, local_parameters=["c"])
+
+
+def test_a_solution_says_its_free_parameters():
+    from ocpkit import FreeParameter
+
+    problem = gain_leg(0.0, 1.0, initial=(0.0, 0.0), final=(1.0, 0.0))
+    sol = Radau(problem, 5, 3).solve()
+    assert set(sol.parameters) == {"k"} and sol.parameters["k"] == sol.problem.parameters["k"]
+    assert HLGL(leg(0.0, 1.0, initial=(0.0, 0.0), final=(1.0, 0.0)), 4).solve().parameters == {}
+    assert FreeParameter  # the problem's constants stay in problem.parameters, not here

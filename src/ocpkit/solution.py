@@ -72,6 +72,9 @@ class Solution(Trajectory):
     #: tolerance), ``"stalled"``, ``"stopped"`` (the next mesh would have been this one), ``"not met"`` (out of
     #: meshes) or ``"failed"`` (the last mesh's solve did not succeed, with ``raise_on_failure=False``); None for a
     #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
+    #: the solved free parameters (:class:`~ocpkit.FreeParameter`) by name; the problem's constants, and these
+    #: fixed at their solved values, are ``problem.parameters``
+    parameters: dict = field(default_factory=dict)
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
 

@@ -812,6 +812,7 @@ class Transcription(ABC):
         fields = self._package(result)
         fields.update(self._constraint_fields(result, fields["tf"], g))
         problem, _, _ = self._result_problem(result)
+        fields["parameters"] = self.global_values(result.w)["parameters"]
         return Solution(
             problem=problem,
             transcription=self.label,

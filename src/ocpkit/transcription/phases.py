@@ -10,8 +10,15 @@ per :class:`Link`:
     x_after(t0_after) - x_before(tf_before) - jump = 0        for the linked states,
     t0_after = tf_before                                      (times, when linked),
 
-the jump being, for instance, the mass dropped at a stage separation. The objective is
-the sum of the phases' objectives. The result, :class:`MultiPhaseSolution`, holds each
+the jump being, for instance, the mass dropped at a stage separation. A free parameter
+(:class:`~ocpkit.FreeParameter`) that several phases name is **one parameter of the
+trajectory**, as GPOPS-II's static parameters are: one linear row per further phase,
+
+    p_phase_k - p_first_phase = 0,
+
+holds every phase's copy equal (the COPS gas-oil fit stated as linked phases used to fit
+one set of rate constants per phase, and report success); name it in ``local_parameters``
+to give each phase its own. The objective is the sum of the phases' objectives. The result, :class:`MultiPhaseSolution`, holds each
 phase's :class:`~ocpkit.Solution` and is itself a :class:`~ocpkit.Trajectory` spanning
 the phases when they share their states and controls.
 """
@@ -61,9 +68,18 @@ class MultiPhase:
         One transcription per phase, in time order.
     links : sequence of :class:`Link`, optional
         Default: each phase continues the previous one in every state and in time.
+    local_parameters : sequence of str, optional
+        Free parameters that each phase naming them keeps to itself; every other free parameter named by
+        several phases is one parameter shared by all of them (the module docstring).
     """
 
-    def __init__(self, phases: Sequence[Transcription], links: Sequence[Link] | None = None):
+    def __init__(
+        self,
+        phases: Sequence[Transcription],
+        links: Sequence[Link] | None = None,
+        *,
+        local_parameters: Sequence[str] = (),
+    ):
         self.phases = list(phases)
         if not self.phases:
             raise ValueError("a multi-phase problem needs at least one phase")
@@ -74,19 +90,75 @@ class MultiPhase:
             links = [Link(k, k + 1) for k in range(len(self.phases) - 1)]
         self.links = list(links)
         self._link_states = [self._check_link(link) for link in self.links]
+        self._shared = self._shared_parameters(local_parameters)
         sizes = [ph.n_variables for ph in self.phases]
         self.variable_offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
         rows = [ph.n_constraints for ph in self.phases]
         self.row_offsets = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64)
         self.n_variables = int(sum(sizes))
-        self.n_link_rows = sum(len(names) for names in self._link_states) + sum(
-            self._time_link_kind(link) == "constraint" for link in self.links
+        self.n_link_rows = (
+            sum(len(names) for names in self._link_states)
+            + sum(self._time_link_kind(link) == "constraint" for link in self.links)
+            + sum(len(where) - 1 for where in self._shared.values())
         )
         self.n_constraints = int(sum(rows)) + self.n_link_rows
         self._nlp = None
         self._solver = None
         self._solver_options = None
         self.build_s = 0.0
+
+    # -- shared parameters ----------------------------------------------------------------------
+    def _shared_parameters(self, local) -> dict[str, list[tuple[int, int]]]:
+        """``{name: [(phase, index among its free parameters), ...]}`` of the free parameters several phases name
+        and ``local`` does not (checked: every name in ``local`` is a free parameter of some phase)."""
+        local = [local] if isinstance(local, str) else list(local)
+        where: dict[str, list[tuple[int, int]]] = {}
+        for k, ph in enumerate(self.phases):
+            for j, v in enumerate(ph.problem.free_parameters):
+                where.setdefault(v.name, []).append((k, j))
+        unknown = sorted(set(local) - set(where))
+        if unknown:
+            raise ValueError(
+                f"local_parameters {unknown} are not free parameters of any phase (they are {sorted(where)})"
+            )
+        return {name: w for name, w in where.items() if len(w) > 1 and name not in local}
+
+    def _parameter_index(self, k: int, j: int) -> int:
+        """The NLP index (in the stacked vector) of phase ``k``'s free parameter ``j``."""
+        ph = self.phases[k]
+        return int(self.variable_offsets[k] + ph.global_indices()[len(ph.problem.parameters) + j])
+
+    def _parameter_blocks(self, row: int) -> list[Block]:
+        """``(p_k - p_first) / scale = 0`` for every further phase naming a shared parameter (physical values)."""
+        blocks = []
+        for name, where in self._shared.items():
+            (k0, j0), rest = where[0], where[1:]
+
+            def physical(k, j, z):
+                sc = self.phases[k].problem.free_parameter_scaling
+                return float(sc.scale[j]) * z + float(sc.shift[j])
+
+            for k, j in rest:
+                z = ca.SX.sym("z", 2)
+                scale = float(self.phases[k0].problem.free_parameter_scaling.scale[j0])
+                out = (physical(k, j, z[1]) - physical(k0, j0, z[0])) / scale
+                var = np.array([[self._parameter_index(k0, j0)], [self._parameter_index(k, j)]], dtype=np.int64)
+                blocks.append(
+                    Block(
+                        f"shared_{name}_{k0}_{k}",
+                        ca.Function("shared", [z, ca.SX.sym("q", 0)], [out]),
+                        var,
+                        np.zeros((0, 1)),
+                        np.array([[row]]),
+                    )
+                )
+                row += 1
+        return blocks
+
+    @property
+    def shared_parameters(self) -> list[str]:
+        """The free parameters shared by several phases (one parameter of the trajectory each)."""
+        return list(self._shared)
 
     # -- links ----------------------------------------------------------------------------------
     def _check_link(self, link: Link) -> list[tuple[int, int, str]]:
@@ -176,7 +248,7 @@ class MultiPhase:
                     )
                 )
                 row += 1
-        return blocks
+        return blocks + self._parameter_blocks(row)
 
     # -- the NLP ----------------------------------------------------------------------------
     def _phase_blocks(self) -> list[Block]:
@@ -296,7 +368,22 @@ class MultiPhase:
             solve_s=result.solve_s,
             converged=result.success,
             link_residual=float(np.max(np.abs(g[link_rows]))) if self.n_link_rows else 0.0,
+            parameters=self._trajectory_parameters(phases),
         )
+
+    def _trajectory_parameters(self, phases) -> dict[str, float]:
+        """The solved free parameters of the trajectory: each shared one once, and each that one phase alone names;
+        phase-local ones (``local_parameters`` named by several phases) are in ``phases[k].parameters``."""
+        count: dict[str, int] = {}
+        for ph in self.phases:
+            for v in ph.problem.free_parameters:
+                count[v.name] = count.get(v.name, 0) + 1
+        out = {}
+        for sol in phases:
+            for name, value in sol.parameters.items():
+                if name in self._shared or count[name] == 1:
+                    out.setdefault(name, value)
+        return out
 
 
 @dataclass
@@ -306,7 +393,8 @@ class MultiPhaseSolution(Trajectory):
     ``phases``: each phase's :class:`~ocpkit.Solution` (its objective is the phase's share);
     ``objective``: their sum; ``status``, ``iterations``, ``converged``, ``build_s``,
     ``solve_s``, ``nlp_parameters`` and ``constraints`` of the one NLP; ``link_residual``:
-    the largest scaled residual of the links. As a :class:`~ocpkit.Trajectory` it spans
+    the largest scaled residual of the links (and of the shared parameters' rows);
+    ``parameters``: the solved free parameters of the trajectory (each shared one once). As a :class:`~ocpkit.Trajectory` it spans
     ``[phases[0].t0, phases[-1].tf]`` (phases that share their state and control names),
     the later phase holding at a shared time; :meth:`reintegrate` flies each phase
     from its own initial state (a link may jump).
@@ -323,6 +411,7 @@ class MultiPhaseSolution(Trajectory):
     solve_s: float
     converged: bool
     link_residual: float
+    parameters: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         first = self.phases[0].problem
