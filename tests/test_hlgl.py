@@ -161,8 +161,6 @@ def test_impossible_bounds_get_clear_errors():
         FreeFinalTime(1.0, 2.0, guess=3.0)
     with pytest.raises(ValueError, match="duplicate"):
         OptimalControlProblem("p", [State("x"), State("x")], [], lambda x, u, t: x, tf=1.0, lagrange=lambda x, u, t: 1)
-    with pytest.raises(ValueError, match="Mayer term, a Lagrange term"):
-        OptimalControlProblem("p", [State("x")], [], lambda x, u, t: x, tf=1.0)
 
 
 def test_infeasible_problem_raises_with_ipopt_status():

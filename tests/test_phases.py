@@ -126,3 +126,29 @@ def test_a_solution_says_its_free_parameters():
     assert set(sol.parameters) == {"k"} and sol.parameters["k"] == sol.problem.parameters["k"]
     assert HLGL(leg(0.0, 1.0, initial=(0.0, 0.0), final=(1.0, 0.0)), 4).solve().parameters == {}
     assert FreeParameter  # the problem's constants stay in problem.parameters, not here
+
+
+def test_a_phase_without_a_cost():
+    """Coast-free steering in phase 0 (no cost), min 1/2 int u^2 in phase 1: the first phase is free to prepare the
+    second, whose cost is that of the whole; a problem without any cost is a feasibility problem (J = 0)."""
+
+    def phase(t0, tf, cost, **ends):
+        return OptimalControlProblem(
+            f"phase_{t0}",
+            states=[State("x", **ends.get("x", {})), State("v", **ends.get("v", {}))],
+            controls=[Control("u", -1.0, 1.0)],
+            dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+            t0=t0,
+            tf=tf,
+            lagrange=(lambda x, u, t: u[0] ** 2 / 2) if cost else None,
+        )
+
+    free = phase(0.0, 0.5, False, x={"initial": 0.0}, v={"initial": 0.0})
+    costly = phase(0.5, 1.0, True, x={"final": 0.05}, v={"final": 0.0})
+    sol = MultiPhase([HLGL(free, 5), HLGL(costly, 5)]).solve()
+    assert sol.phases[0].objective == 0.0 and sol.objective == pytest.approx(sol.phases[1].objective)
+    # phase 0 can bring the state to (0.05, 0) itself (|u| <= 1 reaches 0.0625 at rest in 0.5), then phase 1 costs 0
+    assert sol.objective == pytest.approx(0.0, abs=1e-8)
+    feasible = HLGL(phase(0.0, 1.0, False, x={"initial": 0.0, "final": 0.2}, v={"initial": 0.0, "final": 0.0}), 5)
+    only = feasible.solve()
+    assert only.objective == 0.0 and only.converged and abs(only.state(1.0)[0] - 0.2) < 1e-8

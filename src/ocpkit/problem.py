@@ -444,7 +444,8 @@ class OptimalControlProblem:
         Initial time (fixed).
     tf : float or :class:`FreeFinalTime`
     mayer : callable ``phi(x0, xf, t0, tf)`` returning a scalar, optional.
-    lagrange : callable ``L(x, u, t)`` returning a scalar, optional.
+    lagrange : callable ``L(x, u, t)`` returning a scalar, optional. Without either the cost is 0: a
+        feasibility problem, or a phase of a :class:`~ocpkit.MultiPhase` whose cost lies in other phases.
     objective_scale : float
         The NLP minimises ``J / objective_scale``.
     parameters : mapping name -> value, optional
@@ -513,8 +514,6 @@ class OptimalControlProblem:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"duplicate variable names: {dup}")
-        if mayer is None and lagrange is None:
-            raise ValueError("give a Mayer term, a Lagrange term, or both")
         if not (objective_scale > 0 and math.isfinite(objective_scale)):
             raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
         set_(self, "objective_scale", float(objective_scale))
