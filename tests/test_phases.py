@@ -31,6 +31,7 @@ def test_two_phases_are_one_problem():
     assert np.allclose(sol.control(t)[:, 0], 6 - 12 * t, atol=1e-6)
     assert np.allclose(sol.state(t)[:, 0], 3 * t**2 - 2 * t**3, atol=1e-8)
     assert sol.t0 == 0.0 and sol.tf == 1.0 and sol.max_reintegration_error() < 1e-8
+    assert sol.error_estimate == max(p.error_estimate for p in sol.phases) < 1e-12  # polynomials both schemes hold
     assert mp.n_constraints == sum(p.n_constraints for p in mp.phases) + 2
 
 

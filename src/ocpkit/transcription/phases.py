@@ -448,6 +448,11 @@ class MultiPhaseSolution(Trajectory):
     def _control(self, t):
         return self._piecewise(t, "control")
 
+    @property
+    def error_estimate(self) -> float:
+        """The largest of the phases' estimated relative state errors (:attr:`Solution.error_estimate`)."""
+        return max(p.error_estimate for p in self.phases)
+
     def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"):
         """Each phase re-integrated from its own initial state: one :class:`Reintegration` per phase."""
         return [p.reintegrate(rtol=rtol, atol=atol, n=n, controls=controls) for p in self.phases]
