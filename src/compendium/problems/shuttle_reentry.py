@@ -30,6 +30,13 @@ def shuttle_reentry_constants() -> dict:
     return load_problem_data("shuttle_reentry")
 
 
+def heating_rate(sqrt_rho, v, alpha_deg, c):
+    """``q = 17700 sqrt(rho) (1e-4 v)^3.07 (c0 + c1 alpha + c2 alpha^2 + c3 alpha^3)`` (BTU/ft^2/s), alpha in degrees;
+    on CasADi symbols (the path constraint) or numpy arrays (:func:`shuttle_heating`)."""
+    q0, q1, q2, q3 = c
+    return 17700.0 * sqrt_rho * (1e-4 * v) ** 3.07 * (q0 + q1 * alpha_deg + q2 * alpha_deg**2 + q3 * alpha_deg**3)
+
+
 def shuttle_reentry(heating_limit: float | None = None, scaled: bool = True) -> OptimalControlProblem:
     """The problem (module docstring); ``heating_limit``: None, or the limit of ``q`` (Betts: 70)."""
     d = shuttle_reentry_constants()
@@ -37,16 +44,12 @@ def shuttle_reentry(heating_limit: float | None = None, scaled: bool = True) -> 
     mass = c["weight_lb"] / c["g0"]
     a0, a1 = c["a"]
     b0, b1, b2 = c["b"]
-    q0, q1, q2, q3 = c["c"]
 
     def atmosphere(x):
         return c["rho0"] * ca.exp(-x[0] / c["h_r"])
 
     def heating(x, u, t):
-        alpha = u[0] / DEG
-        return (
-            17700.0 * ca.sqrt(atmosphere(x)) * (1e-4 * x[3]) ** 3.07 * (q0 + q1 * alpha + q2 * alpha**2 + q3 * alpha**3)
-        )
+        return heating_rate(ca.sqrt(atmosphere(x)), x[3], u[0] / DEG, c["c"])
 
     def dynamics(x, u, t):
         h, _, theta, v, gamma, psi = (x[i] for i in range(6))
@@ -117,10 +120,8 @@ def shuttle_heating(solution, t):
 
     d = shuttle_reentry_constants()["constants"]
     X, U = solution.state(t), solution.control(t)
-    alpha = U[..., 0] / DEG
-    q0, q1, q2, q3 = d["c"]
     rho = d["rho0"] * np.exp(-X[..., 0] / d["h_r"])
-    return 17700.0 * np.sqrt(rho) * (1e-4 * X[..., 3]) ** 3.07 * (q0 + q1 * alpha + q2 * alpha**2 + q3 * alpha**3)
+    return heating_rate(np.sqrt(rho), X[..., 3], U[..., 0] / DEG, d["c"])
 
 
 __all__ = ["shuttle_heating", "shuttle_reentry", "shuttle_reentry_constants"]

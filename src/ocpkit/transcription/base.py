@@ -302,10 +302,11 @@ class Transcription(ABC):
         """Physical times of normalised times ``s`` in [0, 1]."""
         return Mesh.times(self.problem, tf, s, t0)
 
-    def _result_problem(self, result: NLPResult):
+    def _result_problem(self, result: NLPResult, g: dict | None = None):
         """The problem of a result: with the parameter values it was solved with (sharing the functions) and the
-        free parameters fixed at their solved values; and ``(t0, tf)``."""
-        g = self.global_values(result.w)
+        free parameters fixed at their solved values; and ``(t0, tf)`` (``g``: its :meth:`global_values`, if at
+        hand)."""
+        g = self.global_values(result.w) if g is None else g
         pr = self.problem
         if g["pinned"] != pr.parameters:
             pr = pr.replace(parameters=g["pinned"])
@@ -811,8 +812,9 @@ class Transcription(ABC):
         """
         fields = self._package(result)
         fields.update(self._constraint_fields(result, fields["tf"], g))
-        problem, _, _ = self._result_problem(result)
-        fields["parameters"] = self.global_values(result.w)["parameters"]
+        values = self.global_values(result.w)
+        problem, _, _ = self._result_problem(result, values)
+        fields["parameters"] = values["parameters"]
         return Solution(
             problem=problem,
             transcription=self.label,
