@@ -32,6 +32,8 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from .names import Named, call
+
 Bound = None | float | tuple[float, float]
 """A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
 
@@ -440,6 +442,8 @@ class OptimalControlProblem:
     dynamics : callable ``f(x, u, t)`` on CasADi column vectors returning dx/dt
         (a CasADi expression or a list of ``len(states)`` expressions; use CasADi's
         functions, ``ca.cos``, ``ca.vertcat``: ``math`` functions and numpy arrays are rejected).
+        ``x`` and ``u`` answer to the declared names, ``x["h"]`` (:mod:`ocpkit.names`); so do
+        ``x0`` and ``xf`` of ``mayer`` and of the constraints.
     t0 : float
         Initial time (fixed).
     tf : float or :class:`FreeFinalTime`
@@ -450,11 +454,11 @@ class OptimalControlProblem:
         The NLP minimises ``J / objective_scale``.
     parameters : mapping name -> value, optional
         Named constants that may change between solves without rebuilding the
-        problem's functions (a homotopy parameter, a thrust level). When given,
-        ``dynamics``, ``lagrange`` and ``mayer`` receive one more argument: a dict
-        of CasADi symbols by name.
+        problem's functions (a homotopy parameter, a thrust level). A callable that
+        takes one argument more than its inputs, ``f(x, u, t, p)``, receives them by
+        name, ``p["thrust"]``; one that does not use them need not take them.
     free_parameters : sequence of :class:`FreeParameter`, optional
-        Static parameters the transcriptions optimise; in the same dict of symbols.
+        Static parameters the transcriptions optimise; in the same ``p``.
     path_constraints, boundary_constraints : sequences of :class:`Constraint`, optional.
     t0 : float or :class:`FreeInitialTime`
         A free initial time must lie below every admissible final time.
@@ -577,6 +581,7 @@ class OptimalControlProblem:
                 mayer,
                 with_parameters=self.takes_parameters,
                 state_names=self.state_names,
+                control_names=self.control_names,
                 free_names=[v.name for v in free],
                 path_constraints=self.path_constraints,
                 boundary_constraints=self.boundary_constraints,
@@ -702,6 +707,25 @@ class OptimalControlProblem:
         c = self.functions.boundary
         return None if c is None else c.function(x0, xf, t0, tf, self._P if P is None else P)
 
+    def expression(self, fn: Callable, kind: str = "running", what: str = "expression") -> ca.Function:
+        """A user expression of this problem's variables as a CasADi Function, the statement's callables' way.
+
+        ``kind="running"``: ``fn(x, u, t[, p])``, the Function ``(x, u, t, P) -> column``; ``"boundary"``:
+        ``fn(x0, xf, t0, tf[, p])``, the Function ``(x0, xf, t0, tf, P) -> column``. Names as in
+        :mod:`ocpkit.names`; ``P`` as in :meth:`dynamics`.
+        """
+        if kind not in ("running", "boundary"):
+            raise ValueError(f"kind must be 'running' or 'boundary', got {kind!r}")
+        if not callable(fn):
+            raise TypeError(f"{what} must be a callable of the problem's variables, got {fn!r}")
+        names = [*self.parameters, *(v.name for v in self.free_parameters)]
+        sym = StatementSymbols.of(self.state_names, self.control_names, names)
+        expr = _column(sym.call(fn, kind, what, has_parameters=bool(names)), what)
+        try:
+            return ca.Function("expression", sym.inputs(kind), [expr])
+        except RuntimeError:
+            raise ValueError(f"{what} depends on symbols other than the problem's variables and parameters") from None
+
     # -- descriptors -----------------------------------------------------------------
     @property
     def nx(self) -> int:
@@ -756,6 +780,50 @@ class OptimalControlProblem:
         )
 
 
+@dataclass(frozen=True)
+class StatementSymbols:
+    """The symbols a problem statement's callables are called on, with their named views (:mod:`ocpkit.names`).
+
+    ``x, u, t``: a running expression's inputs; ``x0, xf, t0, tf``: a boundary expression's; ``P``: the
+    parameters (fixed values, then free ones), ``p`` its view by name.
+    """
+
+    x: ca.SX
+    u: ca.SX
+    t: ca.SX
+    x0: ca.SX
+    xf: ca.SX
+    t0: ca.SX
+    tf: ca.SX
+    P: ca.SX
+    views: dict
+    p: Named
+
+    @classmethod
+    def of(cls, state_names, control_names, parameter_names) -> StatementSymbols:
+        nx, nu = len(state_names), len(control_names)
+        x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("t")
+        x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+        P = ca.SX.sym("P", len(parameter_names))
+        views = {
+            "running": [Named(x, state_names, "state"), Named(u, control_names, "control"), t],
+            "boundary": [Named(x0, state_names, "state"), Named(xf, state_names, "state"), t0, tf],
+        }
+        return cls(x, u, t, x0, xf, t0, tf, P, views, Named(P, parameter_names, "parameter"))
+
+    def inputs(self, kind: str) -> list[ca.SX]:
+        """The plain symbols of ``kind`` (``"running"`` or ``"boundary"``), then ``P``: a Function's inputs."""
+        plain = [self.x, self.u, self.t] if kind == "running" else [self.x0, self.xf, self.t0, self.tf]
+        return [*plain, self.P]
+
+    def call(self, fn: Callable, kind: str, what: str, *, has_parameters: bool):
+        """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`)."""
+        try:
+            return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
+        except KeyError as exc:
+            raise KeyError(f"{what}: {exc.args[0]}") from None
+
+
 def _build_functions(
     nx: int,
     nu: int,
@@ -766,51 +834,65 @@ def _build_functions(
     *,
     with_parameters: bool,
     state_names,
+    control_names=None,
     free_names=(),
     path_constraints=(),
     boundary_constraints=(),
 ) -> ProblemFunctions:
-    """The problem's CasADi functions from the user's callables (called once, on symbols)."""
-    names = [*values, *free_names]
-    P = ca.SX.sym("P", len(names))
-    extra = ({k: P[i] for i, k in enumerate(names)},) if with_parameters else ()
-    x = ca.SX.sym("x", nx)
-    u = ca.SX.sym("u", nu)
-    t = ca.SX.sym("t")
-    xdot = _column(dynamics(x, u, t, *extra), "dynamics")
+    """The problem's CasADi functions from the user's callables (called once, on named symbols: :mod:`ocpkit.names`)."""
+    control_names = [f"u{k}" for k in range(nu)] if control_names is None else list(control_names)
+    sym = StatementSymbols.of(state_names, control_names, [*values, *free_names])
+    x, u, t, P = sym.x, sym.u, sym.t, sym.P
+    x0, xf, s0, sf = sym.x0, sym.xf, sym.t0, sym.tf
+
+    def user(fn, kind, what):
+        return sym.call(fn, kind, what, has_parameters=with_parameters)
+
+    xdot = _column(user(dynamics, "running", "dynamics"), "dynamics")
     if xdot.shape != (nx, 1):
         raise ValueError(f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {list(state_names)}")
     f = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
     L = phi = None
     if lagrange is not None:
-        expr = _column(lagrange(x, u, t, *extra), "lagrange")
+        expr = _column(user(lagrange, "running", "lagrange"), "lagrange")
         if expr.shape != (1, 1):
             raise ValueError(f"lagrange must return a scalar, got shape {expr.shape}")
         L = ca.Function("L_p", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["L"])
     if mayer is not None:
-        x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-        expr = _column(mayer(x0, xf, s0, sf, *extra), "mayer")
+        expr = _column(user(mayer, "boundary", "mayer"), "mayer")
         if expr.shape != (1, 1):
             raise ValueError(f"mayer must return a scalar, got shape {expr.shape}")
         phi = ca.Function("phi_p", [x0, xf, s0, sf, P], [expr], ["x0", "xf", "t0", "tf", "P"], ["phi"])
-    path = _constraint_set("path", path_constraints, [x, u, t], ["x", "u", "t"], P, extra)
-    x0, xf, s0, sf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-    boundary = _constraint_set("boundary", boundary_constraints, [x0, xf, s0, sf], ["x0", "xf", "t0", "tf"], P, extra)
+    path = _constraint_set(
+        "path", path_constraints, [x, u, t], ["x", "u", "t"], P, lambda fn, what: user(fn, "running", what)
+    )
+    boundary = _constraint_set(
+        "boundary",
+        boundary_constraints,
+        [x0, xf, s0, sf],
+        ["x0", "xf", "t0", "tf"],
+        P,
+        lambda fn, what: user(fn, "boundary", what),
+    )
     return ProblemFunctions(f, L, phi, path, boundary)
 
 
-def _constraint_set(kind: str, constraints, inputs, input_names, P, extra) -> ConstraintSet | None:
-    """Compile constraints of one kind into one stacked function ``(inputs..., P) -> g`` and its bounds."""
+def _constraint_set(kind: str, constraints, inputs, input_names, P, user) -> ConstraintSet | None:
+    """Compile constraints of one kind into one stacked function ``(inputs..., P) -> g`` and its bounds.
+
+    ``user(fn, what)`` calls a constraint's callable on the named inputs (and the parameters if it takes them).
+    """
     if not constraints:
         return None
     exprs, lower, upper, scale, sizes = [], [], [], [], []
     for c in constraints:
+        what = f"{kind} constraint {c.name!r}"
         try:
-            e = _column(c.function(*inputs, *extra), f"{kind} constraint {c.name!r}")
-        except (TypeError, ValueError) as exc:
-            if f"constraint {c.name!r}" in str(exc):
+            e = _column(user(c.function, what), what)
+        except (TypeError, ValueError, KeyError) as exc:
+            if what in str(exc):
                 raise
-            raise type(exc)(f"{kind} constraint {c.name!r}: {exc}") from exc
+            raise type(exc)(f"{what}: {exc}") from exc
         if e.shape[1] != 1 or e.numel() == 0:
             raise ValueError(f"{kind} constraint {c.name!r} must return one or more scalar expressions, got {e.shape}")
         lo, hi = c.bounds(e.shape[0])

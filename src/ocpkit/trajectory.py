@@ -122,6 +122,44 @@ class Trajectory(ABC):
             data.update({f"lambda_{k}": v for k, v in zip(self.problem.state_names, self.costate(t).T)})
         return pd.DataFrame(data)
 
+    # -- expressions of the solution --------------------------------------------------------
+    def sample(self, expr, grid=None, n: int = 401) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, values)``: ``expr(x, u, t[, p])`` evaluated along this trajectory, as rockit's ``sol.sample``.
+
+        ``expr`` is written as the problem's callables are (names: ``x["h"]``, ``u["alpha"]``, ``p["k"]``;
+        :mod:`ocpkit.names`), ``p`` holding the solved free parameters. ``grid``: the times (default
+        ``n`` equally spaced points). ``values`` has shape ``t.shape`` for a scalar expression,
+        ``t.shape + (m,)`` for ``m`` of them. The control is the admissible one (:meth:`control`).
+        """
+        t = self.time_grid(n) if grid is None else self._check_times(grid)
+        fun = self.problem.expression(expr, "running", "sample's expression")
+        flat = t.ravel()
+        P = np.repeat(self.problem.parameter_vector()[:, None], max(flat.size, 1), axis=1)
+        out = np.asarray(fun.map(flat.size)(self.state(flat).T, self.control(flat).T, flat[None, :], P)).T
+        m = fun.size1_out(0)
+        return t, out.reshape(t.shape) if m == 1 else out.reshape(t.shape + (m,))
+
+    def value(self, what):
+        """A number of this trajectory: a parameter's value by name (fixed, or free and solved), ``"t0"``, ``"tf"``,
+        ``"objective"``, or ``what(x0, xf, t0, tf[, p])`` written as a Mayer term is (a float, or an array
+        for several expressions). A state or control is a function of time: :meth:`sample` it."""
+        problem = self.problem
+        if isinstance(what, str):
+            if what in ("t0", "tf", "objective"):
+                return float(getattr(self, what))
+            if what in problem.parameters:
+                return float(problem.parameters[what])
+            if what in problem.state_names or what in problem.control_names:
+                raise ValueError(
+                    f"{what!r} is a function of time: sample(lambda x, u, t: ...) it, or give "
+                    f"value(lambda x0, xf, t0, tf: xf[{what!r}]) for its final value"
+                )
+            raise KeyError(f"unknown name {what!r}; parameters are {list(problem.parameters)}")
+        fun = problem.expression(what, "boundary", "value's expression")
+        x0, xf = self.state(np.array(self.t0)), self.state(np.array(self.tf))
+        out = np.asarray(fun(x0, xf, self.t0, self.tf, problem.parameter_vector())).ravel()
+        return float(out[0]) if out.size == 1 else out
+
     # -- verification -----------------------------------------------------------------------
     def reintegrate(
         self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"

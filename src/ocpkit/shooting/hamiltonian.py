@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..names import Named, call
 from ..problem import Hamiltonian, OptimalControlProblem, _column
 
 CONTROL_SETS = ("box", "ball")
@@ -159,9 +160,9 @@ def control_law(
         an unbounded side of a box is never saturated (then ``b > 0`` is required).
 
     A law of your own, ``control_law(problem, u_star)``: ``u_star(x, p)`` -- or
-    ``u_star(x, p, params)`` when the problem has named parameters, ``params`` the dict of
-    CasADi symbols by name that its dynamics receive -- is called once, on CasADi columns
-    ``x`` and ``p`` of ``nx`` symbols each, and returns the minimising control
+    ``u_star(x, p, params)`` to receive the problem's parameters by name, as its dynamics
+    do (:mod:`ocpkit.names`) -- is called once, on CasADi columns ``x`` and ``p`` of ``nx``
+    symbols each (named by the states: ``x["m"]``, ``p["m"]``), and returns the minimising control
 
         u*(x, p) = argmin_{u in U} H(x, p, u)
 
@@ -246,8 +247,10 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5
         raise ValueError("the problem has no controls")
     ham = problem.functions.hamiltonian
     _require_autonomous(ham)
-    params = ({k: ham.P[i] for i, k in enumerate(problem.parameters)},) if problem.takes_parameters else ()
-    u = _column(u_star(ham.x, ham.p, *params), what)
+    names = problem.state_names
+    inputs = [Named(ham.x, names, "state"), Named(ham.p, names, "costate")]
+    params = Named(ham.P, [*problem.parameters, *(v.name for v in problem.free_parameters)], "parameter")
+    u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
     if u.shape != (nu, 1):
         raise ValueError(
             f"{what} returned shape {u.shape}, expected ({nu}, 1): one expression per control {problem.control_names}"
@@ -255,9 +258,7 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5
     try:
         ufun = ca.Function("u_star", [ham.x, ham.p, ham.P], [u])
     except RuntimeError:
-        raise ValueError(
-            f"{what} depends on symbols other than its arguments x, p{' and params' if params else ''}"
-        ) from None
+        raise ValueError(f"{what} depends on symbols other than its arguments x, p and the parameters") from None
     rng = np.random.default_rng(0)
     xs = np.array([_sample(s) for s in problem.states])
     pv = problem.parameter_values

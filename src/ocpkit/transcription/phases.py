@@ -448,6 +448,22 @@ class MultiPhaseSolution(Trajectory):
     def _control(self, t):
         return self._piecewise(t, "control")
 
+    def sample(self, expr, grid=None, n: int = 401):
+        """``(t, values)`` of ``expr(x, u, t[, p])`` (:meth:`Trajectory.sample`), each time in its phase (the later one at
+        a shared time), each phase with its own variables and parameters."""
+        t = self.time_grid(n) if grid is None else self._check_times(grid)
+        flat = t.ravel()
+        k = self._phase_of(flat)
+        parts = {
+            j: self.phases[j].sample(expr, np.clip(flat[k == j], self.phases[j].t0, self.phases[j].tf))[1]
+            for j in np.unique(k)
+        }
+        first = next(iter(parts.values()))
+        out = np.empty((flat.size,) + first.shape[1:])
+        for j, values in parts.items():
+            out[k == j] = values
+        return t, out.reshape(t.shape + first.shape[1:])
+
     @property
     def error_estimate(self) -> float:
         """The largest of the phases' estimated relative state errors (:attr:`Solution.error_estimate`)."""

@@ -1,0 +1,96 @@
+"""Names in the problem statement: the user's callables see states, controls and parameters by name.
+
+Every callable of a problem statement (dynamics, costs, constraints, an expression to
+sample on a solution) receives CasADi column vectors that also answer to the names the
+problem declared::
+
+    dynamics=lambda x, u, t: [x["v"], u["thrust"] / x["m"] - g]
+    lagrange=lambda x, u, t, p: (x["h"] - p["h_ref"]) ** 2
+
+``x["v"]`` is the state named ``"v"``; positions (``x[1]``, ``ca.vertsplit(x)``) still
+work, and arithmetic gives ordinary CasADi expressions. Attribute access (``x.v``) is not
+offered: a state named ``T`` would silently be the transpose.
+
+**One signature, whatever the parameters.** A callable receives the parameters ``p`` (fixed
+and free, by name) when it needs one more argument than its inputs, ``(x, u, t, p)``, even
+in a problem without parameters; one written ``(x, u, t)`` keeps working when the problem
+gains a parameter it does not use. An optional last argument (``p=None``) receives them
+when the problem has parameters.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Sequence
+
+import casadi as ca
+
+
+class Named(ca.SX):
+    """A CasADi column vector whose entries also answer to names: ``x["h"]`` (see the module docstring)."""
+
+    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "variable"):
+        super().__init__(column)
+        if len(names) != column.numel():
+            raise ValueError(f"{len(names)} names for {column.numel()} {kind} entries")
+        object.__setattr__(self, "_names", tuple(names))
+        object.__setattr__(self, "_kind", kind)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self._names
+
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            try:
+                return ca.SX.__getitem__(self, self._names.index(key))
+            except ValueError:
+                raise KeyError(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self._names)}") from None
+        return ca.SX.__getitem__(self, key)
+
+    def __contains__(self, key) -> bool:
+        return key in self._names
+
+    def keys(self) -> tuple[str, ...]:
+        return self._names
+
+
+def takes_parameters(fn: Callable, inputs: int, what: str = "the callable") -> bool | None:
+    """Whether ``fn`` takes the parameters after its ``inputs`` arguments: True when it needs them, False when it
+    takes no more than its inputs, None when it may take them (a default value, ``*args``) or its signature cannot be
+    read.
+
+    A callable needing more than ``inputs + 1`` positional arguments is a TypeError naming ``what``.
+    """
+    try:
+        signature = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return None
+    params = list(signature.parameters.values())
+    positional = [
+        q for q in params if q.kind in (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    ]
+    required = [q for q in positional if q.default is inspect.Parameter.empty]
+    if len(required) > inputs + 1:
+        raise TypeError(
+            f"{what} needs {len(required)} arguments; it is given {inputs}, or {inputs + 1} with the parameters p last"
+        )
+    if len(required) > inputs:
+        return True
+    if len(positional) > inputs or any(q.kind is inspect.Parameter.VAR_POSITIONAL for q in params):
+        return None
+    return False
+
+
+def call(fn: Callable, inputs: Sequence, p: Named, *, has_parameters: bool, what: str):
+    """``fn(*inputs)``, or ``fn(*inputs, p)`` when it takes the parameters (:func:`takes_parameters`).
+
+    One that may take them (``P=None``, ``*args``, an unreadable signature) gets them when the problem has parameters.
+    """
+    wants = takes_parameters(fn, len(inputs), what)
+    if wants is None:
+        wants = has_parameters
+    return fn(*inputs, p) if wants else fn(*inputs)
+
+
+__all__ = ["Named", "call", "takes_parameters"]
