@@ -150,3 +150,155 @@ def test_a_phase_without_a_cost():
     feasible = HLGL(phase(0.0, 1.0, False, x={"initial": 0.0, "final": 0.2}, v={"initial": 0.0, "final": 0.0}), 5)
     only = feasible.solve()
     assert only.objective == 0.0 and only.converged and abs(only.state(1.0)[0] - 0.2) < 1e-8
+
+
+def brachistochrone_phase(name, t0, tf, **ends):
+    """Dymos' brachistochrone (g = 9.80665) between the given end conditions, theta from the downward vertical."""
+    g = 9.80665
+    return OptimalControlProblem(
+        name,
+        states=[State(s, **ends.get(s, {})) for s in ("x", "y", "v")],
+        controls=[Control("theta", 0.0, np.pi, guess=1.0)],
+        dynamics=lambda x, u, t: [
+            x["v"] * ca.sin(u["theta"]),
+            -x["v"] * ca.cos(u["theta"]),
+            g * ca.cos(u["theta"]),
+        ],
+        t0=t0,
+        tf=tf,
+    )
+
+
+def cycloid_time(dx=10.0, drop=5.0, g=9.80665):
+    """The brachistochrone's least time from rest over (dx, drop): the cycloid x = R (phi - sin phi), y = R (1 - cos
+    phi) through the end point."""
+    from scipy.optimize import brentq
+
+    phi = brentq(lambda f: (f - np.sin(f)) / (1 - np.cos(f)) - dx / drop, 1e-3, 2 * np.pi - 1e-3)
+    return phi * np.sqrt(drop / (1 - np.cos(phi)) / g)
+
+
+def test_a_trajectory_cost_stated_once():
+    """The brachistochrone split at x = 5 with the final time as the trajectory's cost: the cycloid's 1.8016031 (Dymos
+    quotes 1.8016); tf written as a Mayer term in both phases would minimise t1 + t2 instead (1.80773 reported)."""
+    from ocpkit import FreeInitialTime
+
+    first = brachistochrone_phase(
+        "first",
+        0.0,
+        FreeFinalTime(0.3, 1.7, 0.9),
+        x={"initial": 0.0, "final": 5.0},
+        y={"initial": 10.0},
+        v={"initial": 0.0},
+    )
+    second = brachistochrone_phase(
+        "second", FreeInitialTime(0.3, 1.7, 0.9), FreeFinalTime(1.71, 3.0, 1.8), x={"final": 10.0}, y={"final": 5.0}
+    )
+    mp = MultiPhase({"first": Radau(first, 5, 10), "second": Radau(second, 5, 10)}, cost=lambda e: e["second"].tf)
+    sol = mp.solve()
+    assert cycloid_time() == pytest.approx(1.8016031, abs=5e-8)
+    assert sol.objective == pytest.approx(cycloid_time(), rel=1e-9) and sol.trajectory_cost == sol.objective
+    assert sol.phase("second").tf == sol.objective and sol.names == ["first", "second"]
+    assert [p.objective for p in sol.phases] == [0.0, 0.0] and sol.link_residual < 1e-12
+    twice = [p.replace(mayer=lambda x0, xf, t0, tf: tf) for p in (first, second)]
+    both = MultiPhase([Radau(p, 5, 10) for p in twice]).solve()
+    assert both.objective == pytest.approx(both.phases[0].tf + both.tf, rel=1e-12)
+    assert both.tf > sol.tf + 1e-4  # another problem: the first phase hurries at the second's expense
+
+
+def test_a_linkage_constraint_bounces_a_ball():
+    """A ball dropped from 1 m bounces with v+ = -0.9 v-: the bounce is a linkage constraint between the phases'
+    ends (not a continuity link); it rises to 0.81 m, in closed-form times (the dynamics are polynomial)."""
+    from ocpkit import Constraint, FreeInitialTime
+
+    g = 9.81
+
+    def phase(name, t0, tf, **ends):
+        states = [State("h", **ends.get("h", {})), State("v", **ends.get("v", {}))]
+        return OptimalControlProblem(name, states, [], lambda x, u, t: [x["v"], -g], t0=t0, tf=tf)
+
+    fall = phase("fall", 0.0, FreeFinalTime(0.1, 0.6, 0.5), h={"initial": 1.0, "final": 0.0}, v={"initial": 0.0})
+    rise = phase("rise", FreeInitialTime(0.1, 0.6, 0.5), FreeFinalTime(0.61, 2.0, 1.2), v={"final": 0.0})
+    bounce = Constraint("bounce", lambda e: e["rise"].x0["v"] + 0.9 * e["fall"].xf["v"], lower=0.0, upper=0.0)
+    sol = MultiPhase(
+        [Radau(fall, 3, 2), Radau(rise, 3, 2)], [Link("fall", "rise", ["h"])], constraints=[bounce]
+    ).solve()
+    t1 = np.sqrt(2 / g)
+    assert sol.phase("fall").tf == pytest.approx(t1, rel=1e-9)
+    assert sol.tf == pytest.approx(t1 + 0.9 * np.sqrt(2 * g) / g, rel=1e-9)
+    assert sol.phase("rise").state_values[-1, 0] == pytest.approx(0.81, rel=1e-9) and sol.link_residual < 1e-10
+    with pytest.raises(
+        ValueError, match=r"link fall -> lift: no phase named 'lift'; the phases are \['fall', 'rise'\]"
+    ):
+        MultiPhase([Radau(fall, 3, 2), Radau(rise, 3, 2)], [Link("fall", "lift")])
+    with pytest.raises(KeyError, match=r"linkage constraint 'bounce': unknown phase 'drop'; the phases are"):
+        bad = Constraint("bounce", lambda e: e["drop"].xf["v"], lower=0.0, upper=0.0)
+        MultiPhase([Radau(fall, 3, 2), Radau(rise, 3, 2)], constraints=[bad])
+    with pytest.raises(KeyError, match=r"the trajectory cost: unknown state 'y'"):
+        MultiPhase([Radau(fall, 3, 2), Radau(rise, 3, 2)], cost=lambda e: e[1].xf["y"])
+
+
+def test_phases_in_different_objective_scales_minimise_their_sum():
+    """Phase costs stated in different objective scales are one sum (each phase's NLP cost used to be divided by
+    its own scale, so a phase with scale 100 weighed a hundredth): u = 6 - 12 t, J = 6, 3 in each phase."""
+    first = leg(0.0, 0.5, initial=(0.0, 0.0)).replace(objective_scale=100.0)
+    mp = MultiPhase([Radau(first, 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)])
+    sol = mp.solve()
+    assert mp.objective_scale == 100.0 and sol.objective == pytest.approx(6.0, rel=1e-9)
+    assert [p.objective for p in sol.phases] == pytest.approx([3.0, 3.0], rel=1e-9)
+    one = Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2)
+    costates = [m.solve().phases[0].costate(np.array([0.25])) for m in (mp, MultiPhase([one, mp.phases[1]]))]
+    assert np.allclose(*costates, rtol=1e-6)
+
+
+def test_a_trajectory_cost_sees_the_shared_parameters():
+    """k shared by both phases is one entry of the trajectory's p; a cost pulling it to 3 moves it there."""
+    phases = [HLGL(gain_leg(0.0, 0.5, initial=(0.0, 0.0)), 6), HLGL(gain_leg(0.5, 1.0, final=(1.0, 0.0)), 6)]
+    free = MultiPhase(phases).solve()
+    pulled = MultiPhase(phases, cost=lambda e, p: 1e3 * (p["k"] - 3.0) ** 2).solve()
+    assert abs(pulled.parameters["k"] - 3.0) < abs(free.parameters["k"] - 3.0) / 10
+    assert pulled.trajectory_cost == pytest.approx(1e3 * (pulled.parameters["k"] - 3.0) ** 2, rel=1e-12)
+
+
+def test_a_problem_split_at_measurement_times():
+    """x' = -k x from x(0) = 1, measured at the exact solution of k = 2: the fit at the cut times recovers k = 2 with
+    J = 0 (to the discretisation); ends.at names a cut time, and times that are not cuts are refused."""
+    from ocpkit import FreeParameter
+
+    decay = OptimalControlProblem(
+        "decay",
+        [State("x", initial=1.0)],
+        [],
+        lambda x, u, t, p: -p["k"] * x["x"],
+        tf=1.0,
+        free_parameters=[FreeParameter("k", 0.1, 10.0, guess=1.0)],
+    )
+    times = [0.2, 0.5, 0.7, 1.0]
+    cost = lambda e: sum((e.at(t)["x"] - np.exp(-2 * t)) ** 2 for t in times)  # noqa: E731
+    mp = MultiPhase.split(decay, times, lambda pr: Radau(pr, 6, 2), cost=cost)
+    sol = mp.solve()
+    assert list(mp.cut_times) == [0.0, 0.2, 0.5, 0.7, 1.0] and len(sol.phases) == 4
+    assert sol.parameters["k"] == pytest.approx(2.0, rel=1e-8) and sol.objective < 1e-16
+    t, x = sol.sample(lambda x, u, t: x["x"], grid=np.linspace(0, 1, 11))
+    assert np.allclose(x, np.exp(-2 * t), atol=1e-9)
+    with pytest.raises(KeyError, match=r"no phase starts or ends at the fixed time t = 0.3"):
+        MultiPhase.split(decay, times, lambda pr: Radau(pr, 3, 1), cost=lambda e: e.at(0.3)["x"])
+    with pytest.raises(ValueError, match=r"times must lie in \[t0, tf\] = \[0.0, 1.0\]"):
+        MultiPhase.split(decay, [0.5, 1.5], lambda pr: Radau(pr, 3, 1))
+    with pytest.raises(ValueError, match="split needs fixed t0 and tf"):
+        MultiPhase.split(decay.replace(tf=FreeFinalTime(0.5, 2.0, 1.0)), [0.5], lambda pr: Radau(pr, 3, 1))
+
+
+def test_a_split_keeps_the_end_conditions_mayer_term_and_boundary_constraints():
+    """The double integrator from (0, 0), reaching x(1) - x(0) = 1 (a boundary constraint) at rest, with a Mayer
+    term 0 * tf and a running cost: split at 0.25 and 0.5, it is the same problem, J = 6."""
+    from ocpkit import Constraint
+
+    whole = leg(0.0, 1.0, initial=(0.0, 0.0), final=(None, 0.0)).replace(
+        mayer=lambda x0, xf, t0, tf: 0.0 * tf + (xf["v"] - x0["v"]) ** 2,
+        boundary_constraints=[Constraint("rise", lambda x0, xf, t0, tf: xf["x"] - x0["x"], lower=1.0, upper=1.0)],
+    )
+    sol = MultiPhase.split(whole, [0.25, 0.5], lambda pr: HLGL(pr, 3)).solve()
+    assert sol.objective == pytest.approx(6.0, rel=1e-9) and sol.link_residual < 1e-9
+    assert sol.phases[-1].state_values[-1, 0] == pytest.approx(1.0, abs=1e-10)
+    assert [p.t0 for p in sol.phases] == [0.0, 0.25, 0.5]

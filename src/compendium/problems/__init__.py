@@ -4,6 +4,7 @@ from ._data import load_problem_data
 from .attitude_ascent import attitude_ascent
 from .beyond_the_seeds import catalyst_mixing, free_flying_robot, miser3_state_constraint, orbit_raising, tumour
 from .bryson_denham import bryson_denham, bryson_denham_solution
+from .cops_gasoil import gasoil, gasoil_fit, gasoil_measurements
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
 from .entry_landing import entry_landing, entry_landing_constants, minimum_downrange_bound
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
@@ -33,6 +34,9 @@ __all__ = [
     "hang_glider",
     "tumour",
     "bryson_denham",
+    "gasoil",
+    "gasoil_fit",
+    "gasoil_measurements",
     "bryson_denham_solution",
     "delta3_constants",
     "delta3_guesses",

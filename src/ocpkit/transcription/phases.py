@@ -25,14 +25,17 @@ the phases when they share their states and controls.
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
 
+from ..names import Named, call
 from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
+from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set
 from ..solution import Solution
 from ..trajectory import Trajectory
 from .base import Transcription, settle
@@ -40,7 +43,7 @@ from .base import Transcription, settle
 
 @dataclass(frozen=True)
 class Link:
-    """The start of phase ``after`` continues the end of phase ``before``.
+    """The start of phase ``after`` continues the end of phase ``before`` (each by its index or its name).
 
     ``states``: the names of the linked states (``"all"``: every state of ``before``, which
     ``after`` must have too); ``jumps``: ``{state: value}`` added across the link
@@ -48,8 +51,8 @@ class Link:
     negative jump of the mass); ``time``: the phases meet in time, ``t0_after = tf_before``.
     """
 
-    before: int
-    after: int
+    before: int | str
+    after: int | str
     states: Sequence[str] | str = "all"
     jumps: Mapping[str, float] = field(default_factory=dict)
     time: bool = True
@@ -59,28 +62,109 @@ class Link:
         return f"link {self.before} -> {self.after}"
 
 
+def _has_cost(problem) -> bool:
+    return problem.functions.L is not None or problem.functions.phi is not None
+
+
+@dataclass(frozen=True)
+class PhaseEnds:
+    """One phase's boundary values, as a trajectory-level cost or linkage constraint sees them (symbols).
+
+    ``x0``, ``xf``: the states at the phase's start and end, by name (``xf["v"]``); ``t0``, ``tf``: its
+    times; ``p``: its parameters by name; ``fixed_t0``, ``fixed_tf``: the times where fixed (None where free).
+    """
+
+    name: str
+    x0: Named
+    xf: Named
+    t0: ca.SX
+    tf: ca.SX
+    p: Named
+    fixed_t0: float | None = None
+    fixed_tf: float | None = None
+
+
+class PhasesEnds(Mapping):
+    """Every phase's :class:`PhaseEnds`, by name or by index: ``ends["descent"].tf``, ``ends[0].xf["h"]``."""
+
+    def __init__(self, ends: Sequence[PhaseEnds]):
+        self._ends = list(ends)
+        self._by_name = {e.name: e for e in self._ends}
+
+    def __getitem__(self, key) -> PhaseEnds:
+        if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+            if -len(self._ends) <= key < len(self._ends):
+                return self._ends[key]
+        elif key in self._by_name:
+            return self._by_name[key]
+        raise KeyError(f"unknown phase {key!r}; the phases are {list(self._by_name)} (or indices 0 to {len(self) - 1})")
+
+    def at(self, t: float) -> Named:
+        """The states at the fixed time ``t`` where a phase starts (its ``x0``) or the last phase ends (its ``xf``): a
+        named interior time of :meth:`MultiPhase.split`, a measurement time."""
+
+        def same(v):
+            return v is not None and math.isclose(v, t, rel_tol=1e-12, abs_tol=1e-12)
+
+        for e in self._ends:
+            if same(e.fixed_t0):
+                return e.x0
+        for e in reversed(self._ends):
+            if same(e.fixed_tf):
+                return e.xf
+        fixed = sorted({v for e in self._ends for v in (e.fixed_t0, e.fixed_tf) if v is not None})
+        raise KeyError(f"no phase starts or ends at the fixed time t = {t}; the fixed phase times are {fixed}")
+
+    def __iter__(self):
+        return iter(self._by_name)
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+
 class MultiPhase:
     """Transcribed phases and their links, as one NLP (see the module docstring).
 
     Parameters
     ----------
-    phases : sequence of :class:`~ocpkit.transcription.Transcription`
-        One transcription per phase, in time order.
+    phases : sequence of :class:`~ocpkit.transcription.Transcription`, or a mapping name -> transcription
+        One transcription per phase, in time order. Unnamed phases are named by their problems' names
+        (by their indices when two problems share a name).
     links : sequence of :class:`Link`, optional
         Default: each phase continues the previous one in every state and in time.
+    cost : callable, optional
+        A trajectory-level cost added to the phases' own: ``cost(ends)`` or ``cost(ends, p)``, ``ends`` the
+        phases' :class:`PhaseEnds` by name or index (``lambda ends: ends["climb"].tf``: a Mayer term stated once,
+        where one in every phase would be counted once per phase), ``p`` the trajectory's parameters by name.
+    constraints : sequence of :class:`~ocpkit.Constraint`, optional
+        Linkage constraints between any phases' boundary values, their functions called as ``cost`` is
+        (``Constraint("bounce", lambda e: e[1].x0["v"] + 0.9 * e[0].xf["v"], lower=0, upper=0)``).
     local_parameters : sequence of str, optional
         Free parameters that each phase naming them keeps to itself; every other free parameter named by
         several phases is one parameter shared by all of them (the module docstring).
+    objective_scale : float, optional
+        The NLP minimises ``J / objective_scale``, ``J`` the sum of every phase's cost and ``cost``; each
+        phase's cost is rescaled from its own ``objective_scale``. Default: the largest of the phases' that
+        have a cost.
     """
 
     def __init__(
         self,
-        phases: Sequence[Transcription],
+        phases: Sequence[Transcription] | Mapping[str, Transcription],
         links: Sequence[Link] | None = None,
         *,
+        cost: Callable | None = None,
+        constraints: Sequence[Constraint] = (),
         local_parameters: Sequence[str] = (),
+        objective_scale: float | None = None,
     ):
-        self.phases = list(phases)
+        if isinstance(phases, Mapping):
+            self.names = [str(k) for k in phases]
+            self.phases = list(phases.values())
+        else:
+            self.phases = list(phases)
+            own = [getattr(ph, "problem", None) and ph.problem.name for ph in self.phases]
+            self.names = own if len(set(own)) == len(own) and all(own) else [str(k) for k in range(len(own))]
         if not self.phases:
             raise ValueError("a multi-phase problem needs at least one phase")
         for k, ph in enumerate(self.phases):
@@ -88,24 +172,209 @@ class MultiPhase:
                 raise TypeError(f"phase {k} must be a Transcription (HLGL, Radau, ...), got {type(ph).__name__}")
         if links is None:
             links = [Link(k, k + 1) for k in range(len(self.phases) - 1)]
-        self.links = list(links)
+        self.links = [self._resolve_link(link) for link in links]
         self._link_states = [self._check_link(link) for link in self.links]
         self._shared = self._shared_parameters(local_parameters)
+        with_cost = [ph.problem.objective_scale for ph in self.phases if _has_cost(ph.problem)]
+        if objective_scale is None:
+            objective_scale = max(with_cost, default=1.0)
+        if not (objective_scale > 0 and math.isfinite(objective_scale)):
+            raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
+        self.objective_scale = float(objective_scale)
         sizes = [ph.n_variables for ph in self.phases]
         self.variable_offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
         rows = [ph.n_constraints for ph in self.phases]
         self.row_offsets = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64)
         self.n_variables = int(sum(sizes))
+        self._ends = self._ends_symbols()
+        self._cost = self._trajectory_cost(cost)
+        self._linkage = self._linkage_constraints(constraints)
+        self.n_linkage_rows = 0 if self._linkage is None else self._linkage.size
         self.n_link_rows = (
             sum(len(names) for names in self._link_states)
             + sum(self._time_link_kind(link) == "constraint" for link in self.links)
             + sum(len(where) - 1 for where in self._shared.values())
+            + self.n_linkage_rows
         )
         self.n_constraints = int(sum(rows)) + self.n_link_rows
         self._nlp = None
         self._solver = None
         self._solver_options = None
         self.build_s = 0.0
+
+    @classmethod
+    def split(
+        cls,
+        problem: OptimalControlProblem,
+        times: Sequence[float],
+        scheme: Callable[[OptimalControlProblem], Transcription],
+        *,
+        cost: Callable | None = None,
+        constraints: Sequence[Constraint] = (),
+        **options,
+    ) -> MultiPhase:
+        """One problem cut at fixed ``times`` into linked phases, so that costs and constraints can name those times.
+
+        Each piece keeps the dynamics, bounds, running cost, path constraints and parameters (its free parameters
+        shared: one parameter of the trajectory); the first keeps the initial conditions, the last the final ones;
+        the Mayer term and the boundary constraints move to the trajectory level. ``scheme(piece)`` transcribes a
+        piece (``lambda pr: Radau(pr, 4, 3)``). ``cost`` and ``constraints`` are :class:`MultiPhase`'s, and
+        ``ends.at(t)`` is the state at a cut time (or at t0, tf): a least-squares fit to measurements is a sum of
+        ``(ends.at(t)["y"] - y_measured) ** 2``. The problem's t0 and tf must be fixed; ``options`` go to
+        :class:`MultiPhase` (``local_parameters``, ``objective_scale``).
+        """
+        if problem.free_initial_time or problem.free_final_time:
+            raise ValueError(f"split needs fixed t0 and tf: {problem.name!r} has a free one")
+        t = np.unique(np.asarray(times, dtype=float).ravel())
+        if t.size and (not np.all(np.isfinite(t)) or t[0] < problem.t0 or t[-1] > problem.tf):
+            raise ValueError(f"times must lie in [t0, tf] = [{problem.t0}, {problem.tf}], got {t.min()} to {t.max()}")
+        cuts = np.unique(np.concatenate([[problem.t0], t, [problem.tf]]))
+        n = cuts.size - 1
+        phases = {}
+        for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+            states = [
+                replace(s, initial=s.initial if k == 0 else None, final=s.final if k == n - 1 else None)
+                for s in problem.states
+            ]
+            piece = problem.replace(
+                name=f"{problem.name}_{k}", states=states, t0=float(a), tf=float(b), mayer=None, boundary_constraints=()
+            )
+            phases[f"{problem.name}_{k}"] = scheme(piece)
+        whole = problem.functions
+
+        def total_cost(ends, p):
+            out = 0.0 if cost is None else call(cost, [ends], p, has_parameters=bool(p.names), what="the cost")
+            if whole.phi is not None:
+                first, last = ends[0], ends[-1]
+                out = out + whole.phi(first.x0, last.xf, first.t0, last.tf, first.p)
+            return out
+
+        def boundary(c: Constraint) -> Constraint:
+            def at_ends(ends):
+                first, last = ends[0], ends[-1]
+                inputs = [first.x0, last.xf, first.t0, last.tf]
+                what = f"boundary constraint {c.name!r}"
+                return call(c.function, inputs, first.p, has_parameters=problem.takes_parameters, what=what)
+
+            return replace(c, function=at_ends)
+
+        moved = [boundary(c) for c in problem.boundary_constraints]
+        has_cost = cost is not None or whole.phi is not None
+        mp = cls(phases, cost=total_cost if has_cost else None, constraints=[*moved, *constraints], **options)
+        mp.cut_times = cuts
+        return mp
+
+    # -- trajectory-level cost and linkage constraints ---------------------------------------------
+    def _resolve_link(self, link: Link) -> Link:
+        """``link`` with phase names replaced by indices (an unknown name raises, naming the phases)."""
+        if not isinstance(link, Link):
+            raise TypeError(f"links must be Link objects, got {link!r}")
+        ends = {}
+        for which in ("before", "after"):
+            v = getattr(link, which)
+            if isinstance(v, str):
+                if v not in self.names:
+                    raise ValueError(f"{link.label}: no phase named {v!r}; the phases are {self.names}")
+                v = self.names.index(v)
+            ends[which] = v
+        return replace(link, **ends)
+
+    def _ends_symbols(self):
+        """The symbols of every phase's boundary values: ``(z, q, variables, values, ends, p)``.
+
+        ``z``: the scaled NLP variables at ``variables`` (each phase's x(t0), x(tf) and problem-wide variables);
+        ``q``: the fixed final times, whose ``values`` a block carries; ``ends``: the :class:`PhasesEnds` in them;
+        ``p``: the trajectory's parameters by name (each shared one once, each fixed one that the phases naming it
+        give one value; a phase-local one is in ``ends[k].p``).
+        """
+        zs, qs, variables, values, ends = [], [], [], [], []
+        entries: dict[str, list] = {}
+        for k, ph in enumerate(self.phases):
+            z, q, x0, xf, t0, tf, P = ph._boundary_symbols()
+            first, last, _ = ph._boundary_indices()
+            pr = ph.problem
+            zs.append(z)
+            qs.append(q)
+            variables.append(self.variable_offsets[k] + np.concatenate([first, last, ph.global_indices()]))
+            values.append([] if pr.free_final_time else [pr.tf])
+            names = [*pr.parameters, *(v.name for v in pr.free_parameters)]
+            states = pr.state_names
+            ends.append(
+                PhaseEnds(
+                    self.names[k],
+                    Named(x0, states, "state"),
+                    Named(xf, states, "state"),
+                    ca.SX(t0),
+                    ca.SX(tf),
+                    Named(ca.SX(P), names, "parameter"),
+                    None if pr.free_initial_time else pr.t0,
+                    None if pr.free_final_time else pr.tf,
+                )
+            )
+            for j, name in enumerate(names):
+                fixed = pr.parameters.get(name)
+                entries.setdefault(name, []).append((ends[-1].p[j], fixed))
+        shared = {}
+        for name, found in entries.items():
+            fixed = {v for _, v in found}
+            if len(found) == 1 or name in self._shared or (None not in fixed and len(fixed) == 1):
+                shared[name] = found[0][0]
+        p = Named(ca.vertcat(*shared.values()) if shared else ca.SX(0, 1), list(shared), "trajectory parameter")
+        return (
+            ca.vertcat(*zs),
+            ca.vertcat(*qs),
+            np.concatenate(variables).astype(np.int64),
+            np.array([v for vs in values for v in vs], dtype=float),
+            PhasesEnds(ends),
+            p,
+        )
+
+    def _call_on_ends(self, fn: Callable, what: str):
+        z, q, _, _, ends, p = self._ends
+        try:
+            return call(fn, [ends], p, has_parameters=bool(p.names), what=what)
+        except KeyError as exc:
+            raise KeyError(f"{what}: {exc.args[0]}") from None
+
+    def _trajectory_cost(self, cost: Callable | None) -> ca.Function | None:
+        """``(z, q) -> J_trajectory`` (in the problem's units) of ``cost`` (None without)."""
+        if cost is None:
+            return None
+        if not callable(cost):
+            raise TypeError(f"cost must be a callable of the phases' ends, got {cost!r}")
+        z, q = self._ends[:2]
+        expr = _column(self._call_on_ends(cost, "the trajectory cost"), "the trajectory cost")
+        if expr.shape != (1, 1):
+            raise ValueError(f"the trajectory cost must be a scalar, got shape {expr.shape}")
+        return ca.Function("trajectory_cost", [z, q], [expr])
+
+    def _linkage_constraints(self, constraints) -> ConstraintSet | None:
+        """The linkage constraints compiled into one function ``(z, q) -> g`` with bounds (None without)."""
+        constraints = tuple(constraints)
+        for c in constraints:
+            if not isinstance(c, Constraint):
+                raise TypeError(f"constraints must be Constraint objects, got {c!r}")
+        names = [c.name for c in constraints]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"duplicate linkage constraint names: {dup}")
+        z, q = self._ends[:2]
+        return _constraint_set("linkage", constraints, [z], ["z"], q, self._call_on_ends)
+
+    def _trajectory_blocks(self, row: int) -> list[Block]:
+        """The trajectory cost (scaled by :attr:`objective_scale`) and the linkage rows from ``row``."""
+        _, _, variables, values, _, _ = self._ends
+        var, par = variables[:, None], values[:, None]
+        blocks = []
+        if self._cost is not None:
+            z, q = self._ends[:2]
+            fun = ca.Function("trajectory_cost", [z, q], [self._cost(z, q) / self.objective_scale])
+            blocks.append(Block("trajectory_cost", fun, var, par))
+        if self._linkage is not None:
+            z, q = self._ends[:2]
+            fun = ca.Function("linkage", [z, q], [self._linkage.function(z, q) / ca.DM(self._linkage.scale)])
+            blocks.append(Block("linkage_constraints", fun, var, par, row + np.arange(self._linkage.size)[:, None]))
+        return blocks
 
     # -- shared parameters ----------------------------------------------------------------------
     def _shared_parameters(self, local) -> dict[str, list[tuple[int, int]]]:
@@ -248,18 +517,24 @@ class MultiPhase:
                     )
                 )
                 row += 1
-        return blocks + self._parameter_blocks(row)
+        shared = self._parameter_blocks(row)
+        return blocks + shared + self._trajectory_blocks(row + len(shared))
 
     # -- the NLP ----------------------------------------------------------------------------
     def _phase_blocks(self) -> list[Block]:
         out = []
         for k, ph in enumerate(self.phases):
             ov, orow = self.variable_offsets[k], self.row_offsets[k]
+            factor = ph.problem.objective_scale / self.objective_scale
             for b in ph._blocks() + ph._constraint_blocks():
+                function = b.function
+                if b.rows is None and factor != 1.0:  # an objective block, in the trajectory's objective scale
+                    z, q = ca.SX.sym("z", function.size1_in(0)), ca.SX.sym("q", function.size1_in(1))
+                    function = ca.Function(function.name(), [z, q], [function(z, q) * factor])
                 out.append(
                     Block(
                         f"phase{k}_{b.name}",
-                        b.function,
+                        function,
                         b.variables + ov,
                         b.parameters,
                         None if b.rows is None else b.rows + orow,
@@ -287,8 +562,12 @@ class MultiPhase:
 
     def _constraint_bounds(self):
         lo, hi = zip(*(ph._constraint_bounds() for ph in self.phases))
-        z = np.zeros(self.n_link_rows)
-        return np.concatenate([*lo, z]), np.concatenate([*hi, z])
+        z = np.zeros(self.n_link_rows - self.n_linkage_rows)
+        lo, hi = [*lo, z], [*hi, z]
+        if self._linkage is not None:
+            lo.append(self._linkage.lower / self._linkage.scale)
+            hi.append(self._linkage.upper / self._linkage.scale)
+        return np.concatenate(lo), np.concatenate(hi)
 
     def initial_point(self, guesses=None) -> np.ndarray:
         """The start vector from one guess per phase (a :class:`~ocpkit.Guess`, a Solution or None)."""
@@ -341,11 +620,12 @@ class MultiPhase:
         for k, ph in enumerate(self.phases):
             v = slice(self.variable_offsets[k], self.variable_offsets[k] + ph.n_variables)
             r = slice(self.row_offsets[k], self.row_offsets[k] + ph.n_constraints)
+            to_phase = self.objective_scale / ph.problem.objective_scale  # multipliers in the phase's own scale
             part = NLPResult(
                 w=result.w[v],
                 objective=self._phase_objective(k, result.w) / ph.problem.objective_scale,
-                lam_g=result.lam_g[r],
-                lam_w=result.lam_w[v],
+                lam_g=result.lam_g[r] * to_phase,
+                lam_w=result.lam_w[v] * to_phase,
                 status=result.status,
                 iterations=result.iterations,
                 solve_s=result.solve_s,
@@ -356,19 +636,27 @@ class MultiPhase:
             sol.build_s = self.build_s
             phases.append(sol)
         link_rows = slice(self.n_constraints - self.n_link_rows, self.n_constraints)
+        lo, hi = (b[link_rows] for b in self._constraint_bounds())
+        link = g[link_rows]
+        trajectory_cost = 0.0
+        if self._cost is not None:
+            z, _, variables, values, _, _ = self._ends
+            trajectory_cost = float(self._cost(result.w[variables], values))
         return MultiPhaseSolution(
             phases=phases,
             links=self.links,
             status=result.status,
             iterations=result.iterations,
-            objective=float(sum(p.objective for p in phases)),
+            objective=float(sum(p.objective for p in phases)) + trajectory_cost,
+            trajectory_cost=trajectory_cost,
             nlp_parameters=self.n_variables - sum(len(ph.problem.parameters) for ph in self.phases),
             constraints=self.n_constraints,
             build_s=self.build_s,
             solve_s=result.solve_s,
             converged=result.success,
-            link_residual=float(np.max(np.abs(g[link_rows]))) if self.n_link_rows else 0.0,
+            link_residual=float(np.max(np.maximum(lo - link, link - hi), initial=0.0)),
             parameters=self._trajectory_parameters(phases),
+            names=list(self.names),
         )
 
     def _trajectory_parameters(self, phases) -> dict[str, float]:
@@ -391,9 +679,10 @@ class MultiPhaseSolution(Trajectory):
     """The solution of a :class:`MultiPhase` problem.
 
     ``phases``: each phase's :class:`~ocpkit.Solution` (its objective is the phase's share);
-    ``objective``: their sum; ``status``, ``iterations``, ``converged``, ``build_s``,
+    ``objective``: their sum, plus ``trajectory_cost`` (the value of :class:`MultiPhase`'s ``cost``); ``status``, ``iterations``, ``converged``, ``build_s``,
     ``solve_s``, ``nlp_parameters`` and ``constraints`` of the one NLP; ``link_residual``:
-    the largest scaled residual of the links (and of the shared parameters' rows);
+    the largest scaled violation of the links, the shared parameters' rows and the linkage constraints;
+    ``names``: the phases' names (:meth:`phase` gives a phase's solution by name);
     ``parameters``: the solved free parameters of the trajectory (each shared one once). As a :class:`~ocpkit.Trajectory` it spans
     ``[phases[0].t0, phases[-1].tf]`` (phases that share their state and control names),
     the later phase holding at a shared time; :meth:`reintegrate` flies each phase
@@ -412,6 +701,8 @@ class MultiPhaseSolution(Trajectory):
     converged: bool
     link_residual: float
     parameters: dict = field(default_factory=dict)
+    trajectory_cost: float = 0.0
+    names: list = field(default_factory=list)
 
     def __post_init__(self) -> None:
         first = self.phases[0].problem
@@ -423,6 +714,14 @@ class MultiPhaseSolution(Trajectory):
             (p.problem.state_names, p.problem.control_names) == (first.state_names, first.control_names)
             for p in self.phases
         )
+
+    def phase(self, key) -> Solution:
+        """A phase's solution by name or index."""
+        if isinstance(key, str):
+            if key not in self.names:
+                raise KeyError(f"unknown phase {key!r}; the phases are {self.names}")
+            key = self.names.index(key)
+        return self.phases[key]
 
     def _phase_of(self, t: np.ndarray) -> np.ndarray:
         starts = np.array([p.t0 for p in self.phases])
@@ -478,4 +777,4 @@ class MultiPhaseSolution(Trajectory):
         return max(r.max_error for r in self.reintegrate(**kwargs))
 
 
-__all__ = ["Link", "MultiPhase", "MultiPhaseSolution"]
+__all__ = ["Link", "MultiPhase", "MultiPhaseSolution", "PhaseEnds", "PhasesEnds"]
