@@ -181,26 +181,13 @@ def cycloid_time(dx=10.0, drop=5.0, g=9.80665):
 def test_a_trajectory_cost_stated_once():
     """The brachistochrone split at x = 5 with the final time as the trajectory's cost: the cycloid's 1.8016031 (Dymos
     quotes 1.8016); tf written as a Mayer term in both phases would minimise t1 + t2 instead (1.80773 reported)."""
-    from ocpkit import FreeInitialTime
-
-    first = brachistochrone_phase(
-        "first",
-        0.0,
-        FreeFinalTime(0.3, 1.7, 0.9),
-        x={"initial": 0.0, "final": 5.0},
-        y={"initial": 10.0},
-        v={"initial": 0.0},
-    )
-    second = brachistochrone_phase(
-        "second", FreeInitialTime(0.3, 1.7, 0.9), FreeFinalTime(1.71, 3.0, 1.8), x={"final": 10.0}, y={"final": 5.0}
-    )
-    mp = MultiPhase({"first": Radau(first, 5, 10), "second": Radau(second, 5, 10)}, cost=lambda e: e["second"].tf)
+    mp = split_brachistochrone(lambda p: Radau(p, 5, 10))
     sol = mp.solve()
     assert cycloid_time() == pytest.approx(1.8016031, abs=5e-8)
     assert sol.objective == pytest.approx(cycloid_time(), rel=1e-9) and sol.trajectory_cost == sol.objective
     assert sol.phase("second").tf == sol.objective and sol.names == ["first", "second"]
     assert [p.objective for p in sol.phases] == [0.0, 0.0] and sol.link_residual < 1e-12
-    twice = [p.replace(mayer=lambda x0, xf, t0, tf: tf) for p in (first, second)]
+    twice = [ph.problem.replace(mayer=lambda x0, xf, t0, tf: tf) for ph in mp.phases]
     both = MultiPhase([Radau(p, 5, 10) for p in twice]).solve()
     assert both.objective == pytest.approx(both.phases[0].tf + both.tf, rel=1e-12)
     assert both.tf > sol.tf + 1e-4  # another problem: the first phase hurries at the second's expense
@@ -302,3 +289,69 @@ def test_a_split_keeps_the_end_conditions_mayer_term_and_boundary_constraints():
     assert sol.objective == pytest.approx(6.0, rel=1e-9) and sol.link_residual < 1e-9
     assert sol.phases[-1].state_values[-1, 0] == pytest.approx(1.0, abs=1e-10)
     assert [p.t0 for p in sol.phases] == [0.0, 0.25, 0.5]
+
+
+def split_brachistochrone(make):
+    """The brachistochrone split at x = 5, final time as the trajectory cost, each phase transcribed by ``make``."""
+    from ocpkit import FreeInitialTime
+
+    first = brachistochrone_phase(
+        "first",
+        0.0,
+        FreeFinalTime(0.3, 1.7, 0.9),
+        x={"initial": 0.0, "final": 5.0},
+        y={"initial": 10.0},
+        v={"initial": 0.0},
+    )
+    second = brachistochrone_phase(
+        "second", FreeInitialTime(0.3, 1.7, 0.9), FreeFinalTime(1.71, 3.0, 1.8), x={"final": 10.0}, y={"final": 5.0}
+    )
+    return MultiPhase({"first": make(first), "second": make(second)}, cost=lambda e: e["second"].tf)
+
+
+def test_linked_phases_have_the_one_solve_session():
+    """A coarse mesh warns naming the phase; mesh_tolerance refines every phase's mesh until every part of every
+    phase's estimate meets it (to the cycloid's time within 1e-9); a solution of the same object is an exact warm
+    start; reintegrate() gives one Reintegration whatever the number of phases."""
+    from ocpkit.accuracy import AccuracyWarning
+
+    mp = split_brachistochrone(lambda p: Radau(p, 3, 2))
+    with pytest.warns(AccuracyWarning, match=r"phase 'first', Radau\(nodes=3, intervals=2\): estimated relative"):
+        coarse = mp.solve()
+    assert coarse.refinement_outcome is None and coarse.error_estimate > 1e-4
+    sol = mp.solve(mesh_tolerance=1e-7)
+    assert sol.refinement_outcome == "met" and len(sol.mesh_history) >= 3
+    assert sol.accuracy.failing(1e-7) == [] and sol.objective == pytest.approx(cycloid_time(), rel=1e-9)
+    assert sol.mesh_history[0].collocation_points < sol.mesh_history[-1].collocation_points
+    finer = sol.raw["transcription"]
+    assert finer is not mp and all(p.n_collocation_points > 6 for p in finer.phases)
+    again = finer.solve(sol)
+    assert again.iterations <= 3 and again.objective == pytest.approx(sol.objective, rel=1e-10)
+    r = sol.reintegrate()
+    assert r.t[0] == 0.0 and r.t[-1] == pytest.approx(sol.tf) and r.max_error < 1e-5
+    assert r.max_error == pytest.approx(sol.max_reintegration_error(), rel=1e-12)
+
+
+def test_linked_phases_take_new_parameter_values_without_rebuilding():
+    """A fixed parameter named by both phases (the gain k of x'' = k u) takes new values per solve: J = 6 / k^2."""
+
+    def gain(t0, tf, initial=(None, None), final=(None, None)):
+        return OptimalControlProblem(
+            f"gain_{t0}",
+            [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
+            [Control("u")],
+            lambda x, u, t, p: [x["v"], p["k"] * u["u"]],
+            t0=t0,
+            tf=tf,
+            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+            parameters={"k": 1.0},
+        )
+
+    mp = MultiPhase([HLGL(gain(0.0, 0.5, initial=(0.0, 0.0)), 4), HLGL(gain(0.5, 1.0, final=(1.0, 0.0)), 4)])
+    assert mp.solve().objective == pytest.approx(6.0, rel=1e-9)
+    solver = mp.solver()
+    doubled = mp.solve(parameters={"k": 2.0})
+    assert doubled.objective == pytest.approx(6.0 / 4, rel=1e-9) and mp.solver() is solver
+    assert [p.problem.parameters["k"] for p in doubled.phases] == [2.0, 2.0]
+    with pytest.raises(KeyError, match=r"unknown parameters \['g'\]; the phases have \['k'\]"):
+        mp.solve(parameters={"g": 1.0})

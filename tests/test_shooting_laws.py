@@ -237,8 +237,11 @@ def test_bad_laws_are_named():
         control_law(pr, numpy_law)
     with pytest.raises(ValueError, match="control law 'foreign' depends on symbols other than"):
         control_law(pr, foreign)
-    with pytest.raises(TypeError):  # the problem has no parameters: the law gets (x, p) only
-        control_law(pr, lambda x, p, params: p[0])
+    # a law may take the parameters whatever the problem has (ocpkit.names); a name the problem lacks is named
+    with pytest.raises(KeyError, match=r"control law '<lambda>': unknown parameter 'k'; the parameters are \[\]"):
+        control_law(pr, lambda x, p, params: params["k"] * p[0])
+    with pytest.raises(TypeError, match=r"control law '<lambda>' needs 4 arguments; it is given 2, or 3 with"):
+        control_law(pr, lambda x, p, params, extra: p[0])
     with pytest.raises(ValueError, match="not to a law of your own"):
         control_law(pr, brachistochrone_law, regularized=True)
     with pytest.raises(ValueError, match="or a control law u_star"):

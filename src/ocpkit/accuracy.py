@@ -179,10 +179,11 @@ def path_junctions(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, 
 
 
 def warn_if_inaccurate(
-    label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None, hint=None
+    label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None, hint=None, stacklevel: int = 3
 ) -> None:
     """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``
-    (``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint` of the solution)."""
+    (``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint` of the solution;
+    ``stacklevel``: :func:`warnings.warn`'s, counted from here)."""
     if threshold is None or errors.size == 0:
         return
     k = int(np.argmax(errors))
@@ -193,7 +194,7 @@ def warn_if_inaccurate(
             "(solve(mesh_tolerance=...)) or check the solution (reintegrate())"
             + (f"; {text}" if hint is not None and (text := hint()) else ""),
             AccuracyWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
 
@@ -353,7 +354,38 @@ class Accuracy:
         return f"Accuracy({self.describe()})"
 
 
-def warn_if_path_violated(label: str, solution, threshold: float | None) -> None:
+class MultiPhaseAccuracy(Accuracy):
+    """The parts of a multi-phase solution's estimated error (:class:`Accuracy`'s, over the phases).
+
+    ``state``: the largest phase's; ``path``: per constraint label, the largest over the phases that have it;
+    ``objective``: the sum over the phases of ``|J_flown - J| + dJ_path`` (each phase flown from its own
+    initial state), plus the trajectory-level cost's change when each phase's final state is the flown one,
+    relative to ``max(|J|, objective_scale * 1e-3)``. ``phases``: each phase's :class:`Accuracy`.
+    """
+
+    def __init__(self, solution):
+        self.solution = solution
+        self.phases = [p.accuracy for p in solution.phases]
+        self.state = max(a.state for a in self.phases)
+        self.objective_nlp = float(solution.objective)
+        self.objective_failure = "; ".join(
+            f"phase {name}: {a.objective_failure}"
+            for name, a in zip(solution.names, self.phases)
+            if a.objective_failure
+        )
+        self.objective_path = float(sum(a.objective_path for a in self.phases))
+        ends = abs(solution.flown_trajectory_cost() - solution.trajectory_cost) if solution.trajectory_cost else 0.0
+        self.objective_flown = float(sum(a.objective_flown for a in self.phases)) + solution.trajectory_cost
+        difference = sum(abs(a.objective_flown - a.objective_nlp) for a in self.phases) + self.objective_path + ends
+        floor = 1e-3 * float(solution.objective_scale)
+        self.objective = difference / max(abs(self.objective_nlp), floor) if np.isfinite(difference) else np.inf
+        self.path = {}
+        for a in self.phases:
+            for label, value in a.path.items():
+                self.path[label] = max(self.path.get(label, 0.0), value)
+
+
+def warn_if_path_violated(label: str, solution, threshold: float | None, stacklevel: int = 3) -> None:
     """Warn (:class:`AccuracyWarning`) naming each path constraint violated between the scheme's points by more
     than ``threshold`` (in units of its scale; :func:`path_violations`)."""
     if threshold is None or solution.problem.functions.path is None:
@@ -365,7 +397,7 @@ def warn_if_path_violated(label: str, solution, threshold: float | None) -> None
             f"{label}: path constraints violated between collocation points ({', '.join(bad)}, in units of each "
             f"constraint's scale) by more than {threshold:g}; refine the mesh (solve(mesh_tolerance=...))",
             AccuracyWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
 

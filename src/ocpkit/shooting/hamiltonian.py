@@ -250,7 +250,10 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5
     names = problem.state_names
     inputs = [Named(ham.x, names, "state"), Named(ham.p, names, "costate")]
     params = Named(ham.P, [*problem.parameters, *(v.name for v in problem.free_parameters)], "parameter")
-    u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
+    try:
+        u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
+    except KeyError as exc:
+        raise KeyError(f"{what}: {exc.args[0]}") from None
     if u.shape != (nu, 1):
         raise ValueError(
             f"{what} returned shape {u.shape}, expected ({nu}, 1): one expression per control {problem.control_names}"

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import dataclasses
 import time
-import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -12,7 +10,6 @@ import casadi as ca
 import numpy as np
 
 from ..accuracy import (
-    AccuracyWarning,
     control_switches,
     path_junctions,
     path_violations,
@@ -22,10 +19,12 @@ from ..accuracy import (
     warn_if_path_violated,
 )
 from ..errors import SolverError
-from ..nlp import WARM_START, Block, NLPResult, SeparableNLP, failure_hint, solve_nlp
+from ..nlp import Block, NLPResult, SeparableNLP, failure_hint
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
+from . import session
 from .mesh import Mesh, final_time, initial_time, n_globals, parameter_vector
+from .session import STALL_FALL, STALL_GROWTH, STALL_MESHES, MeshIteration  # noqa: F401 (their home before)
 
 
 def settle(result: NLPResult, package, raise_on_failure: bool):
@@ -60,29 +59,6 @@ def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
     lo = np.tile([c.lower for c in controls], (n_points, 1)).reshape(n_points, len(controls))
     hi = np.tile([c.upper for c in controls], (n_points, 1)).reshape(n_points, len(controls))
     return sc.to_nlp(lo), sc.to_nlp(hi)
-
-
-@dataclass(frozen=True)
-class MeshIteration:
-    """One solve of a mesh refinement: the mesh (interval lengths as fractions of ``tf - t0``), its size, the
-    solution's error estimate, IPOPT's iterations and the times (build of this mesh, IPOPT, the whole iteration)."""
-
-    iteration: int
-    transcription: str
-    fractions: np.ndarray
-    collocation_points: int
-    nlp_parameters: int
-    error_estimate: float
-    ipopt_iterations: int
-    build_s: float
-    solve_s: float
-    total_s: float
-    #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
-    #: met it; empty where the state part did not (the other parts are not computed then) or all met it
-    failing: tuple = ()
-    #: what drives the refinement on this mesh, which the stall rule follows: the state part while it is over the
-    #: tolerance, else the largest of the others (path violations between points, the objective)
-    worst: float = float("nan")
 
 
 @dataclass
@@ -137,7 +113,7 @@ class VariableGroup:
         return AffineScaling.of(self.variables)
 
 
-class Transcription(ABC):
+class Transcription(session.SolveSession, ABC):
     """A direct transcription of an :class:`~ocpkit.problem.OptimalControlProblem` into an NLP.
 
     Subclasses define the variable layout, the blocks and the interpolants;
@@ -528,89 +504,6 @@ class Transcription(ABC):
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 
-    def solve(
-        self,
-        guess=None,
-        *,
-        ipopt_options: dict | None = None,
-        allow_acceptable: bool = False,
-        raise_on_failure: bool = True,
-        error_threshold: float | None = 1e-3,
-        mesh_tolerance: float | None = None,
-        max_mesh_iterations: int = 25,
-        parameters=None,
-    ) -> Solution:
-        """Solve with IPOPT from ``guess``.
-
-        Parameters
-        ----------
-        guess : Guess, Solution or None
-            A :class:`~ocpkit.Solution` of this same transcription object is an exact warm start: its NLP
-            vector and IPOPT's multipliers, with IPOPT's warm-start options (:data:`WARM_START`); another
-            Solution is interpolated onto this mesh.
-        ipopt_options : dict
-            Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
-        allow_acceptable : bool
-            Accept IPOPT's ``Solved_To_Acceptable_Level`` as success.
-        raise_on_failure : bool
-            True (default): a failed solve raises :class:`~ocpkit.SolverError` naming IPOPT's
-            status, with the last iterate as ``error.result``. False: the last iterate is
-            returned as a :class:`Solution` with ``converged=False``.
-        error_threshold : float or None
-            Warn (:class:`~ocpkit.accuracy.AccuracyWarning`) when the solution's estimated relative
-            state error (:attr:`Solution.error_estimate`, :mod:`ocpkit.accuracy`) exceeds it, naming
-            the interval, or when a path constraint is violated between the scheme's points by more
-            than it (in units of the constraint's scale, :func:`~ocpkit.accuracy.path_violations`);
-            None: no estimate at solve time. The objective's part of the error costs an integration
-            of the flown control: it is in :attr:`Solution.accuracy`, and refinement checks it.
-        mesh_tolerance : float or None
-            Refine the mesh (:meth:`refine`) until every part of the error estimate
-            (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
-            violation between points) is at most this, at most ``max_mesh_iterations`` solves, each
-            warm-started from the previous solution; the returned solution's ``mesh_history`` lists
-            every iteration (and a warning names the parts if the tolerance is not met). Where the
-            state meets the tolerance and another part does not, the next mesh cuts the intervals at
-            their worst path violation, and refines to a tolerance tightened by the objective's
-            excess. A failed solve on any mesh raises :class:`~ocpkit.SolverError` with the best
-            solution before it (``error.best``); an estimate that stops falling while the mesh grows
-            (:data:`STALL_MESHES`) stops the refinement with a warning saying so, naming a singular
-            arc where a control enters linearly and an angle not declared periodic
-            (:func:`~ocpkit.accuracy.refinement_hint`).
-        max_mesh_iterations : int
-            At most this many meshes (default 25: bang-bang and singular problems from coarse meshes
-            take 13 to 20; a stalled refinement stops sooner).
-        parameters : mapping, optional
-            New values of some of the problem's parameters (:attr:`OptimalControlProblem.parameters`) for
-            this solve. They are NLP variables pinned by their bounds, so the NLP and the IPOPT instance are
-            built once and reused for any values: a study of many values builds once. The solution's
-            problem carries the values solved with.
-        """
-        if parameters is not None:
-            self.parameter_values(parameters)  # names checked before anything is built
-        if mesh_tolerance is not None:
-            return self._solve_refined(
-                guess,
-                mesh_tolerance,
-                max_mesh_iterations,
-                dict(
-                    ipopt_options=ipopt_options,
-                    allow_acceptable=allow_acceptable,
-                    raise_on_failure=raise_on_failure,
-                    parameters=parameters,
-                ),
-            )
-        solution = self._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
-        if error_threshold is not None and solution.converged:
-            warn_if_inaccurate(
-                self.label,
-                solution.interval_errors,
-                solution.estimate_intervals,
-                error_threshold,
-                lambda: periodic_control_hint(solution),
-            )
-            warn_if_path_violated(self.label, solution, error_threshold)
-        return solution
-
     def nlp_bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(lbw, ubw, lbg, ubg)``: the bounds of the scaled NLP variables and constraints, for solving
         :attr:`nlp` with another NLP solver (then :meth:`package` its result)."""
@@ -624,40 +517,10 @@ class Transcription(ABC):
     def _solve_once(
         self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
     ) -> Solution:
-        """One IPOPT solve. From a Solution of this transcription: its exact warm start. From one of another
-        mesh with ``estimate_multipliers``: the interpolated point with first-order multiplier estimates
-        (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`) and :data:`WARM_START`, falling back to the
-        interpolated point alone if that solve fails."""
-        lbw, ubw = self._bounds(parameters)
-        lbg, ubg = self._constraint_bounds()
-
-        def run(w0, options, multipliers=None):
-            lam_g0, lam_w0 = multipliers if multipliers is not None else (None, None)
-            return solve_nlp(
-                self.solver(options),
-                w0,
-                lbw,
-                ubw,
-                lbg,
-                ubg,
-                allow_acceptable=allow_acceptable,
-                lam_w0=lam_w0,
-                lam_g0=lam_g0,
-            )
-
-        warm_options = {**WARM_START, **(ipopt_options or {})}
-        if isinstance(guess, Solution) and guess.raw.get("transcription") is self and "lam_g" in guess.raw:
-            result = run(np.clip(guess.raw["w"], lbw, ubw), warm_options, (guess.raw["lam_g"], guess.raw["lam_w"]))
-            return settle(result, self._solution, raise_on_failure)
-        w0 = np.clip(self.initial_point(guess), lbw, ubw)
-        multipliers = (
-            self.nlp.multiplier_estimate(w0, lbw, ubw) if estimate_multipliers and isinstance(guess, Solution) else None
+        """One IPOPT solve (:func:`ocpkit.transcription.session.solve_once`)."""
+        return session.solve_once(
+            self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters, estimate_multipliers
         )
-        if multipliers is not None:
-            result = run(w0, warm_options, multipliers)
-            if result.success:
-                return settle(result, self._solution, raise_on_failure)
-        return settle(run(w0, ipopt_options), self._solution, raise_on_failure)
 
     # -- mesh refinement --------------------------------------------------------------------
     def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Transcription:
@@ -665,133 +528,40 @@ class Transcription(ABC):
         ``switches``: per interval, where the control switches inside it (:func:`ocpkit.accuracy.control_switches`)."""
         raise NotImplementedError(f"{type(self).__name__} does not refine its mesh")
 
-    def _solve_refined(self, guess, tolerance: float, max_iterations: int, options: dict) -> Solution:
-        if not (tolerance > 0 and np.isfinite(tolerance)):
-            raise ValueError(f"mesh_tolerance must be positive, got {tolerance!r}")
-        if max_iterations < 1:
-            raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
-        transcription, history, solution, best = self, [], None, None
-        outcome, reason = "met", ""
-        for iteration in range(max_iterations):
-            start = time.perf_counter()
-            try:
-                solution = transcription._solve_once(
-                    guess if solution is None else solution,
-                    options["ipopt_options"],
-                    options["allow_acceptable"],
-                    options["raise_on_failure"],
-                    options["parameters"],
-                    estimate_multipliers=True,
-                )
-                estimate = solution.interval_errors
-            except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
-                if not history:  # the first mesh: the solve's own error (bad input, or IPOPT's status)
-                    raise
-                raise _refinement_failure(exc, iteration, transcription, best, history) from exc
-            history.append(
-                MeshIteration(
-                    iteration,
-                    transcription.label,
-                    np.diff(solution.estimate_intervals) / (solution.tf - solution.t0),
-                    transcription.n_collocation_points,
-                    solution.nlp_parameters,
-                    float(estimate.max()),
-                    solution.iterations,
-                    transcription.build_s,
-                    solution.solve_s,
-                    time.perf_counter() - start,
-                )
-            )
-            # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
-            errors = np.where(np.isfinite(estimate), estimate, 1e3)
-            if solution.converged and (best is None or errors.max() <= _worst(best.mesh_history[-1])):
-                best = solution
-                best.mesh_history = list(history)
-            if not solution.converged:
-                outcome, reason = "failed", f"IPOPT's status {solution.status} on {transcription.label}"
-                break
-            target = path_target = tolerance
-            try:
-                # path constraints between points at every mesh (cheap); the objective once the state meets the
-                # tolerance (it integrates the flown control)
-                _, _, where = path_violations(solution, solution.estimate_intervals)
-                accuracy = solution.accuracy if errors.max() <= tolerance else None
-            except Exception as exc:  # noqa: BLE001
-                raise _refinement_failure(exc, iteration, transcription, best, history) from exc
-            # what drives this refinement: the state while it is over the tolerance, else the other parts
-            worst = float(errors.max())
-            if accuracy is not None:
-                failing = accuracy.failing(tolerance)
-                if not failing:
-                    break
-                worst = max(float(np.max(where[:, 1], initial=0.0)), accuracy.objective)
-                if "objective" in failing and accuracy.objective > 0:
-                    flown = abs(accuracy.objective_flown - accuracy.objective_nlp)
-                    if accuracy.objective_path > flown:
-                        # what the violations between points are worth in cost: they must fall by its excess
-                        largest = float(np.max(where[:, 1], initial=0.0))
-                        path_target = max(min(largest, tolerance) * tolerance / accuracy.objective, 1e-3 * tolerance)
-                    else:
-                        # the state error drives the objective's: tighten by the excess (at most a thousandfold)
-                        target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
-                history[-1] = dataclasses.replace(history[-1], failing=tuple(failing), worst=worst)
-            else:
-                history[-1] = dataclasses.replace(history[-1], worst=worst)
-            # an interval whose path constraints are violated between its points by more than their target is
-            # refined as if that violation were its error: on a constrained arc the constraint oscillates about its
-            # bound between the points, by less as the degree rises or the interval shrinks; where an arc begins or
-            # ends, path_junctions cuts the interval there instead
-            violated = where[:, 1] > path_target
-            errors = np.where(violated, np.maximum(errors, where[:, 1] * target / path_target), errors)
-            stalled = _stalled(history)
-            if stalled:
-                hint = refinement_hint(solution)
-                parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-                outcome = "stalled"
-                reason = (
-                    f"{self.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
-                    f"{history[-1].transcription}" + (f"; {hint}" if hint else "")
-                )
-                warnings.warn(reason, AccuracyWarning, stacklevel=3)
-                break
-            if iteration + 1 < max_iterations:
-                try:
-                    switches = control_switches(solution, solution.estimate_intervals)
-                    junctions = path_junctions(solution, solution.estimate_intervals)
-                    switches = [np.union1d(a, b) for a, b in zip(switches, junctions)]
-                    try:
-                        transcription = transcription.refine(errors, target, switches)
-                    except TypeError as exc:  # a subclass with the two-argument refine of before the cuts
-                        if "positional argument" not in str(exc):
-                            raise
-                        transcription = transcription.refine(errors, target)
-                except Exception as exc:  # noqa: BLE001
-                    raise _refinement_failure(exc, iteration, transcription, best, history, "refining") from exc
-                if _same_mesh(transcription, solution.raw["transcription"]):
-                    transcription = solution.raw["transcription"]  # the solved one, which the solution belongs to
-                    parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-                    outcome = "stopped"
-                    reason = (
-                        f"{self.label}: mesh refinement stopped short of {tolerance:g}{parts}: no interval is over "
-                        f"what the failing parts ask of it, so the next mesh would be this one; stopped on "
-                        f"{history[-1].transcription}"
-                    )
-                    warnings.warn(reason, AccuracyWarning, stacklevel=3)
-                    break
-        else:
-            parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
-            hint = refinement_hint(solution)
-            outcome = "not met"
-            reason = (
-                f"{self.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
-                f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
-                + (f"; {hint}" if hint else "")
-            )
-            warnings.warn(reason, AccuracyWarning, stacklevel=3)
-        solution.mesh_history = history
-        solution.refinement_outcome, solution.refinement_reason = outcome, reason
-        solution.raw["transcription"] = transcription
-        return solution
+    # -- what the solve session (ocpkit.transcription.session) asks of a mesh ----------------------------------------
+    def _mesh_fractions(self, solution) -> np.ndarray:
+        """The solution's estimate intervals as fractions of its time span (a refinement's history)."""
+        return np.diff(solution.estimate_intervals) / (solution.tf - solution.t0)
+
+    def _path_where(self, solution) -> np.ndarray:
+        """Per estimate interval, ``(index of its worst path constraint, its violation)`` (:func:`path_violations`)."""
+        return path_violations(solution, solution.estimate_intervals)[2]
+
+    def _cuts(self, solution) -> list[np.ndarray]:
+        """Per estimate interval, where the next mesh cuts it: control switches and path-constraint junctions."""
+        switches = control_switches(solution, solution.estimate_intervals)
+        junctions = path_junctions(solution, solution.estimate_intervals)
+        return [np.union1d(a, b) for a, b in zip(switches, junctions)]
+
+    def _refinement_hint(self, solution) -> str:
+        return refinement_hint(solution)
+
+    def _warn_if_inaccurate(self, solution, threshold: float, label: str | None = None) -> None:
+        """The single solve's warnings: the state estimate over ``threshold``, path constraints violated between
+        points by more than it (``label``: who says so, default :attr:`label`)."""
+        label = self.label if label is None else label
+        warn_if_inaccurate(
+            label,
+            solution.interval_errors,
+            solution.estimate_intervals,
+            threshold,
+            lambda: periodic_control_hint(solution),
+            stacklevel=5,  # the caller of solve(), through the session
+        )
+        warn_if_path_violated(label, solution, threshold, stacklevel=5)
+
+    def _check_parameters(self, parameters) -> None:
+        self.parameter_values(parameters)
 
     @property
     def n_decision_variables(self) -> int:
@@ -836,65 +606,3 @@ class Transcription(ABC):
             converged=result.success,
             **fields,
         )
-
-
-#: Refinement stalls when, over STALL_MESHES meshes, the state estimate fell by less than 1 / STALL_FALL while the mesh
-#: grew by more than STALL_GROWTH (a singular arc or a non-smooth control the scheme cannot resolve)
-STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
-
-
-def _same_mesh(a, b) -> bool:
-    """Whether two transcriptions of a refinement have the same mesh (a refinement that changed nothing)."""
-    if type(a) is not type(b) or a.n_variables != b.n_variables:
-        return False
-    ma, mb = getattr(a, "mesh", None), getattr(b, "mesh", None)
-    if ma is None or mb is None:
-        return a.label == b.label
-    same_counts = np.array_equal(getattr(a, "counts", np.zeros(0)), getattr(b, "counts", np.zeros(0)))
-    return same_counts and np.array_equal(ma.fractions, mb.fractions)
-
-
-def _worst(h: MeshIteration) -> float:
-    return h.worst if np.isfinite(h.worst) else h.error_estimate
-
-
-def _stalled(history) -> str:
-    """Why refinement stalls (module constants, on what drives each mesh: :attr:`MeshIteration.worst`), or the
-    empty string."""
-    if len(history) <= STALL_MESHES:
-        return ""
-    then, now = history[-1 - STALL_MESHES], history[-1]
-    if _worst(now) > STALL_FALL * _worst(then) and now.collocation_points > STALL_GROWTH * then.collocation_points:
-        return (
-            f"over the last {STALL_MESHES} meshes the estimate went from {_worst(then):.1e} to {_worst(now):.1e} "
-            f"while the mesh grew from {then.collocation_points} to {now.collocation_points} points"
-        )
-    return ""
-
-
-def _refinement_failure(exc: Exception, iteration: int, transcription, best, history, doing="on") -> SolverError:
-    """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
-    solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
-    and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
-    where = (
-        f"on mesh iteration {iteration} ({transcription.label})"
-        if doing == "on"
-        else f"refining mesh iteration {iteration} ({transcription.label}) for the next"
-    )
-    if best is None:
-        kept = "no earlier mesh converged"
-    else:
-        kept = (
-            f"the best solution so far (estimate {best.mesh_history[-1].error_estimate:.1e} on "
-            f"{best.mesh_history[-1].transcription}) is error.best"
-        )
-    hint = refinement_hint(best) if best is not None else ""
-    if hint:
-        kept = f"{kept}; {hint}"
-    if isinstance(exc, SolverError):
-        detail = f"{where}: {exc.detail}; {kept}" if exc.detail else f"{where}; {kept}"
-        error = SolverError(exc.solver, exc.status, exc.iterations, detail, result=exc.result, best=best)
-    else:
-        error = SolverError("mesh refinement", type(exc).__name__, None, f"{exc} {where}; {kept}", best=best)
-    error.mesh_history = list(history)
-    return error

@@ -34,11 +34,12 @@ import casadi as ca
 import numpy as np
 
 from ..names import Named, call
-from ..nlp import Block, NLPResult, SeparableNLP, solve_nlp
+from ..nlp import Block, NLPResult, SeparableNLP
 from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set
 from ..solution import Solution
-from ..trajectory import Trajectory
-from .base import Transcription, settle
+from ..trajectory import Reintegration, Trajectory
+from . import session
+from .base import Transcription
 
 
 @dataclass(frozen=True)
@@ -122,7 +123,7 @@ class PhasesEnds(Mapping):
         return len(self._ends)
 
 
-class MultiPhase:
+class MultiPhase(session.SolveSession):
     """Transcribed phases and their links, as one NLP (see the module docstring).
 
     Parameters
@@ -181,6 +182,13 @@ class MultiPhase:
         if not (objective_scale > 0 and math.isfinite(objective_scale)):
             raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
         self.objective_scale = float(objective_scale)
+        self._options = dict(
+            links=self.links,
+            cost=cost,
+            constraints=tuple(constraints),
+            local_parameters=tuple([local_parameters] if isinstance(local_parameters, str) else local_parameters),
+            objective_scale=self.objective_scale,
+        )
         sizes = [ph.n_variables for ph in self.phases]
         self.variable_offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
         rows = [ph.n_constraints for ph in self.phases]
@@ -200,6 +208,7 @@ class MultiPhase:
         self._nlp = None
         self._solver = None
         self._solver_options = None
+        self._estimate_counts = None
         self.build_s = 0.0
 
     @classmethod
@@ -556,9 +565,24 @@ class MultiPhase:
     def nlp(self) -> SeparableNLP:
         return self.build()._nlp
 
-    def _bounds(self):
-        lb, ub = zip(*(ph._bounds() for ph in self.phases))
+    def _bounds(self, parameters=None):
+        lb, ub = zip(*(ph._bounds(self._phase_parameters(ph, parameters)) for ph in self.phases))
         return np.concatenate(lb), np.concatenate(ub)
+
+    @staticmethod
+    def _phase_parameters(ph, parameters):
+        """The part of ``parameters`` (new values of fixed parameters) that names ``ph``'s."""
+        if parameters is None:
+            return None
+        return {k: v for k, v in parameters.items() if k in ph.problem.parameters}
+
+    def _check_parameters(self, parameters) -> None:
+        known = sorted({k for ph in self.phases for k in ph.problem.parameters})
+        unknown = sorted(set(parameters) - set(known))
+        if unknown:
+            raise KeyError(f"unknown parameters {unknown}; the phases have {known}")
+        for ph in self.phases:
+            ph.parameter_values(self._phase_parameters(ph, parameters))
 
     def _constraint_bounds(self):
         lo, hi = zip(*(ph._constraint_bounds() for ph in self.phases))
@@ -570,21 +594,25 @@ class MultiPhase:
         return np.concatenate(lo), np.concatenate(hi)
 
     def initial_point(self, guesses=None) -> np.ndarray:
-        """The start vector from one guess per phase (a :class:`~ocpkit.Guess`, a Solution or None)."""
+        """The start vector from one guess per phase (a :class:`~ocpkit.Guess`, a Solution or None), or from a
+        :class:`MultiPhaseSolution` of the same phases (each phase from its own)."""
+        if isinstance(guesses, MultiPhaseSolution):
+            guesses = guesses.phases
         guesses = [None] * len(self.phases) if guesses is None else list(guesses)
         if len(guesses) != len(self.phases):
             raise ValueError(f"give one guess per phase: {len(self.phases)} phases, {len(guesses)} guesses")
         return np.concatenate([ph.initial_point(g) for ph, g in zip(self.phases, guesses)])
 
-    def solve(
-        self,
-        guesses=None,
-        *,
-        ipopt_options: dict | None = None,
-        allow_acceptable: bool = False,
-        raise_on_failure: bool = True,
-    ) -> MultiPhaseSolution:
-        """Solve all phases at once with IPOPT (options as :meth:`Transcription.solve`)."""
+    @property
+    def label(self) -> str:
+        return "MultiPhase(" + ", ".join(f"{name}: {ph.label}" for name, ph in zip(self.names, self.phases)) + ")"
+
+    @property
+    def n_collocation_points(self) -> int:
+        return sum(ph.n_collocation_points for ph in self.phases)
+
+    def solver(self, ipopt_options: dict | None = None):
+        """The IPOPT instance for these option overrides (the phases' defaults merged): created once per set."""
         self.build()
         key = tuple(sorted((ipopt_options or {}).items()))
         if self._solver is None or key != self._solver_options:
@@ -595,12 +623,50 @@ class MultiPhase:
             self._solver = self._nlp.solver({**defaults, **(ipopt_options or {})})
             self.build_s += time.perf_counter() - t
             self._solver_options = key
-        lbw, ubw = self._bounds()
-        lbg, ubg = self._constraint_bounds()
-        result = solve_nlp(
-            self._solver, self.initial_point(guesses), lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable
+        return self._solver
+
+    def _solve_once(
+        self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
+    ) -> MultiPhaseSolution:
+        """One IPOPT solve (:func:`ocpkit.transcription.session.solve_once`)."""
+        return session.solve_once(
+            self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters, estimate_multipliers
         )
-        return settle(result, self._solution, raise_on_failure)
+
+    # -- what the solve session asks of a mesh (ocpkit.transcription.session): each phase's, in phase order ---------
+    def _mesh_fractions(self, solution) -> np.ndarray:
+        span = solution.tf - solution.t0
+        return np.concatenate([np.diff(p.estimate_intervals) / span for p in solution.phases])
+
+    def _path_where(self, solution) -> np.ndarray:
+        return np.vstack([ph._path_where(p) for ph, p in zip(self.phases, solution.phases)])
+
+    def _cuts(self, solution) -> list:
+        return [c for ph, p in zip(self.phases, solution.phases) for c in ph._cuts(p)]
+
+    def _refinement_hint(self, solution) -> str:
+        hints = [(name, ph._refinement_hint(p)) for name, ph, p in zip(self.names, self.phases, solution.phases)]
+        return "; ".join(f"phase {name}: {h}" for name, h in hints if h)
+
+    def _warn_if_inaccurate(self, solution, threshold: float) -> None:
+        for name, ph, p in zip(self.names, self.phases, solution.phases):
+            ph._warn_if_inaccurate(p, threshold, label=f"phase {name!r}, {ph.label}")
+
+    def refine(self, errors: np.ndarray, tolerance: float, cuts=None) -> MultiPhase:
+        """The same phases, links, cost and constraints, each phase's mesh refined by its own :meth:`refine` on its
+        share of ``errors`` and ``cuts`` (per estimate interval, in phase order); a phase left as it was keeps its
+        transcription."""
+        counts = self._estimate_counts
+        if counts is None or int(sum(counts)) != len(errors):
+            raise ValueError(f"{len(errors)} interval errors for phases of {counts} estimate intervals: solve first")
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        cuts = [None] * len(errors) if cuts is None else list(cuts)
+        phases = {}
+        for k, (name, ph) in enumerate(zip(self.names, self.phases)):
+            part = slice(bounds[k], bounds[k + 1])
+            new = ph.refine(np.asarray(errors[part]), tolerance, cuts[part])
+            phases[name] = ph if session._same_mesh(new, ph) else new
+        return MultiPhase(phases, **self._options)
 
     # -- the solution ------------------------------------------------------------------------
     def _phase_objective(self, k: int, w: np.ndarray) -> float:
@@ -635,6 +701,7 @@ class MultiPhase:
             sol = ph._solution(part, g[r])
             sol.build_s = self.build_s
             phases.append(sol)
+        self._estimate_counts = [len(p.estimate_intervals) - 1 for p in phases]
         link_rows = slice(self.n_constraints - self.n_link_rows, self.n_constraints)
         lo, hi = (b[link_rows] for b in self._constraint_bounds())
         link = g[link_rows]
@@ -657,6 +724,8 @@ class MultiPhase:
             link_residual=float(np.max(np.maximum(lo - link, link - hi), initial=0.0)),
             parameters=self._trajectory_parameters(phases),
             names=list(self.names),
+            objective_scale=self.objective_scale,
+            raw={"w": result.w, "lam_g": result.lam_g, "lam_w": result.lam_w, "transcription": self},
         )
 
     def _trajectory_parameters(self, phases) -> dict[str, float]:
@@ -703,6 +772,13 @@ class MultiPhaseSolution(Trajectory):
     parameters: dict = field(default_factory=dict)
     trajectory_cost: float = 0.0
     names: list = field(default_factory=list)
+    objective_scale: float = 1.0
+    #: the NLP vector, IPOPT's multipliers and the :class:`MultiPhase` solved (an exact warm start of it)
+    raw: dict = field(default_factory=dict, repr=False)
+    #: a refined solve's meshes and how it ended, as :class:`~ocpkit.Solution`'s
+    mesh_history: list | None = field(default=None, repr=False)
+    refinement_outcome: str | None = field(default=None, repr=False)
+    refinement_reason: str = field(default="", repr=False)
 
     def __post_init__(self) -> None:
         first = self.phases[0].problem
@@ -768,13 +844,58 @@ class MultiPhaseSolution(Trajectory):
         """The largest of the phases' estimated relative state errors (:attr:`Solution.error_estimate`)."""
         return max(p.error_estimate for p in self.phases)
 
+    @property
+    def interval_errors(self) -> np.ndarray:
+        """Every phase's :attr:`Solution.interval_errors`, in phase order."""
+        return np.concatenate([p.interval_errors for p in self.phases])
+
+    @property
+    def accuracy(self):
+        """Every part of the estimated error, over the phases (:class:`ocpkit.accuracy.MultiPhaseAccuracy`)."""
+        from ..accuracy import MultiPhaseAccuracy
+
+        return MultiPhaseAccuracy(self)
+
     def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"):
-        """Each phase re-integrated from its own initial state: one :class:`Reintegration` per phase."""
-        return [p.reintegrate(rtol=rtol, atol=atol, n=n, controls=controls) for p in self.phases]
+        """Each phase re-integrated from its own initial state (a link may jump), as one
+        :class:`~ocpkit.Reintegration` over the phases' times (phases with the same states; otherwise
+        ``phases[k].reintegrate()``). ``n`` points per phase."""
+        if not all(p.problem.state_names == self.phases[0].problem.state_names for p in self.phases):
+            raise ValueError("the phases have different states: reintegrate each, phases[k].reintegrate()")
+        parts = self._reintegrations(rtol=rtol, atol=atol, n=n, controls=controls)
+        first = parts[0]
+        return Reintegration(
+            t=np.concatenate([r.t for r in parts]),
+            states=np.concatenate([r.states for r in parts]),
+            error=np.concatenate([r.error for r in parts]),
+            state_names=first.state_names,
+            scale=first.scale,
+            rtol=rtol,
+            atol=atol,
+            n_rhs=int(sum(r.n_rhs for r in parts)),
+        )
+
+    def flown_trajectory_cost(self) -> float:
+        """The trajectory-level cost with each phase's final state flown (:func:`ocpkit.flight.fly`) instead of the
+        NLP's: its part of :attr:`accuracy`'s objective (0 without a trajectory-level cost)."""
+        mp = self.raw.get("transcription")
+        if mp is None or mp._cost is None:
+            return 0.0
+        from ..flight import fly
+
+        w = np.array(self.raw["w"], dtype=float)
+        for k, (ph, p) in enumerate(zip(mp.phases, self.phases)):
+            _, last, _ = ph._boundary_indices()
+            w[mp.variable_offsets[k] + last] = ph.problem.state_scaling.to_nlp(fly(p).final_state)
+        _, _, variables, values, _, _ = mp._ends
+        return float(mp._cost(w[variables], values))
+
+    def _reintegrations(self, **options) -> list[Reintegration]:
+        return [p.reintegrate(**options) for p in self.phases]
 
     def max_reintegration_error(self, **kwargs) -> float:
-        """The largest re-integration error over the phases (units of each state's scale)."""
-        return max(r.max_error for r in self.reintegrate(**kwargs))
+        """The largest re-integration error over the phases (units of each phase's state scales)."""
+        return max(r.max_error for r in self._reintegrations(**kwargs))
 
 
 __all__ = ["Link", "MultiPhase", "MultiPhaseSolution", "PhaseEnds", "PhasesEnds"]
