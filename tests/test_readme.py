@@ -110,7 +110,8 @@ def test_sources_are_cited_by_reference_not_by_a_path_outside_the_repository():
 
 
 def test_constraints_and_phases_example_runs_and_prints_what_the_readme_shows(tmp_path):
-    """The path-constraint and two-phase example, as printed: J = 4 (Bryson-Denham) and 49/8 (an impulse)."""
+    """The path-constraint and two-phase example, as printed: J = 4 (Bryson-Denham) and the gravity a bounce's
+    timing asks for, 2 (1.9 / 0.8)^2 (phases without a cost, a shared parameter, a linkage constraint)."""
     code, printed = re.findall(
         r"```(?:python)?\n(.*?)```", _subsection("Constraints, parameters and phases"), flags=re.S
     )[:2]
