@@ -51,7 +51,7 @@ def timed_solve(make_transcription, ipopt_options: dict) -> dict:
     stats = sol.raw["stats"]
     functions = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
     return {
-        "nlp_parameters": sol.nlp_parameters,
+        "nlp_parameters": sol.decision_variables,
         "defect_equations": sol.defect_equations,
         "constraints": sol.constraints,
         "jacobian_nnz": tr.nlp.nnz_jacobian,

@@ -30,7 +30,7 @@ def delta3(opts):
     sol = mp.solve(delta3_guesses(), ipopt_options={"tol": 1e-8, **opts})
     return {
         "problem": "Delta III, 4 phases",
-        "nlp_parameters": sol.nlp_parameters,
+        "nlp_parameters": sol.decision_variables,
         "constraints": sol.constraints,
         "jacobian_nnz": mp.nlp.nnz_jacobian,
         "hessian_nnz": mp.nlp.nnz_hessian,

@@ -49,7 +49,7 @@ def main() -> None:
             print(f"{T:g} N: not in the cache, skipped")
             continue
         z = study.energy_start_vector(energy, "longitude", T)
-        s = systems.shooting("fuel", T, detection="correction", jacobian="variational", tol=1e-8)
+        s = systems.shooting("fuel", T, switching="correction", jacobian="variational", tol=1e-8)
         sl = slides[
             np.isclose(slides.thrust_N, T) & (slides.detection == "correction") & (slides.jacobian == "variational")
         ].iloc[0]

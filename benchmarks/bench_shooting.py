@@ -77,7 +77,7 @@ def main() -> None:
             for _ in range(args.repeat):
                 t = time.perf_counter()
                 res = compiled.integrate(
-                    y0, 0.0, args.hours, detection=detection, record=False, Psi0=Psi0 if variational else None
+                    y0, 0.0, args.hours, switching=detection, record=False, Psi0=Psi0 if variational else None
                 )
                 best = min(best, time.perf_counter() - t)
             rows.append(

@@ -85,7 +85,7 @@ def test_a_control_mesh_finer_than_the_state_mesh_is_flown_piece_by_piece():
     from compendium.problems import lunar_ascent
 
     sol = quiet(lambda: MultiRateHLGL(lunar_ascent(), 4, ratio=2, fast=["V"], control_mesh="fine",
-                                      fast_interpolation="galerkin").solve())  # fmt: skip
+                                      coupling="galerkin").solve())  # fmt: skip
     assert sol.control_breakpoints.size > sol.breakpoints.size
     xf, _, objective = dop853_flight(sol)
     flight = fly(sol)

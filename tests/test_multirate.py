@@ -46,18 +46,18 @@ def test_ratio_one_agrees_with_standard_to_discretisation_accuracy():
     pr = lunar_ascent()
     std = HLGL(pr, 20).solve()
     one = MultiRateHLGL(pr, 20, ratio=1, fast=["U", "V"]).solve()
-    assert one.nlp_parameters == std.nlp_parameters
+    assert one.decision_variables == std.decision_variables
     assert one.tf == pytest.approx(std.tf, abs=1e-9)
     d = one.difference(std)
     assert d["states"] < 1e-6 and d["controls"] < 1e-4
 
 
-def test_fine_fast_interpolation_is_more_accurate_at_the_same_size():
+def test_fine_coupling_is_more_accurate_at_the_same_size():
     pr = lunar_ascent()
     ref = HLGL(pr, 160).solve()
     paper = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"]).solve()
-    fine = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"], fast_interpolation="fine").solve()
-    assert fine.nlp_parameters == paper.nlp_parameters
+    fine = MultiRateHLGL(pr, 10, ratio=2, fast=["U", "V"], coupling="fine").solve()
+    assert fine.decision_variables == paper.decision_variables
     assert fine.difference(ref)["controls"] < 0.1 * paper.difference(ref)["controls"]
 
 
@@ -132,9 +132,9 @@ def test_bad_ratio(ratio, exc):
         MultiRateHLGL(lunar_ascent(), 10, ratio=ratio, fast=["V"])
 
 
-def test_unknown_fast_interpolation():
-    with pytest.raises(ValueError, match="fast_interpolation"):
-        MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation="cubic")
+def test_unknown_coupling():
+    with pytest.raises(ValueError, match="coupling must be one of"):
+        MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], coupling="cubic")
 
 
 # -- couplings beyond the paper and controls on the fine mesh ---------------------------------------------------
@@ -168,7 +168,7 @@ def test_every_coupling_represents_the_min_energy_solution(coupling, controls):
     """u = 6 - 12 t, v = 6t - 6t^2, x = 3t^2 - 2t^3 are represented exactly, and the running cost is integrated
     exactly on the fine grid: J = 12 whatever the coupling and the control mesh."""
     pr = min_energy_double_integrator()
-    tr = MultiRateHLGL(pr, 3, ratio=3, fast=["x2"], fast_interpolation=coupling, control_mesh=controls)
+    tr = MultiRateHLGL(pr, 3, ratio=3, fast=["x2"], coupling=coupling, control_mesh=controls)
     sol = tr.solve()
     t = np.linspace(0, 1, 51)
     assert sol.objective == pytest.approx(12.0, abs=1e-8)
@@ -182,7 +182,7 @@ def test_weak_couplings_with_ratio_one_are_the_collocation_scheme(coupling):
     pr = lunar_ascent()
     ipopt = {"tol": 1e-12}
     col = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"]).solve(ipopt_options=ipopt)
-    weak = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"], fast_interpolation=coupling).solve(ipopt_options=ipopt)
+    weak = MultiRateHLGL(pr, 10, ratio=1, fast=["U", "V"], coupling=coupling).solve(ipopt_options=ipopt)
     assert weak.tf == pytest.approx(col.tf, abs=1e-11)
     d = weak.difference(col)
     assert d["states"] < 1e-8 and d["controls"] < 1e-6
@@ -218,7 +218,7 @@ def test_galerkin_coupling_keeps_the_standard_order_where_the_papers_loses_it(fa
     def gain(coupling):
         e = []
         for n in (10, 20):
-            sol = MultiRateHLGL(pr, n, ratio=ratio, fast=fast, fast_interpolation=coupling).solve(ipopt_options=ipopt)
+            sol = MultiRateHLGL(pr, n, ratio=ratio, fast=fast, coupling=coupling).solve(ipopt_options=ipopt)
             e.append(np.abs(sol.control(t * sol.tf) - ref.control(t * ref.tf)).max())
         return e[0] / e[1]
 
@@ -230,10 +230,10 @@ def test_every_state_fast_with_fine_controls_is_standard_hlgl_on_the_fine_mesh()
     pr = lunar_ascent()
     ipopt = {"tol": 1e-12}
     std = HLGL(pr, 20).solve(ipopt_options=ipopt)
-    mr = MultiRateHLGL(
-        pr, 10, ratio=2, fast=pr.state_names, fast_interpolation="quadrature", control_mesh="fine"
-    ).solve(ipopt_options=ipopt)
-    assert mr.nlp_parameters == std.nlp_parameters
+    mr = MultiRateHLGL(pr, 10, ratio=2, fast=pr.state_names, coupling="quadrature", control_mesh="fine").solve(
+        ipopt_options=ipopt
+    )
+    assert mr.decision_variables == std.decision_variables
     assert mr.tf == pytest.approx(std.tf, abs=1e-10)  # the controls' points differ (equispaced, HLGL's)
     d = mr.difference(std)
     assert d["states"] < 1e-9 and d["controls"] < 1e-7
@@ -243,7 +243,7 @@ def test_every_state_fast_with_fine_controls_is_standard_hlgl_on_the_fine_mesh()
 def test_sizes_with_controls_on_the_fine_mesh(ratio):
     pr = lunar_ascent()
     N = 5
-    tr = MultiRateHLGL(pr, N, ratio=ratio, fast=["V"], fast_interpolation="quadrature", control_mesh="fine")
+    tr = MultiRateHLGL(pr, N, ratio=ratio, fast=["V"], coupling="quadrature", control_mesh="fine")
     assert tr.n_control_points == 4 * ratio * N + 1
     assert tr.n_variables == 3 * (2 * N + 1) + (2 * ratio * N + 1) + (4 * ratio * N + 1) + 1
     assert np.allclose(tr.control_point_fractions(), np.linspace(0, 1, 4 * ratio * N + 1))
@@ -254,8 +254,8 @@ def test_unknown_control_mesh_and_fine_controls_with_a_collocation_coupling():
     with pytest.raises(ValueError, match="control_mesh"):
         MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], control_mesh="finest")
     for coupling in ("coarse", "fine"):
-        with pytest.raises(ValueError, match="needs fast_interpolation in"):
-            MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], fast_interpolation=coupling, control_mesh="fine")
+        with pytest.raises(ValueError, match="needs coupling in"):
+            MultiRateHLGL(lunar_ascent(), 10, ratio=2, fast=["V"], coupling=coupling, control_mesh="fine")
 
 
 def _polynomial_problem_with_a_state_dependent_running_cost():
@@ -286,7 +286,7 @@ def test_running_cost_on_the_fine_grid_sees_the_states_there(coupling, controls,
     """The running cost depends on both states: exact for polynomials the scheme represents, on a non-uniform mesh
     with t0 != 0 (the slow states at the fine points from their coarse Hermite, the fast from their fine one)."""
     pr, cx, cz, u1, u2, exact = _polynomial_problem_with_a_state_dependent_running_cost()
-    mr = MultiRateHLGL(pr, mesh=[0.3, 0.7], ratio=ratio, fast=["z"], fast_interpolation=coupling, control_mesh=controls)
+    mr = MultiRateHLGL(pr, mesh=[0.3, 0.7], ratio=ratio, fast=["z"], coupling=coupling, control_mesh=controls)
 
     def t(s):
         return 0.2 + 1.3 * s
@@ -308,7 +308,7 @@ def test_a_control_bound_holds_at_every_control_point(controls):
 
     bound = Constraint("u_max", lambda x, u, t: u[0], upper=4.0)
     pr = min_energy_double_integrator().replace(path_constraints=[bound])
-    mr = MultiRateHLGL(pr, 2, ratio=4, fast=["x2"], fast_interpolation="galerkin", control_mesh=controls)
+    mr = MultiRateHLGL(pr, 2, ratio=4, fast=["x2"], coupling="galerkin", control_mesh=controls)
     sol = mr.solve(error_threshold=None)
     assert mr.n_path_points == 4 * mr.control_quartics * 2 + 1
     assert sol.control_values.max() <= 4.0 + 1e-6  # IPOPT's constraint tolerance

@@ -33,7 +33,7 @@ TRANSCRIPTIONS = {
     "hlgl-flat-moon": lambda: HLGL(flat_moon_ascent(), 4),
     "hlgl-lagrange": lambda: HLGL(with_lagrange(lunar_ascent()), 4),
     "multirate-coarse": lambda: MultiRateHLGL(with_lagrange(lunar_ascent()), 3, ratio=2, fast=["U", "V"]),
-    "multirate-fine": lambda: MultiRateHLGL(flat_moon_ascent(), 3, ratio=3, fast=["vy"], fast_interpolation="fine"),
+    "multirate-fine": lambda: MultiRateHLGL(flat_moon_ascent(), 3, ratio=3, fast=["vy"], coupling="fine"),
     "radau-global": lambda: Radau(with_lagrange(lunar_ascent()), 6),
     "radau-intervals": lambda: Radau(flat_moon_ascent(), [3, 4, 3], 3),
     "radau-entry-rate": lambda: Radau(entry_landing(thrust_angle_rate_deg_s=5.0), 4, 2),
@@ -69,7 +69,7 @@ def test_duplicate_variables_in_one_block_are_summed_correctly():
 def test_block_shape_errors_are_clear():
     z, p = ca.SX.sym("z", 2), ca.SX.sym("p", 1)
     fun = ca.Function("f", [z, p], [z[0] + p])
-    with pytest.raises(ValueError, match="parameters have shape"):
+    with pytest.raises(ValueError, match="constants have shape"):
         Block("b", fun, np.zeros((2, 3), int), np.zeros((2, 3)), np.zeros((1, 3), int))
     with pytest.raises(ValueError, match="outside"):
         SeparableNLP(1, 1, [Block("b", fun, np.array([[0], [5]]), np.zeros((1, 1)), np.array([[0]]))])

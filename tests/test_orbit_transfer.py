@@ -135,7 +135,7 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
     slides = paper_table("switching_detection").set_index(["thrust_N", "detection", "jacobian"])
     ref = slides.loc[(5.0, "detection", "fd")]
     for detection in ("detection", "correction"):
-        s = systems.shooting("fuel", 5.0, detection=detection, jacobian="variational", tol=1e-8)
+        s = systems.shooting("fuel", 5.0, switching=detection, jacobian="variational", tol=1e-8)
         r = s.solve(z, maxfev=300)
         assert r.norm < 1e-9
         assert orbit_study.fuel_kg(r) == pytest.approx(ref.objective_kg, abs=0.05)

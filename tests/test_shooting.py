@@ -13,7 +13,7 @@ from compendium.problems import double_integrator, double_integrator_solution, h
 @pytest.fixture(scope="module")
 def di_l1():
     pr = double_integrator(lam=1.0)
-    return Shooting(pr, control_law(pr, "box"), detection="correction", rtol=1e-12, atol=1e-12)
+    return Shooting(pr, control_law(pr, "box"), switching="correction", rtol=1e-12, atol=1e-12)
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +106,7 @@ def test_detection_alone_and_no_detection_land_further_away():
     exact = double_integrator_solution()
     errors = {}
     for det in ("none", "detection", "correction"):
-        s = Shooting(pr, law, detection=det, jacobian="fd", rtol=1e-8, atol=1e-8)
+        s = Shooting(pr, law, switching=det, jacobian="fd", rtol=1e-8, atol=1e-8)
         r = s.solve(np.array(exact.p0) * 1.02, raise_on_failure=False)
         errors[det] = np.abs(r.p0 - exact.p0).max()
     assert errors["correction"] < 1e-10
@@ -116,7 +116,7 @@ def test_detection_alone_and_no_detection_land_further_away():
 @pytest.mark.parametrize("detection", ["detection", "correction"])
 def test_variational_jacobian_matches_central_differences(osc_system, detection):
     pr, compiled = osc_system
-    s = Shooting(pr, compiled.system.law, detection=detection, rtol=1e-12, atol=1e-12, system=compiled)
+    s = Shooting(pr, compiled.system.law, switching=detection, rtol=1e-12, atol=1e-12, system=compiled)
     z = np.array([1.0328, 0.003])
     S_var, J_var = s.jacobian_matrix(z, method="variational")
     traj = s.integrate(z)
@@ -143,8 +143,8 @@ def test_no_detection_rejects_about_half_the_steps(osc_system):
     pr, compiled = osc_system
     z = np.array([1.03279562, 3.2e-9])
     y0 = np.concatenate([[10.0, 0.0], z, [0.0]])
-    none = compiled.integrate(y0, 0.0, float(pr.tf), detection="none")
-    det = compiled.integrate(y0, 0.0, float(pr.tf), detection="correction")
+    none = compiled.integrate(y0, 0.0, float(pr.tf), switching="none")
+    det = compiled.integrate(y0, 0.0, float(pr.tf), switching="correction")
     assert none.rejected_ratio > 0.25
     assert det.rejected_ratio < 0.1
     assert det.steps < none.steps
@@ -156,7 +156,7 @@ def test_integrator_is_accurate_on_a_smooth_flow(osc_system):
     pr, compiled = osc_system
     T = float(pr.tf)
     y0 = np.array([10.0, 0.0, 0.3, 0.2, 0.0])
-    r = compiled.integrate(y0, 0.0, T, detection="correction", rtol=1e-11, atol=1e-11)
+    r = compiled.integrate(y0, 0.0, T, switching="correction", rtol=1e-11, atol=1e-11)
     c, s = np.cos(T), np.sin(T)
     # x' = (x2, -x1); p' = (p2, -p1) (p1' = -dH/dx1 = p2, p2' = -p1)
     expected = np.array([10 * c, -10 * s, 0.3 * c + 0.2 * s, 0.2 * c - 0.3 * s, 0.0])
@@ -176,8 +176,8 @@ def test_bad_shooting_input(osc_system):
     law = compiled.system.law
     with pytest.raises(ValueError, match="tolerances must be positive"):
         Shooting(pr, law, rtol=0.0, system=compiled)
-    with pytest.raises(ValueError, match="detection must be one of"):
-        Shooting(pr, law, detection="bisection", system=compiled)
+    with pytest.raises(ValueError, match="switching must be one of"):
+        Shooting(pr, law, switching="bisection", system=compiled)
     with pytest.raises(ValueError, match="jacobian must be one of"):
         Shooting(pr, law, jacobian="broyden", system=compiled)
     with pytest.raises(ValueError, match="solver must be one of"):
@@ -187,8 +187,8 @@ def test_bad_shooting_input(osc_system):
         s.solve([1.0])
     with pytest.raises(ValueError, match="tolerances must be positive"):
         compiled.integrate(np.zeros(5), 0.0, 1.0, atol=-1.0)
-    with pytest.raises(ValueError, match="detection must be one of"):
-        compiled.integrate(np.zeros(5), 0.0, 1.0, detection="fast")
+    with pytest.raises(ValueError, match="switching must be one of"):
+        compiled.integrate(np.zeros(5), 0.0, 1.0, switching="fast")
     free_start = OptimalControlProblem(
         "free",
         [State("x", final=1.0)],
@@ -220,7 +220,7 @@ def test_switching_at_the_final_time_to_rounding(d, detection):
     Psi0 = np.zeros((5, 2))
     Psi0[2:4] = np.eye(2)
     for psi in (None, Psi0):
-        r = compiled.integrate(y0, 0.0, T, detection=detection, Psi0=psi, rtol=1e-9, atol=1e-9)
+        r = compiled.integrate(y0, 0.0, T, switching=detection, Psi0=psi, rtol=1e-9, atol=1e-9)
         assert r.status == "ok"
         assert np.all(np.isfinite(r.y))
 
@@ -245,8 +245,8 @@ def test_short_arcs_inside_a_step_are_found(osc_system, detection):
     y0 = np.array([1.0, 0.0, R * np.sin(theta), R * np.cos(theta), 0.0])
     exact = _oscillator_switchings(R, theta, T)
     assert exact.size == 40
-    blind = compiled.integrate(y0, 0.0, T, detection=detection, interior_check=False)
-    seen = compiled.integrate(y0, 0.0, T, detection=detection, interior_check=True)
+    blind = compiled.integrate(y0, 0.0, T, switching=detection, interior_check=False)
+    seen = compiled.integrate(y0, 0.0, T, switching=detection, interior_check=True)
     assert blind.switchings < 10, "the end-of-step test alone misses the short arcs"
     assert seen.switchings == 40 and seen.interior_switchings > 10
     # located to the integrator's accuracy: a crossing this shallow (dg/dt = 0.014) turns the global error
@@ -285,9 +285,9 @@ def test_finite_difference_step_follows_the_noise_of_the_shooting_function(osc_s
     """sqrt(relative noise) (Dennis & Schnabel): the integrator's tolerance without detection, rounding with it."""
     pr, compiled = osc_system
     law = compiled.system.law
-    assert Shooting(pr, law, detection="none", rtol=1e-8, system=compiled).fd_step == pytest.approx(1e-4)
+    assert Shooting(pr, law, switching="none", rtol=1e-8, system=compiled).fd_step == pytest.approx(1e-4)
     for detection in ("detection", "correction"):
-        s = Shooting(pr, law, detection=detection, rtol=1e-8, system=compiled)
+        s = Shooting(pr, law, switching=detection, rtol=1e-8, system=compiled)
         assert s.fd_step == pytest.approx(np.sqrt(np.finfo(float).eps))
     assert Shooting(pr, law, fd_step=1e-6, system=compiled).fd_step == 1e-6
     with pytest.raises(ValueError, match="fd_step"):

@@ -99,7 +99,7 @@ def test_a_law_of_the_users_is_one_smooth_mode(brachistochrone_runs):
     assert r.integration.switchings == 0
     pr = shooting.problem
     # the switching treatments have nothing to treat: the same shooting function
-    plain = Shooting(pr, law, detection="none", rtol=1e-12, atol=1e-12, system=shooting.compiled)
+    plain = Shooting(pr, law, switching="none", rtol=1e-12, atol=1e-12, system=shooting.compiled)
     assert np.abs(plain.residual(r.z) - shooting.residual(r.z)).max() < 1e-14
 
 

@@ -22,7 +22,7 @@ def test_new_parameter_values_reuse_the_nlp_and_the_ipopt_instance():
     fresh = HLGL(lunar_ascent(thrust_as_parameter=True).replace(parameters={"a": 2.5}), 20).solve(error_threshold=None)
     assert other.tf == pytest.approx(fresh.tf, rel=1e-12)
     # the pinned parameter is not a decision variable: the same NLP size as the problem without parameters
-    assert first.nlp_parameters == HLGL(lunar_ascent(), 20).solve(error_threshold=None).nlp_parameters
+    assert first.decision_variables == HLGL(lunar_ascent(), 20).solve(error_threshold=None).decision_variables
 
 
 def test_a_solution_of_the_same_transcription_is_an_exact_warm_start():

@@ -47,7 +47,7 @@ SCRIPT = textwrap.dedent(
         "fuel", [State("x1", initial=1.0, final=0.0), State("x2", initial=0.0, final=0.0)],
         [Control("u", -1.0, 1.0)], lambda x, u, t: ca.vertcat(x[1], u[0]), tf=3.0,
         lagrange=lambda x, u, t: ca.fabs(u[0]))
-    s = Shooting(fuel, control_law(fuel, "box"), detection="correction", jacobian="variational",
+    s = Shooting(fuel, control_law(fuel, "box"), switching="correction", jacobian="variational",
                  rtol=1e-12, atol=1e-12)
     r = s.solve(np.array([0.9, 1.5]))
     print("shooting", r.objective, r.integration.switchings)

@@ -16,7 +16,7 @@ from .solution import Reintegration, Solution
 from .trajectory import Trajectory
 from .transcription import HLGL, Link, MultiPhase, MultiPhaseSolution, MultiRateHLGL, Radau, Transcription
 
-__version__ = "0.2.0"
+__version__ = "0.3.0.dev0"
 
 __all__ = [
     "Constraint",

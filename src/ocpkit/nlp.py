@@ -26,6 +26,8 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from ._deprecation import renamed
+
 #: Instances per block above which the mapped evaluations use two threads.
 THREAD_THRESHOLD = 256
 
@@ -68,8 +70,9 @@ class Block:
         SX function with inputs ``z`` (nz) and ``p`` (np) and one column output (nout).
     variables : int array (nz, count)
         Global NLP variable index of each entry of ``z``, per instance.
-    parameters : float array (np, count)
-        Constant parameters per instance.
+    constants : float array (np, count)
+        The block's constant inputs ``p`` per instance (mesh data, a fixed final time); ``parameters`` is their
+        deprecated name.
     rows : int array (nout, count) or None
         Constraint rows that receive each output (summed where shared); ``None``
         makes the block an objective term (``nout == 1``, summed into ``f``).
@@ -83,18 +86,24 @@ class Block:
     name: str
     function: ca.Function
     variables: np.ndarray
-    parameters: np.ndarray
+    constants: np.ndarray
     rows: np.ndarray | None = None
     linear: np.ndarray | None = None
 
+    @property
+    def parameters(self) -> np.ndarray:
+        """Deprecated name of :attr:`constants`."""
+        renamed("Block.parameters", "Block.constants")
+        return self.constants
+
     def __post_init__(self) -> None:
         self.variables = np.asarray(self.variables, dtype=np.int64)
-        self.parameters = np.asarray(self.parameters, dtype=float)
+        self.constants = np.asarray(self.constants, dtype=float)
         nz, count = self.variables.shape
         npar = self.function.size1_in(1)
-        if self.parameters.shape != (npar, count):
+        if self.constants.shape != (npar, count):
             raise ValueError(
-                f"block {self.name!r}: parameters have shape {self.parameters.shape}, expected ({npar}, {count})"
+                f"block {self.name!r}: constants have shape {self.constants.shape}, expected ({npar}, {count})"
             )
         if self.function.size1_in(0) != nz:
             raise ValueError(
@@ -162,7 +171,7 @@ class SeparableNLP:
 
         for b in self.blocks:
             nz, count = b.variables.shape
-            npar = b.parameters.shape[0]
+            npar = b.constants.shape[0]
             nout = b.function.size1_out(0)
             z = ca.SX.sym("z", nz)
             q = ca.SX.sym("q", npar)
@@ -170,7 +179,7 @@ class SeparableNLP:
             lam = ca.SX.sym("lam", nout)
 
             Z = ca.reshape(w[b.variables.ravel(order="F").tolist()], nz, count)
-            P = ca.DM(b.parameters)
+            P = ca.DM(b.constants)
             vals = _map(b.function, count)(Z, P)
 
             # Lagrangian Hessian, upper triangle of the local block (zero for a linear map)

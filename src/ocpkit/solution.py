@@ -8,6 +8,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ._deprecation import renamed
 from .problem import OptimalControlProblem
 from .trajectory import Reintegration, Trajectory
 
@@ -21,7 +22,8 @@ class Solution(Trajectory):
     Every field is documented by name: ``status`` (IPOPT's), ``converged`` (whether the
     solve succeeded: transcriptions raise on failure unless asked to return the last
     iterate, see :meth:`~ocpkit.transcription.Transcription.solve`), ``iterations``,
-    ``objective`` (in the problem's units), ``nlp_parameters``, ``defect_equations``,
+    ``objective`` (in the problem's units), ``decision_variables`` (the NLP's free variables, Desai & Conway's
+    "NLP parameters"; ``nlp_parameters`` is its deprecated name), ``defect_equations``,
     ``constraints``, ``build_s`` and ``solve_s`` (wall times), the NLP values at their
     times (``state_*``, ``control_*``), the transcription's interpolants, segment
     ``breakpoints``, ``raw`` (the NLP vector, multipliers and IPOPT statistics) and,
@@ -44,7 +46,7 @@ class Solution(Trajectory):
     objective: float
     t0: float
     tf: float
-    nlp_parameters: int
+    decision_variables: int
     defect_equations: int
     constraints: int
     build_s: float
@@ -77,6 +79,12 @@ class Solution(Trajectory):
     parameters: dict = field(default_factory=dict)
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
+
+    @property
+    def nlp_parameters(self) -> int:
+        """Deprecated name of :attr:`decision_variables`."""
+        renamed("Solution.nlp_parameters", "Solution.decision_variables")
+        return self.decision_variables
 
     # -- accuracy ---------------------------------------------------------------------
     @cached_property
@@ -227,7 +235,7 @@ class Solution(Trajectory):
             "status": self.status,
             "objective": self.objective,
             "tf": self.tf,
-            "nlp_parameters": self.nlp_parameters,
+            "nlp_parameters": self.decision_variables,
             "defect_equations": self.defect_equations,
             "constraints": self.constraints,
             "iterations": self.iterations,

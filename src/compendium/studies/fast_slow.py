@@ -1,7 +1,7 @@
 """Where the two-timescale scheme pays: the attitude ascent, a problem with real timescale separation (notebook 08).
 
 A *design* is how the two-timescale scheme is used on the problem: which states are fast, the coupling
-(``fast_interpolation`` of :class:`ocpkit.MultiRateHLGL`) and where the controls live (``control_mesh``). Every
+(``coupling`` of :class:`ocpkit.MultiRateHLGL`) and where the controls live (``control_mesh``). Every
 design is compared with standard HLGL on the same fine mesh (``fine_segments``; the design's coarse mesh has
 ``fine_segments / M`` segments) against one converged reference solution.
 
@@ -29,17 +29,17 @@ from .. import paths
 DESIGNS: dict[str, dict] = {
     "paper's design, attitude fast": {
         "fast": ("theta", "q"),
-        "fast_interpolation": "coarse",
+        "coupling": "coarse",
         "control_mesh": "coarse",
     },
     "Galerkin, attitude fast": {
         "fast": ("theta", "q"),
-        "fast_interpolation": "galerkin",
+        "coupling": "galerkin",
         "control_mesh": "fine",
     },
     "Galerkin, positions slow": {
         "fast": ("U", "V", "theta", "q"),
-        "fast_interpolation": "galerkin",
+        "coupling": "galerkin",
         "control_mesh": "fine",
     },
 }
@@ -112,7 +112,7 @@ def accuracy_study(
                     "ratio": ratio,
                     "coarse_segments": int(fine) // ratio,
                     "fine_segments": int(fine),
-                    "nlp_parameters": sol.nlp_parameters,
+                    "nlp_parameters": sol.decision_variables,
                     "defect_equations": sol.defect_equations,
                     "iterations": sol.iterations,
                     **errors_against(sol, reference, n=n),

@@ -42,7 +42,7 @@ def convergence_study(segments, ipopt_options: dict | None = None):
     for n in segments:
         tr = HLGL(problem, int(n))
         sol = tr.solve(ipopt_options=ipopt_options)
-        row = {"segments": int(n), "nlp_parameters": sol.nlp_parameters, "iterations": sol.iterations}
+        row = {"segments": int(n), "nlp_parameters": sol.decision_variables, "iterations": sol.iterations}
         row.update(compare_with_exact(sol, exact))
         rei = sol.reintegrate()
         row["max_reintegration_error_m"] = max(rei.max_error_by_state["x"], rei.max_error_by_state["y"])

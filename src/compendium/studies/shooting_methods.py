@@ -39,7 +39,7 @@ def compare_methods(
     system = system or CompiledSystem(HamiltonianSystem(problem, law))
     rows, results = [], {}
     for detection, jacobian in combinations:
-        s = Shooting(problem, law, detection=detection, jacobian=jacobian, rtol=rtol, atol=atol, system=system)
+        s = Shooting(problem, law, switching=detection, jacobian=jacobian, rtol=rtol, atol=atol, system=system)
         r = s.solve(z0, parameters, raise_on_failure=False, **solve_options)
         results[(detection, jacobian)] = r
         rows.append(r.summary())

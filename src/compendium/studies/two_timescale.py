@@ -28,7 +28,7 @@ def _row(scheme: str, segments: str, solution, diff: dict | None) -> dict:
     return {
         "scheme": scheme,
         "segments": segments,
-        "nlp_parameters": solution.nlp_parameters,
+        "nlp_parameters": solution.decision_variables,
         "defect_equations": solution.defect_equations,
         "iterations": solution.iterations,
         "max_state_diff_pct": diff["states"] if diff else float("nan"),
@@ -45,7 +45,7 @@ def compare_case(
     fast: Sequence[str],
     scheme: str,
     *,
-    fast_interpolation: str = "coarse",
+    coupling: str = "coarse",
     ipopt_options: dict | None = None,
     n: int = 2001,
 ):
@@ -56,7 +56,7 @@ def compare_case(
     standard one, :meth:`ocpkit.trajectory.Trajectory.difference`) and both solutions.
     """
     standard = HLGL(problem, coarse_segments * ratio).solve(ipopt_options=ipopt_options)
-    mr = MultiRateHLGL(problem, coarse_segments, ratio=ratio, fast=fast, fast_interpolation=fast_interpolation)
+    mr = MultiRateHLGL(problem, coarse_segments, ratio=ratio, fast=fast, coupling=coupling)
     two = mr.solve(ipopt_options=ipopt_options)
     diff = two.difference(standard, n)
     rows = [
@@ -93,7 +93,7 @@ def ratio_study(
     fast: Sequence[str],
     reference,
     *,
-    fast_interpolation: str = "coarse",
+    coupling: str = "coarse",
     ipopt_options: dict | None = None,
     n: int = 2001,
 ) -> pd.DataFrame:
@@ -111,7 +111,7 @@ def ratio_study(
             int(M),
             fast,
             "two_timescale",
-            fast_interpolation=fast_interpolation,
+            coupling=coupling,
             ipopt_options=ipopt_options,
             n=n,
         )
@@ -119,11 +119,11 @@ def ratio_study(
         err_std = standard.difference(reference, n)
         rows.append(
             {
-                "fast_interpolation": fast_interpolation,
+                "coupling": coupling,
                 "coarse_segments": coarse_segments,
                 "ratio": int(M),
-                "nlp_parameters": two.nlp_parameters,
-                "standard_nlp_parameters": standard.nlp_parameters,
+                "nlp_parameters": two.decision_variables,
+                "standard_nlp_parameters": standard.decision_variables,
                 "iterations": two.iterations,
                 "state_diff_vs_standard_pct": table.loc[1, "max_state_diff_pct"],
                 "control_diff_vs_standard_pct": table.loc[1, "max_control_diff_pct"],
@@ -168,7 +168,7 @@ def paper_case(
     fast: Sequence[str],
     scheme: str,
     *,
-    fast_interpolation: str = "coarse",
+    coupling: str = "coarse",
     ipopt_options: dict | None = None,
     n: int = 2001,
     outputs=None,
@@ -188,7 +188,7 @@ def paper_case(
         ratio,
         fast,
         scheme,
-        fast_interpolation=fast_interpolation,
+        coupling=coupling,
         ipopt_options=ipopt_options,
         n=n,
     )
@@ -287,7 +287,7 @@ def iteration_study(problem, rows, solvers=QUASI_NEWTON_SOLVERS, tol: float = 1e
                     "table": table,
                     "scheme": scheme,
                     "segments": segments,
-                    "nlp_parameters": sol.nlp_parameters,
+                    "nlp_parameters": sol.decision_variables,
                     "solver": solver,
                     "iterations": sol.iterations,
                     "solve_s": sol.solve_s,
@@ -300,7 +300,7 @@ def iteration_study(problem, rows, solvers=QUASI_NEWTON_SOLVERS, tol: float = 1e
 def order_study(problem, cases, coarse_segments, reference, *, ipopt_options=None, n: int = 2001) -> pd.DataFrame:
     """Control and state errors against ``reference`` on refined coarse meshes, and their least-squares orders.
 
-    ``cases``: label -> ``dict(fast=..., ratio=..., fast_interpolation=...)`` of :class:`ocpkit.MultiRateHLGL`;
+    ``cases``: label -> ``dict(fast=..., ratio=..., coupling=...)`` of :class:`ocpkit.MultiRateHLGL`;
     an empty ``fast`` is standard HLGL on the same fine mesh (``segments * ratio``). One row per case: the
     errors (absolute, max over the normalised grid) per coarse mesh and the orders.
     """
@@ -315,8 +315,8 @@ def order_study(problem, cases, coarse_segments, reference, *, ipopt_options=Non
             if not fast:
                 tr = HLGL(problem, segments * ratio)
             else:
-                coupling = case.get("fast_interpolation", "coarse")
-                tr = MultiRateHLGL(problem, segments, ratio=ratio, fast=fast, fast_interpolation=coupling)
+                coupling = case.get("coupling", "coarse")
+                tr = MultiRateHLGL(problem, segments, ratio=ratio, fast=fast, coupling=coupling)
             sol = tr.solve(ipopt_options=ipopt_options, error_threshold=None)
             du.append(float(np.abs(sol.control(t * sol.tf) - reference.control(t * reference.tf)).max()))
             dx.append(float(np.abs(sol.state(t * sol.tf) - reference.state(t * reference.tf)).max()))
@@ -357,14 +357,14 @@ def coupling_study(
     ipopt_options=None,
     n: int = 2001,
 ) -> pd.DataFrame:
-    """:func:`order_study` of one partition (``fast``) under each coupling (``fast_interpolation``) and ratio,
+    """:func:`order_study` of one partition (``fast``) under each coupling (``coupling``) and ratio,
     and of standard HLGL on the fine meshes of ``standard_ratio``. Columns ``coupling`` and ``ratio`` name the
     case (``"standard"`` for HLGL)."""
     cases = {"standard": {"fast": [], "ratio": standard_ratio}}
     keys = [("standard", standard_ratio)]
     for ratio in ratios:
         for coupling in couplings:
-            cases[f"{coupling}, M = {ratio}"] = {"fast": fast, "ratio": ratio, "fast_interpolation": coupling}
+            cases[f"{coupling}, M = {ratio}"] = {"fast": fast, "ratio": ratio, "coupling": coupling}
             keys.append((coupling, ratio))
     out = order_study(problem, cases, coarse_segments, reference, ipopt_options=ipopt_options, n=n)
     out.insert(1, "coupling", [k[0] for k in keys])

@@ -6,9 +6,9 @@ from .continuation import GeometricSteps, Schedule, arclength, follow, homotopy
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .shooting import Shooting, ShootingResult
 from .strategies import (
-    DETECTION_MODES,
     JACOBIANS,
     SOLVERS,
+    SWITCHING_MODES,
     DampedNewton,
     FiniteDifferences,
     MinpackHybrid,
@@ -17,9 +17,9 @@ from .strategies import (
 from .trajectory import ShootingTrajectory
 
 __all__ = [
-    "DETECTION_MODES",
     "JACOBIANS",
     "SOLVERS",
+    "SWITCHING_MODES",
     "CompiledSystem",
     "ControlLaw",
     "DampedNewton",
@@ -38,3 +38,11 @@ __all__ = [
     "follow",
     "homotopy",
 ]
+
+
+def __getattr__(name: str):
+    if name == "DETECTION_MODES":
+        from . import strategies
+
+        return strategies.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -23,8 +23,9 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from .._deprecation import renamed_argument
 from .hamiltonian import HamiltonianSystem
-from .strategies import DETECTION_MODES
+from .strategies import SWITCHING_MODES
 
 _STATUS = {
     0: "ok",
@@ -186,7 +187,7 @@ class CompiledSystem:
         tf: float,
         parameters=None,
         *,
-        detection: str = "correction",
+        switching: str | None = None,
         rtol: float = 1e-8,
         atol: float = 1e-8,
         Psi0=None,
@@ -196,18 +197,24 @@ class CompiledSystem:
         h0: float = 0.0,
         hmax: float = 0.0,
         interior_check: bool = True,
+        detection: str | None = None,
     ) -> Integration:
         """Integrate y = (x, p) from t0 to tf (tf > t0), optionally with variational columns Psi0 (n x nvar).
 
-        ``interior_check`` (detection and correction): also look for a pair of crossings
+        ``switching``: how a switching is met (:data:`~ocpkit.shooting.SWITCHING_MODES`; ``detection`` is its
+        deprecated name). ``interior_check``
+        (detection and correction): also look for a pair of crossings
         inside one step (a short arc), from the cubic Hermite interpolant of each switching
         function and the dense output (see ``dopri5.c``); off, only the signs at the step's
         ends are compared, as in Martinon & Gergaud's slides.
         """
+        switching = renamed_argument(
+            "detection", "switching", detection, switching, "correction", "CompiledSystem.integrate"
+        )
         sysm = self.system
         n = sysm.n
-        if detection not in DETECTION_MODES:
-            raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
+        if switching not in SWITCHING_MODES:
+            raise ValueError(f"switching must be one of {SWITCHING_MODES}, got {switching!r}")
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
         if not tf > t0:
@@ -232,7 +239,7 @@ class CompiledSystem:
                 nvar,
                 ng,
                 len(self._groups),
-                DETECTION_MODES.index(detection),
+                SWITCHING_MODES.index(switching),
                 max_steps,
                 int(record),
                 cap,

@@ -40,11 +40,12 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from .._deprecation import renamed, renamed_argument
 from ..errors import SolverError
 from ..problem import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem
-from .strategies import DETECTION_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
+from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
 from .trajectory import ShootingTrajectory
 
 
@@ -73,11 +74,17 @@ class ShootingResult:
     n_integrations: int
     cpu_s: float
     objective: float
-    detection: str
+    switching: str
     jacobian: str
     parameters: np.ndarray
     integration: Integration = field(repr=False)
     system: HamiltonianSystem = field(repr=False, default=None)
+
+    @property
+    def detection(self) -> str:
+        """Deprecated name of :attr:`switching`."""
+        renamed("ShootingResult.detection", "ShootingResult.switching")
+        return self.switching
 
     @property
     def trajectory(self) -> ShootingTrajectory:
@@ -87,9 +94,11 @@ class ShootingResult:
         return self.__dict__["_trajectory"]
 
     def summary(self) -> dict:
+        """The result as a table row; the switching treatment under ``"detection"``, the column of Martinon &
+        Gergaud's tables (and of ``data/paper/switching_detection.csv``)."""
         tr = self.integration
         return {
-            "detection": self.detection,
+            "detection": self.switching,
             "jacobian": self.jacobian,
             "objective": self.objective,
             "norm_S": self.norm,
@@ -116,8 +125,11 @@ class Shooting:
         Autonomous, every initial state fixed, final states fixed or free.
     law : ControlLaw
         ``control_law(problem, "box" | "ball", ...)`` (derived) or ``control_law(problem, u_star)``
-        (the user's minimiser of H: one smooth mode, for which ``detection`` changes nothing).
-    detection : ``"none" | "detection" | "correction"``
+        (the user's minimiser of H: one smooth mode, for which ``switching`` changes nothing).
+    switching : ``"none" | "detection" | "correction"``
+        How the integrator meets a switching (:data:`~ocpkit.shooting.SWITCHING_MODES`): not at all, located
+        (switching detection), or located and the step corrected onto it (Martinon & Gergaud). ``detection`` is
+        its deprecated name.
     jacobian : ``"fd" | "variational"``
     rtol, atol : integrator tolerances.
     interior_check : bool
@@ -130,12 +142,18 @@ class Shooting:
         Reuse an already compiled system for the same problem and law.
     """
 
+    @property
+    def detection(self) -> str:
+        """Deprecated name of :attr:`switching`."""
+        renamed("Shooting.detection", "Shooting.switching")
+        return self.switching
+
     def __init__(
         self,
         problem: OptimalControlProblem,
         law: ControlLaw,
         *,
-        detection: str = "correction",
+        switching: str | None = None,
         jacobian: str = "variational",
         rtol: float = 1e-8,
         atol: float = 1e-8,
@@ -143,18 +161,20 @@ class Shooting:
         max_steps: int = 2_000_000,
         interior_check: bool = True,
         fd_step: float | None = None,
+        detection: str | None = None,
     ):
-        if detection not in DETECTION_MODES:
-            raise ValueError(f"detection must be one of {DETECTION_MODES}, got {detection!r}")
+        switching = renamed_argument("detection", "switching", detection, switching, "correction", "Shooting")
+        if switching not in SWITCHING_MODES:
+            raise ValueError(f"switching must be one of {SWITCHING_MODES}, got {switching!r}")
         self._jacobian = jacobian_strategy(jacobian)
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
         self.problem, self.law = problem, law
-        self.detection = detection
+        self.switching = switching
         self.jacobian = jacobian if isinstance(jacobian, str) else getattr(jacobian, "name", type(jacobian).__name__)
         self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
         self.interior_check = bool(interior_check)
-        noise = max(rtol, np.finfo(float).eps) if detection == "none" else np.finfo(float).eps
+        noise = max(rtol, np.finfo(float).eps) if switching == "none" else np.finfo(float).eps
         self.fd_step = float(np.sqrt(noise)) if fd_step is None else float(fd_step)
         if not (self.fd_step > 0 and np.isfinite(self.fd_step)):
             raise ValueError(f"fd_step must be positive, got {fd_step!r}")
@@ -225,7 +245,7 @@ class Shooting:
             self.problem.t0,
             tf,
             P,
-            detection=self.detection,
+            switching=self.switching,
             rtol=self.rtol,
             atol=self.atol,
             Psi0=Psi0,
@@ -304,8 +324,8 @@ class Shooting:
         ``"newton"`` (damped Newton; a Jacobian every iteration, until |S| stops
         decreasing below ``stol`` or ``maxfev`` evaluations), or a root-solver object
         (:mod:`ocpkit.shooting.strategies`). With the variational
-        Jacobian the first notes only which detection mode places the switchings;
-        with ``detection="none"`` the variational equations carry no jump terms.
+        Jacobian the first notes only which switching mode places the switchings;
+        with ``switching="none"`` the variational equations carry no jump terms.
         """
         if not stol > 0:
             raise ValueError(f"stol must be positive, got {stol}")
@@ -380,7 +400,7 @@ class Shooting:
             n_integrations=counts["integrations"],
             cpu_s=cpu,
             objective=self._objective(final, tf, P),
-            detection=self.detection,
+            switching=self.switching,
             jacobian=self.jacobian,
             parameters=P,
             integration=final,

@@ -1,6 +1,6 @@
 """The choices of a shooting method as small objects, with registries of the names notebooks use.
 
-* switching treatment (:data:`DETECTION_MODES`): how the integrator meets a switching
+* switching treatment (:data:`SWITCHING_MODES`): how the integrator meets a switching
   (``"none"``, ``"detection"``, ``"correction"``; implemented in ``dopri5.c``);
 * Jacobian of the shooting function (:data:`JACOBIANS`): :class:`FiniteDifferences`
   (``"fd"``, ``"central"``) or :class:`Variational` (``"variational"``);
@@ -17,7 +17,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-DETECTION_MODES = ("none", "detection", "correction")
+from .._deprecation import renamed
+
+SWITCHING_MODES = ("none", "detection", "correction")
+
+
+def __getattr__(name: str):
+    if name == "DETECTION_MODES":
+        renamed("ocpkit.shooting.DETECTION_MODES", "SWITCHING_MODES")
+        return SWITCHING_MODES
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # -- Jacobians of S(z) -----------------------------------------------------------------------------

@@ -66,7 +66,7 @@ class PathPoints:
     """Where a scheme holds states and controls, for its path constraints: ``count`` instances of ``k`` points.
 
     ``z`` and ``p`` are the symbols of one instance (its NLP variables and constants, the
-    layout of ``variables`` (nz, count) and ``parameters`` (np, count)); ``x``, ``u`` and
+    layout of ``variables`` (nz, count) and ``constants`` (np, count)); ``x``, ``u`` and
     ``t`` are lists of ``k`` expressions in them (state, control, time at each point);
     ``fractions`` (count, k) the normalised times (0..1) of the points.
     """
@@ -77,7 +77,7 @@ class PathPoints:
     u: list
     t: list
     variables: np.ndarray
-    parameters: np.ndarray
+    constants: np.ndarray
     fractions: np.ndarray
 
     @property
@@ -363,7 +363,7 @@ class Transcription(session.SolveSession, ABC):
                 per = out.shape[0]
                 rows = row + np.arange(per * pp.count).reshape(pp.count, per).T
                 fun = ca.Function(f"path_{j}", [pp.z, pp.p], [out])
-                blocks.append(Block(f"path_constraints_{j}", fun, pp.variables, pp.parameters, rows))
+                blocks.append(Block(f"path_constraints_{j}", fun, pp.variables, pp.constants, rows))
                 row += per * pp.count
         boundary = pr.functions.boundary
         if boundary is not None:
@@ -591,7 +591,7 @@ class Transcription(session.SolveSession, ABC):
             status=result.status,
             iterations=result.iterations,
             objective=result.objective * self.problem.objective_scale,
-            nlp_parameters=self.n_decision_variables,
+            decision_variables=self.n_decision_variables,
             defect_equations=self.n_defects,
             constraints=self.n_constraints,
             build_s=self.build_s,

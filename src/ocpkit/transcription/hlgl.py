@@ -159,7 +159,7 @@ class HLGL(Transcription):
         rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
         rows += [Ui[:, 4 * k + j] for j in range(5)]
         rows += self._global_rows(n)
-        return np.vstack(rows), self.mesh.parameters(pr)
+        return np.vstack(rows), self.mesh.block_constants(pr)
 
     def _blocks(self) -> list[Block]:
         pr = self.problem

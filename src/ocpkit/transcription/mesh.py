@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .._deprecation import renamed
+
 
 @dataclass(frozen=True)
 class Mesh:
@@ -99,7 +101,13 @@ class Mesh:
         return t0 + (tf - t0) * np.asarray(s)
 
     def parameters(self, problem, s=None, fractions=None) -> np.ndarray:
-        """The parameter rows of segment (or point) functions: ``[s, fraction, (tf if fixed)]``.
+        """Deprecated name of :meth:`block_constants`."""
+        renamed("Mesh.parameters", "Mesh.block_constants")
+        return self.block_constants(problem, s, fractions)
+
+    def block_constants(self, problem, s=None, fractions=None) -> np.ndarray:
+        """The constant rows of segment (or point) blocks (:attr:`ocpkit.nlp.Block.constants`):
+        ``[s, fraction, (tf if fixed)]``.
 
         Default: each segment's start and length; give ``s`` and ``fractions`` for
         other points (a point's normalised time and its segment's fraction).
@@ -147,7 +155,7 @@ def parameter_vector(problem, z):
 
 
 def segment_clock(problem, z, p):
-    """``(t_begin, T, h)`` of a block whose parameters are ``[s, fraction, (tf)]`` (:meth:`Mesh.parameters`).
+    """``(t_begin, T, h)`` of a block whose constants are ``[s, fraction, (tf)]`` (:meth:`Mesh.block_constants`).
 
     ``T = tf - t0``, ``t_begin = t0 + T s`` and ``h = T fraction``.
     """

@@ -16,7 +16,7 @@ The states are split into slow ``x`` and fast ``z``; ``u`` are the controls.
 * Fine defects (Eqs. 6-7 for ``z`` on each fine segment) need ``x`` at the fine
   centres and fine collocation points: the coarse quintic Hermite polynomial of
   ``x`` (values and slopes at the three coarse nodes), as the paper does.
-* The slow defects, by ``fast_interpolation`` (the coupling; the NLP's size is the same for all four):
+* The slow defects, by ``coupling`` (how they see the fast states; the NLP's size is the same for all four):
 
   ``"coarse"`` (the paper's reading)
       Eqs. 6-7 for ``x`` on the coarse segment. The full state at the coarse collocation points is the coarse
@@ -51,6 +51,7 @@ import casadi as ca
 import numpy as np
 
 from .. import nodes
+from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem, unwrap_periodic
@@ -58,7 +59,7 @@ from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
 
-FAST_INTERPOLATIONS = ("coarse", "fine", "quadrature", "galerkin")
+COUPLINGS = ("coarse", "fine", "quadrature", "galerkin")
 #: the couplings whose slow defects see the fast states at every fine point (the ones fine controls need)
 WEAK_COUPLINGS = ("quadrature", "galerkin")
 CONTROL_MESHES = ("coarse", "fine")
@@ -151,8 +152,9 @@ class MultiRateHLGL(Transcription):
         Fine segments per coarse segment, ``M >= 1``.
     slow, fast : sequences of state names
         The partition; give either (the other is its complement) or both.
-    fast_interpolation : ``"coarse"`` (default, the paper's reading), ``"fine"``, ``"quadrature"`` or ``"galerkin"``
-        How the slow defects see the fast states (module docstring).
+    coupling : ``"coarse"`` (default, the paper's reading), ``"fine"``, ``"quadrature"`` or ``"galerkin"``
+        How the slow defects see the fast states (module docstring). ``fast_interpolation`` is its deprecated
+        name (two of its values are not interpolations).
     control_mesh : ``"coarse"`` (default, the paper's: one quartic per coarse segment) or ``"fine"`` (one quartic
         per fine segment; with the couplings of :data:`WEAK_COUPLINGS` only). Path constraints hold at every
         control point.
@@ -170,38 +172,48 @@ class MultiRateHLGL(Transcription):
         ratio: int,
         slow: Sequence[str] | None = None,
         fast: Sequence[str] | None = None,
-        fast_interpolation: str = "coarse",
+        coupling: str | None = None,
         control_mesh: str = "coarse",
         mesh=None,
+        fast_interpolation: str | None = None,
     ):
         super().__init__(problem)
+        coupling = renamed_argument(
+            "fast_interpolation", "coupling", fast_interpolation, coupling, "coarse", "MultiRateHLGL"
+        )
         if isinstance(ratio, bool) or not isinstance(ratio, (int, np.integer)):
             raise TypeError(f"ratio must be an integer, got {ratio!r}")
         if ratio < 1:
             raise ValueError(f"ratio must be at least 1, got {ratio}")
-        if fast_interpolation not in FAST_INTERPOLATIONS:
-            raise ValueError(f"fast_interpolation must be one of {FAST_INTERPOLATIONS}, got {fast_interpolation!r}")
+        if coupling not in COUPLINGS:
+            raise ValueError(f"coupling must be one of {COUPLINGS}, got {coupling!r}")
         if control_mesh not in CONTROL_MESHES:
             raise ValueError(f"control_mesh must be one of {CONTROL_MESHES}, got {control_mesh!r}")
-        if control_mesh == "fine" and fast_interpolation not in WEAK_COUPLINGS:
+        if control_mesh == "fine" and coupling not in WEAK_COUPLINGS:
             raise ValueError(
-                f'control_mesh="fine" needs fast_interpolation in {WEAK_COUPLINGS}: the collocation couplings see '
+                f'control_mesh="fine" needs coupling in {WEAK_COUPLINGS}: the collocation couplings see '
                 "the fast states through Hermite slopes at the coarse nodes, where a fine control is free to differ "
                 "from the fast trajectory it drives (the NLP then exploits the difference)"
             )
         self.ratio = int(ratio)
-        self.fast_interpolation = fast_interpolation
+        self.coupling = coupling
         self.control_mesh = control_mesh
         self.slow, self.fast = state_partition(problem, slow, fast)
         self.mesh = Mesh.from_spec(segments, mesh)
         self.segments = self.mesh.n
+
+    @property
+    def fast_interpolation(self) -> str:
+        """Deprecated name of :attr:`coupling`."""
+        renamed("MultiRateHLGL.fast_interpolation", "MultiRateHLGL.coupling")
+        return self.coupling
 
     # -- sizes and layout -------------------------------------------------------------
     @property
     def label(self) -> str:
         names = self.problem.state_names
         fast = ",".join(names[i] for i in self.fast)
-        extra = "" if self.fast_interpolation == "coarse" else f", coupling={self.fast_interpolation}"
+        extra = "" if self.coupling == "coarse" else f", coupling={self.coupling}"
         extra += ", controls on the fine mesh" if self.control_mesh == "fine" else ""
         return f"MultiRateHLGL(segments={self.segments}, ratio={self.ratio}, fast=[{fast}]{extra})"
 
@@ -384,7 +396,7 @@ class MultiRateHLGL(Transcription):
             fine_colloc.append((za_f, f(x_at(s_a), za_f, s_a), zb_f, f(x_at(s_b), zb_f, s_b)))
 
         defects = []
-        if self.fast_interpolation in WEAK_COUPLINGS:
+        if self.coupling in WEAK_COUPLINGS:
             # slow states: weak defects, the slow dynamics integrated over every fine node and collocation point
             F_all = []
             for j in range(M):
@@ -395,7 +407,7 @@ class MultiRateHLGL(Transcription):
             def integral(weights):
                 return sum(float(wk) * fk for wk, fk in zip(weights, fx_all) if wk != 0.0)
 
-            if nxs and self.fast_interpolation == "quadrature":
+            if nxs and self.coupling == "quadrature":
                 W = fine_quadrature_weights(M)
                 for half in range(2):
                     defects.append((X[half + 1] - X[half] - h * integral(W[half])) / sx)
@@ -405,7 +417,7 @@ class MultiRateHLGL(Transcription):
                 defects.append((X[2] - X[0] - h * integral(W[0])) / sx)  # P_0: int dx/ds = x_e - x_i
                 defects.append((X[2] + X[0] - 2.0 * x_mean - h * integral(W[1])) / sx)  # P_1, by parts
         else:
-            z_at_coarse_colloc = m.z_coarse_at if self.fast_interpolation == "coarse" else m.z_fine_at
+            z_at_coarse_colloc = m.z_coarse_at if self.coupling == "coarse" else m.z_fine_at
             xa, xb = x_at(sa), x_at(sb)
             za, zb = z_at_coarse_colloc(sa), z_at_coarse_colloc(sb)
             Fa, Fb = f(xa, za, sa), f(xb, zb, sb)
@@ -458,7 +470,7 @@ class MultiRateHLGL(Transcription):
         q = self.control_quartics
         rows += [U[:, 4 * q * k + j] for j in range(4 * q + 1)]
         rows += self._global_rows(N)
-        return np.vstack(rows), self.mesh.parameters(pr)
+        return np.vstack(rows), self.mesh.block_constants(pr)
 
     def _blocks(self) -> list[Block]:
         pr = self.problem
@@ -575,7 +587,14 @@ class MultiRateHLGL(Transcription):
             self.problem,
             ratio=self.ratio,
             slow=[self.problem.state_names[i] for i in self.slow],
-            fast_interpolation=self.fast_interpolation,
+            coupling=self.coupling,
             control_mesh=self.control_mesh,
             mesh=h_refined(self.mesh, coarse, tolerance, coarse_switches),
         )
+
+
+def __getattr__(name: str):
+    if name == "FAST_INTERPOLATIONS":
+        renamed("ocpkit.transcription.multirate.FAST_INTERPOLATIONS", "COUPLINGS")
+        return COUPLINGS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
+from .._deprecation import renamed
 from ..names import Named, call
 from ..nlp import Block, NLPResult, SeparableNLP
 from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set
@@ -545,7 +546,7 @@ class MultiPhase(session.SolveSession):
                         f"phase{k}_{b.name}",
                         function,
                         b.variables + ov,
-                        b.parameters,
+                        b.constants,
                         None if b.rows is None else b.rows + orow,
                         b.linear,
                     )
@@ -677,7 +678,7 @@ class MultiPhase(session.SolveSession):
             if b.rows is None:
                 count = b.variables.shape[1]
                 Z = w[b.variables + self.variable_offsets[k]]
-                total += float(np.sum(np.asarray(b.function.map(count)(Z, b.parameters))))
+                total += float(np.sum(np.asarray(b.function.map(count)(Z, b.constants))))
         return total * ph.problem.objective_scale
 
     def _solution(self, result: NLPResult) -> MultiPhaseSolution:
@@ -716,7 +717,7 @@ class MultiPhase(session.SolveSession):
             iterations=result.iterations,
             objective=float(sum(p.objective for p in phases)) + trajectory_cost,
             trajectory_cost=trajectory_cost,
-            nlp_parameters=self.n_variables - sum(len(ph.problem.parameters) for ph in self.phases),
+            decision_variables=self.n_variables - sum(len(ph.problem.parameters) for ph in self.phases),
             constraints=self.n_constraints,
             build_s=self.build_s,
             solve_s=result.solve_s,
@@ -749,7 +750,7 @@ class MultiPhaseSolution(Trajectory):
 
     ``phases``: each phase's :class:`~ocpkit.Solution` (its objective is the phase's share);
     ``objective``: their sum, plus ``trajectory_cost`` (the value of :class:`MultiPhase`'s ``cost``); ``status``, ``iterations``, ``converged``, ``build_s``,
-    ``solve_s``, ``nlp_parameters`` and ``constraints`` of the one NLP; ``link_residual``:
+    ``solve_s``, ``decision_variables`` and ``constraints`` of the one NLP; ``link_residual``:
     the largest scaled violation of the links, the shared parameters' rows and the linkage constraints;
     ``names``: the phases' names (:meth:`phase` gives a phase's solution by name);
     ``parameters``: the solved free parameters of the trajectory (each shared one once). As a :class:`~ocpkit.Trajectory` it spans
@@ -763,7 +764,7 @@ class MultiPhaseSolution(Trajectory):
     status: str
     iterations: int
     objective: float
-    nlp_parameters: int
+    decision_variables: int
     constraints: int
     build_s: float
     solve_s: float
@@ -790,6 +791,12 @@ class MultiPhaseSolution(Trajectory):
             (p.problem.state_names, p.problem.control_names) == (first.state_names, first.control_names)
             for p in self.phases
         )
+
+    @property
+    def nlp_parameters(self) -> int:
+        """Deprecated name of :attr:`decision_variables`."""
+        renamed("MultiPhaseSolution.nlp_parameters", "MultiPhaseSolution.decision_variables")
+        return self.decision_variables
 
     def phase(self, key) -> Solution:
         """A phase's solution by name or index."""

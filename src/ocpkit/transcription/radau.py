@@ -189,7 +189,7 @@ class Radau(Transcription):
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t, P) / ca.DM(xs.scale)])
         var = np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation))
         frac = np.repeat(self.mesh.fractions, self.counts)
-        params = self.mesh.parameters(pr, self.collocation_fractions(), frac)
+        params = self.mesh.block_constants(pr, self.collocation_fractions(), frac)
         blocks.append(Block("lgr_dynamics", dyn, var, params, rows_all))
 
         if pr.L is not None:
@@ -229,7 +229,7 @@ class Radau(Transcription):
             u,
             [t],
             np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation)),
-            self.mesh.parameters(pr, self.collocation_fractions(), frac),
+            self.mesh.block_constants(pr, self.collocation_fractions(), frac),
             self.collocation_fractions()[:, None],
         )
         n, o = int(self.counts[-1]), int(self.offsets[-1])
@@ -237,7 +237,7 @@ class Radau(Transcription):
         ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
         u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
         var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), self.global_indices()])
-        params = self.mesh.parameters(pr, np.array([1.0]), self.mesh.fractions[-1:])
+        params = self.mesh.block_constants(pr, np.array([1.0]), self.mesh.fractions[-1:])
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
         return [colloc, end]
 

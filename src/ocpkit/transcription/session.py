@@ -6,7 +6,7 @@ checked, one IPOPT solve (an exact warm start from a solution of the same mesh) 
 warnings. What it asks of a mesh object: ``label``, ``build_s``, ``n_collocation_points``, ``_solve_once``,
 ``refine(errors, tolerance, cuts)``, ``_check_parameters``, ``_warn_if_inaccurate`` and, per estimate interval
 of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cuts``, and ``_refinement_hint``; of a solution:
-``interval_errors``, ``accuracy``, ``converged``, ``status``, ``iterations``, ``nlp_parameters``, ``solve_s``,
+``interval_errors``, ``accuracy``, ``converged``, ``status``, ``iterations``, ``decision_variables``, ``solve_s``,
 ``raw["transcription"]``.
 """
 
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._deprecation import renamed
 from ..accuracy import AccuracyWarning
 from ..errors import SolverError
 from ..nlp import WARM_START, solve_nlp
@@ -33,7 +34,7 @@ class MeshIteration:
     transcription: str
     fractions: np.ndarray
     collocation_points: int
-    nlp_parameters: int
+    decision_variables: int
     error_estimate: float
     ipopt_iterations: int
     build_s: float
@@ -45,6 +46,12 @@ class MeshIteration:
     #: what drives the refinement on this mesh, which the stall rule follows: the state part while it is over the
     #: tolerance, else the largest of the others (path violations between points, the objective)
     worst: float = float("nan")
+
+    @property
+    def nlp_parameters(self) -> int:
+        """Deprecated name of :attr:`decision_variables`."""
+        renamed("MeshIteration.nlp_parameters", "MeshIteration.decision_variables")
+        return self.decision_variables
 
 
 class SolveSession:
@@ -221,7 +228,7 @@ def solve_refined(meshed, guess, tolerance: float, max_iterations: int, options:
                 transcription.label,
                 transcription._mesh_fractions(solution),
                 transcription.n_collocation_points,
-                solution.nlp_parameters,
+                solution.decision_variables,
                 float(estimate.max()),
                 solution.iterations,
                 transcription.build_s,
