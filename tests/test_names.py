@@ -100,4 +100,6 @@ def test_a_control_law_of_the_user_sees_names():
         lagrange=lambda x, u, t: u["u"] ** 2,
     )
     law = control_law(problem, lambda x, p: -p["v"] / 2)
-    assert law.description.startswith("user law")
+    ham = law.hamiltonian
+    u = ca.Function("u", [ham.x, ham.p], [law.groups[0].controls[0]])
+    assert float(u([0.3, 0.1], [5.0, -3.0])) == 1.5 and law.description.startswith("user law")

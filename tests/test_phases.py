@@ -233,9 +233,12 @@ def test_phases_in_different_objective_scales_minimise_their_sum():
     sol = mp.solve()
     assert mp.objective_scale == 100.0 and sol.objective == pytest.approx(6.0, rel=1e-9)
     assert [p.objective for p in sol.phases] == pytest.approx([3.0, 3.0], rel=1e-9)
+    # each phase's multipliers in its own cost's scale: the second phase's (cost scale 1 in a trajectory of 100)
+    # as when every scale is 1 (lambda_x = -12, lambda_v = 12 t - 6 in closed form)
     one = Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2)
-    costates = [m.solve().phases[0].costate(np.array([0.25])) for m in (mp, MultiPhase([one, mp.phases[1]]))]
-    assert np.allclose(*costates, rtol=1e-6)
+    t = np.array([0.75])
+    costates = [m.solve().phases[1].costate(t)[0] for m in (mp, MultiPhase([one, mp.phases[1]]))]
+    assert np.allclose(costates[0], costates[1], rtol=1e-6) and np.allclose(costates[0], [-12.0, 3.0], rtol=1e-3)
 
 
 def test_a_trajectory_cost_sees_the_shared_parameters():
@@ -277,16 +280,21 @@ def test_a_problem_split_at_measurement_times():
 
 
 def test_a_split_keeps_the_end_conditions_mayer_term_and_boundary_constraints():
-    """The double integrator from (0, 0), reaching x(1) - x(0) = 1 (a boundary constraint) at rest, with a Mayer
-    term 0 * tf and a running cost: split at 0.25 and 0.5, it is the same problem, J = 6."""
+    """The double integrator from (0, 0) with x(1) - x(0) = 1 (a boundary constraint), v(1) free but priced by the
+    Mayer term 2 (v(1) - v(0))^2: split at 0.25 and 0.5 it is the same problem as whole on the same mesh (cubic
+    states, so both exact: J = 2 (v1^2 + ...) is what both find), and not the problem without its Mayer term."""
     from ocpkit import Constraint
 
-    whole = leg(0.0, 1.0, initial=(0.0, 0.0), final=(None, 0.0)).replace(
-        mayer=lambda x0, xf, t0, tf: 0.0 * tf + (xf["v"] - x0["v"]) ** 2,
+    whole = leg(0.0, 1.0, initial=(0.0, 0.0)).replace(
+        mayer=lambda x0, xf, t0, tf: 2.0 * (xf["v"] - x0["v"]) ** 2,
         boundary_constraints=[Constraint("rise", lambda x0, xf, t0, tf: xf["x"] - x0["x"], lower=1.0, upper=1.0)],
     )
-    sol = MultiPhase.split(whole, [0.25, 0.5], lambda pr: HLGL(pr, 3)).solve()
-    assert sol.objective == pytest.approx(6.0, rel=1e-9) and sol.link_residual < 1e-9
+    sol = MultiPhase.split(whole, [0.25, 0.5], lambda pr: HLGL(pr, 2)).solve()
+    one = HLGL(whole, mesh=[0.125, 0.125, 0.125, 0.125, 0.25, 0.25]).solve()
+    assert sol.objective == pytest.approx(one.objective, rel=1e-9) and sol.link_residual < 1e-9
+    assert sol.phases[-1].state_values[-1, 1] == pytest.approx(one.state_values[-1, 1], rel=1e-8)
+    free = HLGL(whole.replace(mayer=None), 6).solve()
+    assert free.objective < sol.objective - 0.1  # the Mayer term moved the optimum
     assert sol.phases[-1].state_values[-1, 0] == pytest.approx(1.0, abs=1e-10)
     assert [p.t0 for p in sol.phases] == [0.0, 0.25, 0.5]
 
@@ -355,3 +363,96 @@ def test_linked_phases_take_new_parameter_values_without_rebuilding():
     assert [p.problem.parameters["k"] for p in doubled.phases] == [2.0, 2.0]
     with pytest.raises(KeyError, match=r"unknown parameters \['g'\]; the phases have \['k'\]"):
         mp.solve(parameters={"g": 1.0})
+
+
+def test_refinement_with_path_constraints_in_some_phases_only():
+    """Bryson-Denham split at 0.6 with x <= 1/9 in the first phase only: the phase without the constraint does
+    not blind the refinement to the other's violations between points (it used to stop with them over)."""
+    from ocpkit import Constraint
+
+    def bd(t0, tf, path, **ends):
+        return OptimalControlProblem(
+            f"bd{t0}",
+            [State("x", **ends.get("x", {})), State("v", **ends.get("v", {}))],
+            [Control("u")],
+            lambda x, u, t: [x["v"], u["u"]],
+            t0=t0,
+            tf=tf,
+            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+            path_constraints=[Constraint("x_max", lambda x, u, t: x["x"], upper=1 / 9)] if path else [],
+        )
+
+    first = Radau(bd(0.0, 0.6, True, x={"initial": 0.0}, v={"initial": 1.0}), 3, 3)
+    second = Radau(bd(0.6, 1.0, False, x={"final": 0.0}, v={"final": -1.0}), 3, 3)
+    sol = MultiPhase([first, second]).solve(mesh_tolerance=1e-6)
+    assert sol.refinement_outcome == "met" and sol.accuracy.path["x_max"] <= 1e-6
+    assert not np.isnan(sol.raw["transcription"]._path_where(sol)[:, 1]).any()
+
+
+def test_a_multiphase_warning_points_at_the_caller():
+    from ocpkit.accuracy import AccuracyWarning
+
+    with pytest.warns(AccuracyWarning) as record:
+        split_brachistochrone(lambda p: Radau(p, 3, 2)).solve()
+    assert record[0].filename == __file__
+
+
+def test_the_trajectory_parameter_is_the_free_one_where_a_phase_fixes_its_own():
+    """k fixed at 1 in the first phase and free (shared) in the other two: the trajectory's p["k"], its cost,
+    value("k") and sample see the free one."""
+    from ocpkit import FreeParameter
+
+    def part(t0, tf, initial=(None, None), final=(None, None), **kw):
+        states = [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])]
+        dyn = lambda x, u, t, p: [x["v"], p["k"] * u["u"]]  # noqa: E731
+        return OptimalControlProblem(
+            f"part{t0}", states, [Control("u")], dyn, t0=t0, tf=tf, lagrange=lambda x, u, t: u["u"] ** 2 / 2, **kw
+        )
+
+    free = [FreeParameter("k", 0.5, 4.0, guess=1.0)]
+    phases = [
+        HLGL(part(0.0, 1 / 3, initial=(0.0, 0.0), parameters={"k": 1.0}), 6),
+        HLGL(part(1 / 3, 2 / 3, free_parameters=free), 6),
+        HLGL(part(2 / 3, 1.0, final=(1.0, 0.0), free_parameters=free), 6),
+    ]
+    sol = MultiPhase(phases, cost=lambda e, p: 10 * (p["k"] - 3.0) ** 2).solve()
+    k = sol.parameters["k"]
+    assert sol.trajectory_cost == pytest.approx(10 * (k - 3.0) ** 2, rel=1e-12) and sol.value("k") == k
+    t, gain = sol.sample(lambda x, u, t, p: p["k"], grid=[0.1, 0.5, 0.9])
+    assert gain[1:] == pytest.approx([k, k]) and gain[0] == 1.0  # phase 0's own k, the others the trajectory's
+    assert sol.sample(lambda x, u, t: x["x"], grid=[])[1].shape == (0,)
+
+
+def test_the_accuracy_of_a_cost_at_cut_times_flies_through_the_links():
+    """A fit at cut times on a mesh too coarse for it: the objective part of the accuracy sees the flown states at
+    the cut times (within a factor of a few of the true error of J), not only each phase's own flight."""
+    from ocpkit import FreeParameter
+
+    decay = OptimalControlProblem(
+        "decay",
+        [State("x", initial=1.0)],
+        [],
+        lambda x, u, t, p: -p["k"] * x["x"] ** 2,
+        tf=3.0,
+        free_parameters=[FreeParameter("k", 0.1, 10.0, guess=1.0)],
+    )
+    times = [0.5, 1.0, 1.5, 2.0, 3.0]
+    data = {t: 1 / (1 + 2.0 * t) + 0.01 * (-1) ** i for i, t in enumerate(times)}
+    cost = lambda e: sum((e.at(t)["x"] - y) ** 2 for t, y in data.items())  # noqa: E731
+    coarse = MultiPhase.split(decay, times, lambda pr: Radau(pr, 2, 1), cost=cost).solve(error_threshold=None)
+    fine = MultiPhase.split(decay, times, lambda pr: Radau(pr, 8, 2), cost=cost).solve(error_threshold=None)
+    k = coarse.parameters["k"]
+    exact = sum((1 / (1 + k * t) - y) ** 2 for t, y in data.items())  # the coarse k's cost on the exact states
+    true = abs(exact - coarse.objective) / exact
+    assert true > 1e-3 and true / 5 < coarse.accuracy.objective < 5 * true
+    assert fine.accuracy.objective < 1e-8 and coarse.flown_trajectory_cost() == pytest.approx(exact, rel=1e-8)
+
+
+def test_the_pieces_of_a_split_continue_the_whole_guess():
+    """A (start, end) guess of the whole problem is one line across the pieces, not a sawtooth."""
+    whole = leg(0.0, 1.0, initial=(0.0, 0.0), final=(1.0, 0.0)).replace(
+        states=[State("x", initial=0.0, final=1.0, guess=(0.0, 1.0)), State("v", initial=0.0, final=0.0)]
+    )
+    mp = MultiPhase.split(whole, [0.25, 0.5], lambda pr: HLGL(pr, 2))
+    starts = [ph.initial_point()[0] for ph in mp.phases]  # each piece's first x node (scale 1)
+    assert starts == pytest.approx([0.0, 0.25, 0.5])

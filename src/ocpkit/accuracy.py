@@ -359,8 +359,9 @@ class MultiPhaseAccuracy(Accuracy):
 
     ``state``: the largest phase's; ``path``: per constraint label, the largest over the phases that have it;
     ``objective``: the sum over the phases of ``|J_flown - J| + dJ_path`` (each phase flown from its own
-    initial state), plus the trajectory-level cost's change when each phase's final state is the flown one,
-    relative to ``max(|J|, objective_scale * 1e-3)``. ``phases``: each phase's :class:`Accuracy`.
+    initial state), plus the trajectory-level cost's change on the flown trajectory (the phases flown in turn
+    through their links: :meth:`~ocpkit.MultiPhaseSolution.flown_trajectory_cost`), relative to
+    ``max(|J|, objective_scale * 1e-3)``. ``phases``: each phase's :class:`Accuracy`.
     """
 
     def __init__(self, solution):
@@ -374,8 +375,9 @@ class MultiPhaseAccuracy(Accuracy):
             if a.objective_failure
         )
         self.objective_path = float(sum(a.objective_path for a in self.phases))
-        ends = abs(solution.flown_trajectory_cost() - solution.trajectory_cost) if solution.trajectory_cost else 0.0
-        self.objective_flown = float(sum(a.objective_flown for a in self.phases)) + solution.trajectory_cost
+        flown_cost = solution.flown_trajectory_cost()
+        ends = abs(flown_cost - solution.trajectory_cost)
+        self.objective_flown = float(sum(a.objective_flown for a in self.phases)) + flown_cost
         difference = sum(abs(a.objective_flown - a.objective_nlp) for a in self.phases) + self.objective_path + ends
         floor = 1e-3 * float(solution.objective_scale)
         self.objective = difference / max(abs(self.objective_nlp), floor) if np.isfinite(difference) else np.inf

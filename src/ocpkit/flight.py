@@ -46,9 +46,10 @@ class Flight:
     tolerance: float
 
 
-def fly(trajectory, tol: float = TOLERANCE) -> Flight:
-    """Fly the trajectory's admissible control from its initial state (module docstring). Raises RuntimeError when
-    the integration fails (a state that leaves the dynamics' domain, or the step count exceeded)."""
+def fly(trajectory, tol: float = TOLERANCE, x0=None) -> Flight:
+    """Fly the trajectory's admissible control from its initial state, or from ``x0`` (module docstring). Raises
+    RuntimeError when the integration fails (a state that leaves the dynamics' domain, or the step count
+    exceeded)."""
     if not tol > 0:
         raise ValueError(f"the tolerance must be positive, got {tol!r}")
     problem = trajectory.problem
@@ -61,7 +62,9 @@ def fly(trajectory, tol: float = TOLERANCE) -> Flight:
     K = a.size
     coefficients = _control_series(trajectory, stops)  # (K, n, nu)
     n = coefficients.shape[1]
-    x0 = np.asarray(trajectory.initial_state(), dtype=float)
+    x0 = np.asarray(trajectory.initial_state() if x0 is None else x0, dtype=float).ravel()
+    if x0.shape != (nx,):
+        raise ValueError(f"x0 has {x0.size} entries for the {nx} states {problem.state_names}")
     x_scale = np.asarray(problem.state_scale, dtype=float)
     J_scale = max(1.0, abs(float(trajectory.objective)))
     lower = np.array([c.lower for c in problem.controls], dtype=float)

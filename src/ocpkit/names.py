@@ -22,8 +22,17 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 
 import casadi as ca
+import numpy as np
+
+
+class UnknownName(KeyError):
+    """A name a problem does not declare, asked of a :class:`Named` view (it says which names there are)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 class Named(ca.SX):
@@ -42,10 +51,9 @@ class Named(ca.SX):
 
     def __getitem__(self, key):
         if isinstance(key, str):
-            try:
-                return ca.SX.__getitem__(self, self._names.index(key))
-            except ValueError:
-                raise KeyError(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self._names)}") from None
+            if key not in self._names:
+                raise UnknownName(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self._names)}")
+            return ca.SX.__getitem__(self, self._names.index(key))
         return ca.SX.__getitem__(self, key)
 
     def __contains__(self, key) -> bool:
@@ -53,6 +61,47 @@ class Named(ca.SX):
 
     def keys(self) -> tuple[str, ...]:
         return self._names
+
+
+class NamedParameters(dict):
+    """The parameters ``p`` of a problem's callables: a dict of CasADi symbols by name, as they always were
+    (``p["k"]``, ``p.get("k")``, ``p.items()``), that also answers to positions (``p[0]``) and names an unknown name.
+
+    (Not a :class:`Named` column: CasADi reads an SX subclass that iterates over its names as a list of them.)
+    """
+
+    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "parameter"):
+        if len(names) != column.numel():
+            raise ValueError(f"{len(names)} names for {column.numel()} {kind} entries")
+        super().__init__((name, column[i]) for i, name in enumerate(names))
+        self._kind = kind
+        self._column = column
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self)
+
+    @property
+    def column(self) -> ca.SX:
+        """All of them as one CasADi column, in order."""
+        return self._column
+
+    def __getitem__(self, key):
+        if isinstance(key, (int, np.integer, slice)) and not isinstance(key, bool):
+            return self._column[key]
+        if key not in self:
+            raise UnknownName(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self)}")
+        return dict.__getitem__(self, key)
+
+
+@contextmanager
+def naming(what: str):
+    """Say ``what`` asked for an unknown name (an :class:`UnknownName` from a view), chaining the original; any other
+    error of the user's code goes through untouched."""
+    try:
+        yield
+    except UnknownName as exc:
+        raise UnknownName(f"{what}: {exc}") from exc
 
 
 def takes_parameters(fn: Callable, inputs: int, what: str = "the callable") -> bool | None:
@@ -82,15 +131,17 @@ def takes_parameters(fn: Callable, inputs: int, what: str = "the callable") -> b
     return False
 
 
-def call(fn: Callable, inputs: Sequence, p: Named, *, has_parameters: bool, what: str):
+def call(fn: Callable, inputs: Sequence, p, *, has_parameters: bool, what: str):
     """``fn(*inputs)``, or ``fn(*inputs, p)`` when it takes the parameters (:func:`takes_parameters`).
 
     One that may take them (``P=None``, ``*args``, an unreadable signature) gets them when the problem has parameters.
+    An unknown name asked of a view is an :class:`UnknownName` that says ``what`` asked.
     """
     wants = takes_parameters(fn, len(inputs), what)
     if wants is None:
         wants = has_parameters
-    return fn(*inputs, p) if wants else fn(*inputs)
+    with naming(what):
+        return fn(*inputs, p) if wants else fn(*inputs)
 
 
-__all__ = ["Named", "call", "takes_parameters"]
+__all__ = ["Named", "NamedParameters", "UnknownName", "call", "naming", "takes_parameters"]

@@ -32,7 +32,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-from .names import Named, call
+from .names import Named, NamedParameters, call
 
 Bound = None | float | tuple[float, float]
 """A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
@@ -651,6 +651,11 @@ class OptimalControlProblem:
         return self._spec["parameters"] is not None or bool(self._spec["free_parameters"])
 
     @property
+    def parameter_names(self) -> list[str]:
+        """The names in the parameter vector ``P`` and in a callable's ``p``: the fixed ones, then the free ones."""
+        return [*self.parameters, *(v.name for v in self.free_parameters)]
+
+    @property
     def free_initial_time(self) -> bool:
         return self.initial_time is not None
 
@@ -707,18 +712,21 @@ class OptimalControlProblem:
         c = self.functions.boundary
         return None if c is None else c.function(x0, xf, t0, tf, self._P if P is None else P)
 
-    def expression(self, fn: Callable, kind: str = "running", what: str = "expression") -> ca.Function:
+    def expression(
+        self, fn: Callable, kind: str = "running", what: str = "expression", extra_parameters: Sequence[str] = ()
+    ) -> ca.Function:
         """A user expression of this problem's variables as a CasADi Function, the statement's callables' way.
 
         ``kind="running"``: ``fn(x, u, t[, p])``, the Function ``(x, u, t, P) -> column``; ``"boundary"``:
         ``fn(x0, xf, t0, tf[, p])``, the Function ``(x0, xf, t0, tf, P) -> column``. Names as in
-        :mod:`ocpkit.names`; ``P`` as in :meth:`dynamics`.
+        :mod:`ocpkit.names`; ``P`` as in :meth:`dynamics`, then ``extra_parameters`` (names ``p`` has besides the
+        problem's: a trajectory's parameters that another phase declares).
         """
         if kind not in ("running", "boundary"):
             raise ValueError(f"kind must be 'running' or 'boundary', got {kind!r}")
         if not callable(fn):
             raise TypeError(f"{what} must be a callable of the problem's variables, got {fn!r}")
-        names = [*self.parameters, *(v.name for v in self.free_parameters)]
+        names = [*self.parameter_names, *extra_parameters]
         sym = StatementSymbols.of(self.state_names, self.control_names, names)
         expr = _column(sym.call(fn, kind, what, has_parameters=bool(names)), what)
         try:
@@ -809,7 +817,7 @@ class StatementSymbols:
             "running": [Named(x, state_names, "state"), Named(u, control_names, "control"), t],
             "boundary": [Named(x0, state_names, "state"), Named(xf, state_names, "state"), t0, tf],
         }
-        return cls(x, u, t, x0, xf, t0, tf, P, views, Named(P, parameter_names, "parameter"))
+        return cls(x, u, t, x0, xf, t0, tf, P, views, NamedParameters(P, parameter_names))
 
     def inputs(self, kind: str) -> list[ca.SX]:
         """The plain symbols of ``kind`` (``"running"`` or ``"boundary"``), then ``P``: a Function's inputs."""
@@ -818,10 +826,7 @@ class StatementSymbols:
 
     def call(self, fn: Callable, kind: str, what: str, *, has_parameters: bool):
         """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`)."""
-        try:
-            return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
-        except KeyError as exc:
-            raise KeyError(f"{what}: {exc.args[0]}") from None
+        return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
 
 
 def _build_functions(

@@ -30,6 +30,7 @@ class Reintegration:
     states: np.ndarray
     error: np.ndarray
     state_names: list[str]
+    #: each state's scale (or one row of them per time, where the scales change along the trajectory's phases)
     scale: np.ndarray
     rtol: float
     atol: float
@@ -132,12 +133,20 @@ class Trajectory(ABC):
         ``t.shape + (m,)`` for ``m`` of them. The control is the admissible one (:meth:`control`).
         """
         t = self.time_grid(n) if grid is None else self._check_times(grid)
-        fun = self.problem.expression(expr, "running", "sample's expression")
-        flat = t.ravel()
-        P = np.repeat(self.problem.parameter_vector()[:, None], max(flat.size, 1), axis=1)
-        out = np.asarray(fun.map(flat.size)(self.state(flat).T, self.control(flat).T, flat[None, :], P)).T
+        return t, self._sample(expr, t)
+
+    def _sample(self, expr, t: np.ndarray, extra: dict | None = None) -> np.ndarray:
+        """``expr`` at the times ``t``; ``extra``: parameters by name that ``p`` has besides the problem's."""
+        extra = {} if extra is None else {k: v for k, v in extra.items() if k not in self.problem.parameter_names}
+        fun = self.problem.expression(expr, "running", "sample's expression", list(extra))
         m = fun.size1_out(0)
-        return t, out.reshape(t.shape) if m == 1 else out.reshape(t.shape + (m,))
+        flat = t.ravel()
+        if flat.size == 0:
+            return np.zeros(t.shape if m == 1 else t.shape + (m,))
+        values = np.concatenate([self.problem.parameter_vector(), np.array(list(extra.values()), dtype=float)])
+        P = np.repeat(values[:, None], flat.size, axis=1)
+        out = np.asarray(fun.map(flat.size)(self.state(flat).T, self.control(flat).T, flat[None, :], P)).T
+        return out.reshape(t.shape) if m == 1 else out.reshape(t.shape + (m,))
 
     def value(self, what):
         """A number of this trajectory: a parameter's value by name (fixed, or free and solved), ``"t0"``, ``"tf"``,

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..names import Named, call
+from ..names import Named, NamedParameters, call
 from ..problem import Hamiltonian, OptimalControlProblem, _column
 
 CONTROL_SETS = ("box", "ball")
@@ -249,11 +249,8 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5
     _require_autonomous(ham)
     names = problem.state_names
     inputs = [Named(ham.x, names, "state"), Named(ham.p, names, "costate")]
-    params = Named(ham.P, [*problem.parameters, *(v.name for v in problem.free_parameters)], "parameter")
-    try:
-        u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
-    except KeyError as exc:
-        raise KeyError(f"{what}: {exc.args[0]}") from None
+    params = NamedParameters(ham.P, problem.parameter_names)
+    u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
     if u.shape != (nu, 1):
         raise ValueError(
             f"{what} returned shape {u.shape}, expected ({nu}, 1): one expression per control {problem.control_names}"

@@ -546,9 +546,10 @@ class Transcription(session.SolveSession, ABC):
     def _refinement_hint(self, solution) -> str:
         return refinement_hint(solution)
 
-    def _warn_if_inaccurate(self, solution, threshold: float, label: str | None = None) -> None:
+    def _warn_if_inaccurate(self, solution, threshold: float, label: str | None = None, stacklevel: int = 5) -> None:
         """The single solve's warnings: the state estimate over ``threshold``, path constraints violated between
-        points by more than it (``label``: who says so, default :attr:`label`)."""
+        points by more than it (``label``: who says so, default :attr:`label`; ``stacklevel``: the caller of
+        ``solve()``, counted from the warning, through the session)."""
         label = self.label if label is None else label
         warn_if_inaccurate(
             label,
@@ -556,9 +557,9 @@ class Transcription(session.SolveSession, ABC):
             solution.estimate_intervals,
             threshold,
             lambda: periodic_control_hint(solution),
-            stacklevel=5,  # the caller of solve(), through the session
+            stacklevel=stacklevel,
         )
-        warn_if_path_violated(label, solution, threshold, stacklevel=5)
+        warn_if_path_violated(label, solution, threshold, stacklevel=stacklevel)
 
     def _check_parameters(self, parameters) -> None:
         self.parameter_values(parameters)

@@ -29,12 +29,13 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
 
 from .._deprecation import renamed
-from ..names import Named, call
+from ..names import Named, NamedParameters, UnknownName, call
 from ..nlp import Block, NLPResult, SeparableNLP
 from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set
 from ..solution import Solution
@@ -81,7 +82,7 @@ class PhaseEnds:
     xf: Named
     t0: ca.SX
     tf: ca.SX
-    p: Named
+    p: NamedParameters
     fixed_t0: float | None = None
     fixed_tf: float | None = None
 
@@ -99,11 +100,14 @@ class PhasesEnds(Mapping):
                 return self._ends[key]
         elif key in self._by_name:
             return self._by_name[key]
-        raise KeyError(f"unknown phase {key!r}; the phases are {list(self._by_name)} (or indices 0 to {len(self) - 1})")
+        raise UnknownName(
+            f"unknown phase {key!r}; the phases are {list(self._by_name)} (or indices 0 to {len(self) - 1})"
+        )
 
     def at(self, t: float) -> Named:
-        """The states at the fixed time ``t`` where a phase starts (its ``x0``) or the last phase ends (its ``xf``): a
-        named interior time of :meth:`MultiPhase.split`, a measurement time."""
+        """The states at the fixed time ``t``: the ``x0`` of the first phase that starts there, else the ``xf`` of the
+        last phase that ends there (at a link with a jump, the state after the jump): a named interior time of
+        :meth:`MultiPhase.split`, a measurement time."""
 
         def same(v):
             return v is not None and math.isclose(v, t, rel_tol=1e-12, abs_tol=1e-12)
@@ -115,7 +119,7 @@ class PhasesEnds(Mapping):
             if same(e.fixed_tf):
                 return e.xf
         fixed = sorted({v for e in self._ends for v in (e.fixed_t0, e.fixed_tf) if v is not None})
-        raise KeyError(f"no phase starts or ends at the fixed time t = {t}; the fixed phase times are {fixed}")
+        raise UnknownName(f"no phase starts or ends at the fixed time t = {t}; the fixed phase times are {fixed}")
 
     def __iter__(self):
         return iter(self._by_name)
@@ -210,6 +214,8 @@ class MultiPhase(session.SolveSession):
         self._solver = None
         self._solver_options = None
         self._estimate_counts = None
+        #: the times a problem was cut at (:meth:`split`), else None
+        self.cut_times = None
         self.build_s = 0.0
 
     @classmethod
@@ -227,7 +233,8 @@ class MultiPhase(session.SolveSession):
 
         Each piece keeps the dynamics, bounds, running cost, path constraints and parameters (its free parameters
         shared: one parameter of the trajectory); the first keeps the initial conditions, the last the final ones;
-        the Mayer term and the boundary constraints move to the trajectory level. ``scheme(piece)`` transcribes a
+        the Mayer term and the boundary constraints move to the trajectory level (with the first phase's copy of a
+        phase-local parameter); the pieces' guesses continue the whole problem's. ``scheme(piece)`` transcribes a
         piece (``lambda pr: Radau(pr, 4, 3)``). ``cost`` and ``constraints`` are :class:`MultiPhase`'s, and
         ``ends.at(t)`` is the state at a cut time (or at t0, tf): a least-squares fit to measurements is a sum of
         ``(ends.at(t)["y"] - y_measured) ** 2``. The problem's t0 and tf must be fixed; ``options`` go to
@@ -235,19 +242,43 @@ class MultiPhase(session.SolveSession):
         """
         if problem.free_initial_time or problem.free_final_time:
             raise ValueError(f"split needs fixed t0 and tf: {problem.name!r} has a free one")
-        t = np.unique(np.asarray(times, dtype=float).ravel())
+        t = np.sort(np.asarray(times, dtype=float).ravel())
         if t.size and (not np.all(np.isfinite(t)) or t[0] < problem.t0 or t[-1] > problem.tf):
             raise ValueError(f"times must lie in [t0, tf] = [{problem.t0}, {problem.tf}], got {t.min()} to {t.max()}")
-        cuts = np.unique(np.concatenate([[problem.t0], t, [problem.tf]]))
+        cuts = [problem.t0]
+        for v in [*t, problem.tf]:  # times as close as PhasesEnds.at matches them are one cut
+            if not math.isclose(v, cuts[-1], rel_tol=1e-12, abs_tol=1e-12):
+                cuts.append(float(v))
+        cuts[-1] = problem.tf
+        cuts = np.array(cuts)
         n = cuts.size - 1
+        span = problem.tf - problem.t0
+
+        def whole(variable):
+            """The whole problem's guess of ``variable`` as a function of physical time (so pieces continue it)."""
+            fn = variable.guess_function()
+            return lambda t: fn((np.asarray(t, dtype=float) - problem.t0) / span, np.asarray(t, dtype=float))
+
+        controls = [replace(c, guess=whole(c)) for c in problem.controls]
         phases = {}
         for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
             states = [
-                replace(s, initial=s.initial if k == 0 else None, final=s.final if k == n - 1 else None)
+                replace(
+                    s,
+                    initial=s.initial if k == 0 else None,
+                    final=s.final if k == n - 1 else None,
+                    guess=whole(s),
+                )
                 for s in problem.states
             ]
             piece = problem.replace(
-                name=f"{problem.name}_{k}", states=states, t0=float(a), tf=float(b), mayer=None, boundary_constraints=()
+                name=f"{problem.name}_{k}",
+                states=states,
+                controls=controls,
+                t0=float(a),
+                tf=float(b),
+                mayer=None,
+                boundary_constraints=(),
             )
             phases[f"{problem.name}_{k}"] = scheme(piece)
         whole = problem.functions
@@ -256,7 +287,7 @@ class MultiPhase(session.SolveSession):
             out = 0.0 if cost is None else call(cost, [ends], p, has_parameters=bool(p.names), what="the cost")
             if whole.phi is not None:
                 first, last = ends[0], ends[-1]
-                out = out + whole.phi(first.x0, last.xf, first.t0, last.tf, first.p)
+                out = out + whole.phi(first.x0, last.xf, first.t0, last.tf, first.p.column)
             return out
 
         def boundary(c: Constraint) -> Constraint:
@@ -294,11 +325,11 @@ class MultiPhase(session.SolveSession):
 
         ``z``: the scaled NLP variables at ``variables`` (each phase's x(t0), x(tf) and problem-wide variables);
         ``q``: the fixed final times, whose ``values`` a block carries; ``ends``: the :class:`PhasesEnds` in them;
-        ``p``: the trajectory's parameters by name (each shared one once, each fixed one that the phases naming it
-        give one value; a phase-local one is in ``ends[k].p``).
+        ``p``: the trajectory's parameters by name (each shared free one once, each that one phase alone names, each
+        fixed one that the phases naming it give one value; a phase-local one is in ``ends[k].p``).
         """
         zs, qs, variables, values, ends = [], [], [], [], []
-        entries: dict[str, list] = {}
+        entries: dict[str, list] = {}  # name -> [(its symbol in a phase's p, free in that phase), ...]
         for k, ph in enumerate(self.phases):
             z, q, x0, xf, t0, tf, P = ph._boundary_symbols()
             first, last, _ = ph._boundary_indices()
@@ -307,7 +338,6 @@ class MultiPhase(session.SolveSession):
             qs.append(q)
             variables.append(self.variable_offsets[k] + np.concatenate([first, last, ph.global_indices()]))
             values.append([] if pr.free_final_time else [pr.tf])
-            names = [*pr.parameters, *(v.name for v in pr.free_parameters)]
             states = pr.state_names
             ends.append(
                 PhaseEnds(
@@ -316,20 +346,25 @@ class MultiPhase(session.SolveSession):
                     Named(xf, states, "state"),
                     ca.SX(t0),
                     ca.SX(tf),
-                    Named(ca.SX(P), names, "parameter"),
+                    NamedParameters(ca.SX(P), pr.parameter_names),
                     None if pr.free_initial_time else pr.t0,
                     None if pr.free_final_time else pr.tf,
                 )
             )
-            for j, name in enumerate(names):
+            for j, name in enumerate(pr.parameter_names):
                 fixed = pr.parameters.get(name)
                 entries.setdefault(name, []).append((ends[-1].p[j], fixed))
-        shared = {}
+        chosen = {}
         for name, found in entries.items():
+            if name in self._shared:  # the free copies are one parameter: the first free one (a phase may fix it)
+                chosen[name] = next(symbol for symbol, fixed in found if fixed is None)
+                continue
             fixed = {v for _, v in found}
-            if len(found) == 1 or name in self._shared or (None not in fixed and len(fixed) == 1):
-                shared[name] = found[0][0]
-        p = Named(ca.vertcat(*shared.values()) if shared else ca.SX(0, 1), list(shared), "trajectory parameter")
+            if len(found) == 1 or (None not in fixed and len(fixed) == 1):
+                chosen[name] = found[0][0]
+        p = NamedParameters(
+            ca.vertcat(*chosen.values()) if chosen else ca.SX(0, 1), list(chosen), "trajectory parameter"
+        )
         return (
             ca.vertcat(*zs),
             ca.vertcat(*qs),
@@ -340,11 +375,8 @@ class MultiPhase(session.SolveSession):
         )
 
     def _call_on_ends(self, fn: Callable, what: str):
-        z, q, _, _, ends, p = self._ends
-        try:
-            return call(fn, [ends], p, has_parameters=bool(p.names), what=what)
-        except KeyError as exc:
-            raise KeyError(f"{what}: {exc.args[0]}") from None
+        ends, p = self._ends[4], self._ends[5]
+        return call(fn, [ends], p, has_parameters=bool(p.names), what=what)
 
     def _trajectory_cost(self, cost: Callable | None) -> ca.Function | None:
         """``(z, q) -> J_trajectory`` (in the problem's units) of ``cost`` (None without)."""
@@ -443,8 +475,6 @@ class MultiPhase(session.SolveSession):
     def _check_link(self, link: Link) -> list[tuple[int, int, str]]:
         """``(index in before, index in after, name)`` of the linked states; bad links raise, naming the link."""
         n = len(self.phases)
-        if not isinstance(link, Link):
-            raise TypeError(f"links must be Link objects, got {link!r}")
         if not (0 <= link.before < n and 0 <= link.after < n) or link.before == link.after:
             raise ValueError(f"{link.label}: phases must be two different indices in [0, {n})")
         before, after = self.phases[link.before].problem, self.phases[link.after].problem
@@ -640,7 +670,10 @@ class MultiPhase(session.SolveSession):
         return np.concatenate([np.diff(p.estimate_intervals) / span for p in solution.phases])
 
     def _path_where(self, solution) -> np.ndarray:
-        return np.vstack([ph._path_where(p) for ph, p in zip(self.phases, solution.phases)])
+        # a phase without path constraints has none violated (NaN from path_violations would blind the others')
+        where = np.vstack([ph._path_where(p) for ph, p in zip(self.phases, solution.phases)])
+        where[:, 1] = np.nan_to_num(where[:, 1], nan=0.0)
+        return where
 
     def _cuts(self, solution) -> list:
         return [c for ph, p in zip(self.phases, solution.phases) for c in ph._cuts(p)]
@@ -651,7 +684,7 @@ class MultiPhase(session.SolveSession):
 
     def _warn_if_inaccurate(self, solution, threshold: float) -> None:
         for name, ph, p in zip(self.names, self.phases, solution.phases):
-            ph._warn_if_inaccurate(p, threshold, label=f"phase {name!r}, {ph.label}")
+            ph._warn_if_inaccurate(p, threshold, label=f"phase {name!r}, {ph.label}", stacklevel=6)
 
     def refine(self, errors: np.ndarray, tolerance: float, cuts=None) -> MultiPhase:
         """The same phases, links, cost and constraints, each phase's mesh refined by its own :meth:`refine` on its
@@ -667,7 +700,9 @@ class MultiPhase(session.SolveSession):
             part = slice(bounds[k], bounds[k + 1])
             new = ph.refine(np.asarray(errors[part]), tolerance, cuts[part])
             phases[name] = ph if session._same_mesh(new, ph) else new
-        return MultiPhase(phases, **self._options)
+        refined = MultiPhase(phases, **self._options)
+        refined.cut_times = self.cut_times
+        return refined
 
     # -- the solution ------------------------------------------------------------------------
     def _phase_objective(self, k: int, w: np.ndarray) -> float:
@@ -798,6 +833,12 @@ class MultiPhaseSolution(Trajectory):
         renamed("MultiPhaseSolution.nlp_parameters", "MultiPhaseSolution.decision_variables")
         return self.decision_variables
 
+    def value(self, what):
+        """:meth:`Trajectory.value`, with the trajectory's parameters (:attr:`parameters`) by name too."""
+        if isinstance(what, str) and what in self.parameters:
+            return float(self.parameters[what])
+        return super().value(what)
+
     def phase(self, key) -> Solution:
         """A phase's solution by name or index."""
         if isinstance(key, str):
@@ -832,12 +873,16 @@ class MultiPhaseSolution(Trajectory):
 
     def sample(self, expr, grid=None, n: int = 401):
         """``(t, values)`` of ``expr(x, u, t[, p])`` (:meth:`Trajectory.sample`), each time in its phase (the later one at
-        a shared time), each phase with its own variables and parameters."""
+        a shared time), each phase with its own variables and parameters and the trajectory's (:attr:`parameters`)."""
         t = self.time_grid(n) if grid is None else self._check_times(grid)
+        if t.size == 0:
+            return t, self.phases[0]._sample(expr, t, self.parameters)
         flat = t.ravel()
         k = self._phase_of(flat)
         parts = {
-            j: self.phases[j].sample(expr, np.clip(flat[k == j], self.phases[j].t0, self.phases[j].tf))[1]
+            j: self.phases[j]._sample(
+                expr, np.clip(flat[k == j], self.phases[j].t0, self.phases[j].tf), self.parameters
+            )
             for j in np.unique(k)
         }
         first = next(iter(parts.values()))
@@ -856,7 +901,7 @@ class MultiPhaseSolution(Trajectory):
         """Every phase's :attr:`Solution.interval_errors`, in phase order."""
         return np.concatenate([p.interval_errors for p in self.phases])
 
-    @property
+    @cached_property
     def accuracy(self):
         """Every part of the estimated error, over the phases (:class:`ocpkit.accuracy.MultiPhaseAccuracy`)."""
         from ..accuracy import MultiPhaseAccuracy
@@ -871,29 +916,43 @@ class MultiPhaseSolution(Trajectory):
             raise ValueError("the phases have different states: reintegrate each, phases[k].reintegrate()")
         parts = self._reintegrations(rtol=rtol, atol=atol, n=n, controls=controls)
         first = parts[0]
+        same = all(np.array_equal(r.scale, first.scale) for r in parts)
         return Reintegration(
             t=np.concatenate([r.t for r in parts]),
             states=np.concatenate([r.states for r in parts]),
             error=np.concatenate([r.error for r in parts]),
             state_names=first.state_names,
-            scale=first.scale,
+            # each phase's errors in its own states' scales (one row of scales per time where the phases' differ)
+            scale=first.scale if same else np.concatenate([np.broadcast_to(r.scale, r.error.shape) for r in parts]),
             rtol=rtol,
             atol=atol,
             n_rhs=int(sum(r.n_rhs for r in parts)),
         )
 
     def flown_trajectory_cost(self) -> float:
-        """The trajectory-level cost with each phase's final state flown (:func:`ocpkit.flight.fly`) instead of the
-        NLP's: its part of :attr:`accuracy`'s objective (0 without a trajectory-level cost)."""
+        """The trajectory-level cost on the flown trajectory (0 without one): each phase's admissible control flown
+        (:func:`ocpkit.flight.fly`) from its linked start, the previous phases' flown end plus the link's jump
+        (its own NLP start in the states no link sets), so that a cost at a cut time (``ends.at(t)``) sees the
+        flown state there; its part of :attr:`accuracy`'s objective."""
         mp = self.raw.get("transcription")
         if mp is None or mp._cost is None:
             return 0.0
         from ..flight import fly
 
         w = np.array(self.raw["w"], dtype=float)
+        flown_ends: dict[int, np.ndarray] = {}
         for k, (ph, p) in enumerate(zip(mp.phases, self.phases)):
-            _, last, _ = ph._boundary_indices()
-            w[mp.variable_offsets[k] + last] = ph.problem.state_scaling.to_nlp(fly(p).final_state)
+            first, last, _ = ph._boundary_indices()
+            x0 = np.array(p.initial_state(), dtype=float)
+            for link, joined in zip(mp.links, mp._link_states):
+                if link.after == k and link.before in flown_ends:
+                    for i_before, i_after, name in joined:
+                        x0[i_after] = flown_ends[link.before][i_before] + float(link.jumps.get(name, 0.0))
+            xf = fly(p, x0=x0).final_state
+            flown_ends[k] = xf
+            scaling = ph.problem.state_scaling
+            w[mp.variable_offsets[k] + first] = scaling.to_nlp(x0)
+            w[mp.variable_offsets[k] + last] = scaling.to_nlp(xf)
         _, _, variables, values, _, _ = mp._ends
         return float(mp._cost(w[variables], values))
 
