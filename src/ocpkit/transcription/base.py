@@ -23,7 +23,7 @@ from ..nlp import Block, NLPResult, SeparableNLP, failure_hint
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
 from . import session
-from .mesh import Mesh, final_time, initial_time, n_globals, parameter_vector
+from .mesh import GlobalVariables, Mesh
 from .session import STALL_FALL, STALL_GROWTH, STALL_MESHES, MeshIteration  # noqa: F401 (their home before)
 
 
@@ -163,13 +163,17 @@ class Transcription(session.SolveSession, ABC):
 
     # -- layout: sizes, indices, bounds, packing -------------------------------------------
     @property
+    def global_variables(self) -> GlobalVariables:
+        """The problem-wide NLP variables (pinned and free parameters, then t0 and tf where free), last in ``w``."""
+        return GlobalVariables(self.problem)
+
+    @property
     def n_variables(self) -> int:
-        return sum(g.size for g in self._groups()) + n_globals(self.problem)
+        return sum(g.size for g in self._groups()) + self.global_variables.size
 
     def global_indices(self) -> np.ndarray:
-        """NLP indices of the problem-wide variables (pinned and free parameters, then t0 and tf where free), last
-        in ``w``."""
-        k = n_globals(self.problem)
+        """NLP indices of the problem-wide variables (:attr:`global_variables`), last in ``w``."""
+        k = self.global_variables.size
         return np.arange(self.n_variables - k, self.n_variables, dtype=np.int64)
 
     def _global_rows(self, count: int) -> list[np.ndarray]:
@@ -179,32 +183,19 @@ class Transcription(session.SolveSession, ABC):
 
     def time_indices(self) -> tuple[int | None, int | None]:
         """NLP indices of t0 and tf (None where fixed)."""
-        g = self.global_indices()
-        pr = self.problem
-        i0 = int(g[len(pr.parameters) + len(pr.free_parameters)]) if pr.free_initial_time else None
-        return i0, (int(g[-1]) if pr.free_final_time else None)
+        g, layout = self.global_indices(), self.global_variables
+        return tuple(None if k is None else int(g[k]) for k in (layout.t0_position, layout.tf_position))
 
     def global_values(self, w) -> dict:
         """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector
         (``pinned``: the problem's parameters as solved with; ``parameters``: the free ones)."""
-        pr = self.problem
         w = np.asarray(w, dtype=float).ravel()
         if w.size != self.n_variables:
             raise ValueError(
                 f"an NLP vector of {w.size} entries for {self.label}, which has {self.n_variables}: a refined "
                 "solution's vector belongs to its last mesh, solution.raw['transcription']"
             )
-        z = w[self.global_indices()]
-        n_pinned, nf = len(pr.parameters), len(pr.free_parameters)
-        values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
-        t0 = float(z[n_pinned + nf] * pr.initial_time.scale) if pr.free_initial_time else pr.t0
-        tf = float(z[-1] * pr.tf.scale) if pr.free_final_time else pr.tf
-        return {
-            "pinned": dict(zip(pr.parameters, z[:n_pinned].tolist())),
-            "parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())),
-            "t0": t0,
-            "tf": tf,
-        }
+        return self.global_variables.unpack(w[self.global_indices()])
 
     def parameter_values(self, parameters=None) -> np.ndarray:
         """The values the problem's parameters are pinned to in a solve: the problem's, with ``parameters``
@@ -217,7 +208,7 @@ class Transcription(session.SolveSession, ABC):
         for g in self._groups():
             tables.append(offset + np.arange(g.size).reshape(g.points, len(g.variables)).T)
             offset += g.size
-        return tables, (offset if self.problem.free_final_time else None)
+        return tables, self.time_indices()[1]
 
     def _bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray]:
         """Scaled bounds of the NLP variables; state groups carry the boundary conditions, the problem's parameters
@@ -246,17 +237,9 @@ class Transcription(session.SolveSession, ABC):
             parts.append(g.scaling.to_nlp(v).ravel() if g.variables else np.zeros(0))
         pr = self.problem
         given = dict(parameters or {})
-        if pr.parameters:
-            parts.append(self.parameter_values({k: v for k, v in given.items() if k in pr.parameters}))
-        if pr.free_parameters:
-            values = {v.name: v.guess_value for v in pr.free_parameters} | given
-            parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
-        if pr.free_initial_time:
-            parts.append([(pr.t0 if t0 is None else t0) / pr.initial_time.scale])
-        if pr.free_final_time:
-            if tf is None:
-                raise ValueError("this problem has a free final time: give tf")
-            parts.append([tf / pr.tf.scale])
+        pinned = self.parameter_values({k: v for k, v in given.items() if k in pr.parameters})
+        free = {k: v for k, v in given.items() if k not in pr.parameters}
+        parts.append(self.global_variables.pack(pinned, free, t0, tf))
         return np.concatenate(parts)
 
     def unpack(self, w) -> tuple:
@@ -269,8 +252,7 @@ class Transcription(session.SolveSession, ABC):
             z = w[offset : offset + g.size].reshape(g.points, len(g.variables))
             out.append(g.scaling.from_nlp(z) if g.variables else z)
             offset += g.size
-        pr = self.problem
-        out.append(float(w[-1] * pr.tf.scale if pr.free_final_time else pr.tf))
+        out.append(self.global_variables.unpack(w[self.global_indices()])["tf"])
         return tuple(out)
 
     # -- helpers for subclasses ------------------------------------------------------------
@@ -293,24 +275,10 @@ class Transcription(session.SolveSession, ABC):
     def _stack_bounds(self, parts, parameters=None) -> tuple[np.ndarray, np.ndarray]:
         """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds
         (the parameters pinned to :meth:`parameter_values`)."""
-        pr = self.problem
         lb = [np.ravel(lo) for lo, _ in parts]
         ub = [np.ravel(hi) for _, hi in parts]
-        if pr.parameters:
-            pinned = self.parameter_values(parameters)
-            lb.append(pinned)
-            ub.append(pinned)
-        if pr.free_parameters:
-            sc = pr.free_parameter_scaling
-            lb.append(sc.to_nlp([v.lower for v in pr.free_parameters]))
-            ub.append(sc.to_nlp([v.upper for v in pr.free_parameters]))
-        if pr.free_initial_time:
-            lb.append([pr.initial_time.lower / pr.initial_time.scale])
-            ub.append([pr.initial_time.upper / pr.initial_time.scale])
-        if pr.free_final_time:
-            lb.append([pr.tf.lower / pr.tf.scale])
-            ub.append([pr.tf.upper / pr.tf.scale])
-        return np.concatenate(lb), np.concatenate(ub)
+        lo, hi = self.global_variables.bounds(self.parameter_values(parameters))
+        return np.concatenate([*lb, lo]), np.concatenate([*ub, hi])
 
     def _mayer_block(self, first: np.ndarray, last: np.ndarray, tf_index: int | None) -> Block:
         """The Mayer term phi(x(t0), x(tf), t0, tf) on the NLP variables ``first`` and ``last`` (problem order)."""
@@ -318,7 +286,7 @@ class Transcription(session.SolveSession, ABC):
         z, p, x0, xf, t0, tf, P = self._boundary_symbols()
         phi = pr.mayer(x0, xf, t0, tf, P)
         var = np.concatenate([first, last, self.global_indices()])
-        par = np.zeros((0, 1)) if pr.free_final_time else np.array([[pr.tf]])
+        par = np.array(self.global_variables.constants, dtype=float).reshape(-1, 1)
         return Block("mayer", ca.Function("mayer", [z, p], [phi / pr.objective_scale]), var[:, None], par)
 
     # -- path and boundary constraints (rows after the defects) -------------------------------
@@ -358,7 +326,7 @@ class Transcription(session.SolveSession, ABC):
         if path is not None:
             scale = ca.DM(path.scale)
             for j, pp in enumerate(self._path_points_cached()):
-                P = parameter_vector(pr, pp.z)
+                P = self.global_variables.P(pp.z)
                 out = ca.vertcat(*[pr.path(x, u, t, P) / scale for x, u, t in zip(pp.x, pp.u, pp.t)])
                 per = out.shape[0]
                 rows = row + np.arange(per * pp.count).reshape(pp.count, per).T
@@ -371,7 +339,7 @@ class Transcription(session.SolveSession, ABC):
             z, q, x0, xf, t0, tf, P = self._boundary_symbols()
             out = pr.boundary(x0, xf, t0, tf, P) / ca.DM(boundary.scale)
             var = np.concatenate([first, last, self.global_indices()])
-            par = np.zeros((0, 1)) if pr.free_final_time else np.array([[pr.tf]])
+            par = np.array(self.global_variables.constants, dtype=float).reshape(-1, 1)
             rows = row + np.arange(boundary.size)[:, None]
             blocks.append(
                 Block("boundary_constraints", ca.Function("boundary", [z, q], [out]), var[:, None], par, rows)
@@ -383,11 +351,12 @@ class Transcription(session.SolveSession, ABC):
         physical ``x0, xf, t0, tf`` and the parameter vector ``P``."""
         pr = self.problem
         nx = pr.nx
-        z = ca.SX.sym("z", 2 * nx + n_globals(pr))
-        q = ca.SX.sym("p", int(not pr.free_final_time))
+        layout = self.global_variables
+        z = ca.SX.sym("z", 2 * nx + layout.size)
+        q = ca.SX.sym("p", len(layout.constants))
         xs = pr.state_scaling
         x0, xf = xs.from_nlp(z[:nx]), xs.from_nlp(z[nx : 2 * nx])
-        return z, q, x0, xf, initial_time(pr, z), final_time(pr, z, q, 0), parameter_vector(pr, z)
+        return z, q, x0, xf, layout.t0(z), layout.tf(z, q, 0), layout.P(z)
 
     def _boundary_indices(self) -> tuple[np.ndarray, np.ndarray, int | None]:
         """NLP indices of ``x(t0)`` and ``x(tf)`` (problem order) and of tf (None if fixed)."""

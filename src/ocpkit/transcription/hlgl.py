@@ -28,7 +28,7 @@ from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
+from .mesh import Mesh, h_refined, segment_clock
 
 
 def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
@@ -141,9 +141,8 @@ class HLGL(Transcription):
         p = [start, frac, (tf)]."""
         pr = self.problem
         nx, nu = pr.nx, pr.nu
-        free = pr.free_final_time
-        z = ca.SX.sym("z", 3 * nx + 5 * nu + n_globals(pr))
-        p = ca.SX.sym("p", 2 + int(not free))
+        z = ca.SX.sym("z", 3 * nx + 5 * nu + self.global_variables.size)
+        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
         xs, us = pr.state_scaling, pr.control_scaling
         x = [xs.from_nlp(z[j * nx : (j + 1) * nx]) for j in range(3)]
         u = [us.from_nlp(z[3 * nx + j * nu : 3 * nx + (j + 1) * nu]) for j in range(5)]
@@ -167,7 +166,7 @@ class HLGL(Transcription):
         n = self.segments
         variables, params = self._segment_tables()
         z, p, x, u, t, h = self._segment_symbols()
-        P = parameter_vector(pr, z)
+        P = self.global_variables.P(z)
 
         def f(x, u, t):
             return pr.dynamics(x, u, t, P)
@@ -193,7 +192,7 @@ class HLGL(Transcription):
         """Path constraints at the five points of each segment: ``t_i, t_a, t_c, t_b`` of every segment (the
         states at ``t_a, t_b`` from the quintic Hermite interpolant), and the final node once."""
         z, p, x, u, t, h = self._segment_symbols()
-        P = parameter_vector(self.problem, z)
+        P = self.global_variables.P(z)
         _, _, x_a, x_b, _ = hlgl_segment(lambda x, u, t: self.problem.dynamics(x, u, t, P), x[0], x[1], x[2], u, t, h)
         variables, params = self._segment_tables()
         mesh = self.mesh

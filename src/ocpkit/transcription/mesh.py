@@ -6,7 +6,7 @@ initial or final time the map from normalised time ``s`` in [0, 1] to physical t
 written, numerically (:meth:`Mesh.times`) and symbolically (:func:`segment_clock`,
 :func:`initial_time`, :func:`final_time`).
 
-The problem-wide NLP variables (:func:`n_globals`) close the NLP vector and every block
+The problem-wide NLP variables (:class:`GlobalVariables`) close the NLP vector and every block
 that needs them: the problem's (fixed) parameters, pinned by their bounds to the values of
 the solve (unscaled; IPOPT treats a variable whose bounds are equal as a constant, so they
 add nothing to the KKT system, and a new value is a new bound, not a new NLP), then the free
@@ -114,44 +114,112 @@ class Mesh:
         """
         s = self.starts if s is None else np.asarray(s, dtype=float)
         fractions = self.fractions if fractions is None else np.asarray(fractions, dtype=float)
-        rows = [s, fractions]
-        if not problem.free_final_time:
-            rows.append(np.full(s.size, problem.tf))
+        rows = [s, fractions, *(np.full(s.size, v) for v in GlobalVariables(problem).constants)]
         return np.vstack(rows)
 
 
-def n_globals(problem) -> int:
-    """The problem-wide NLP variables: pinned parameters, free parameters, then t0 and tf where free."""
-    return (
-        len(problem.parameters)
-        + len(problem.free_parameters)
-        + int(problem.free_initial_time)
-        + int(problem.free_final_time)
-    )
+class GlobalVariables:
+    """The problem-wide NLP variables of a problem, last in every NLP vector and in every block's ``z``: the pinned
+    parameters (NLP variables held by their bounds, so that new values need no rebuild), the free parameters (scaled),
+    then t0 and tf where free (divided by their ``scale``). The only code that maps them, numerically (:meth:`pack`,
+    :meth:`unpack`, :meth:`bounds`) and symbolically (:meth:`t0`, :meth:`tf`, :meth:`P`).
+    """
 
+    def __init__(self, problem):
+        self.problem = problem
+        self.n_pinned = len(problem.parameters)
+        self.n_free = len(problem.free_parameters)
+        self.size = self.n_pinned + self.n_free + int(problem.free_initial_time) + int(problem.free_final_time)
 
-def final_time(problem, z, p, index: int):
-    """The symbolic final time of a block: the last (scaled) NLP variable of ``z`` when it is free, else ``p[index]``."""
-    return z[-1] * problem.tf.scale if problem.free_final_time else p[index]
+    @property
+    def t0_position(self) -> int | None:
+        """The position of t0 among them (None when fixed)."""
+        return self.n_pinned + self.n_free if self.problem.free_initial_time else None
 
+    @property
+    def tf_position(self) -> int | None:
+        """The position of tf among them (None when fixed)."""
+        return self.size - 1 if self.problem.free_final_time else None
 
-def initial_time(problem, z):
-    """The symbolic initial time of a block: its NLP variable (before a free tf) when free, else the constant."""
-    if not problem.free_initial_time:
-        return problem.t0
-    return z[z.numel() - 1 - int(problem.free_final_time)] * problem.initial_time.scale
+    @property
+    def constants(self) -> list[float]:
+        """The block constants the times need: ``[tf]`` when it is fixed (a block's ``q`` holds it, so that one
+        compiled block serves any fixed final time), else none."""
+        return [] if self.problem.free_final_time else [float(self.problem.tf)]
 
+    # -- numbers ---------------------------------------------------------------------------------------------------
+    def pack(self, pinned: np.ndarray, parameters: dict, t0: float | None, tf: float | None) -> np.ndarray:
+        """The scaled values from physical ones: the pinned vector, the free parameters by name (default their
+        guesses), t0 (default the problem's guess) and tf (required when free)."""
+        pr = self.problem
+        parts = [np.asarray(pinned, dtype=float).ravel()]
+        if self.n_free:
+            values = {v.name: v.guess_value for v in pr.free_parameters} | dict(parameters)
+            parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
+        if pr.free_initial_time:
+            parts.append([(pr.t0 if t0 is None else t0) / pr.initial_time.scale])
+        if pr.free_final_time:
+            if tf is None:
+                raise ValueError("this problem has a free final time: give tf")
+            parts.append([tf / pr.tf.scale])
+        return np.concatenate(parts)
 
-def parameter_vector(problem, z):
-    """The parameter vector ``P`` of a block: the pinned values, then the free parameters, from the end of ``z``."""
-    n_pinned, nf = len(problem.parameters), len(problem.free_parameters)
-    if not n_pinned + nf:
-        return problem._P
-    start = z.numel() - n_globals(problem)
-    parts = [z[start : start + n_pinned]] if n_pinned else []
-    if nf:
-        parts.append(problem.free_parameter_scaling.from_nlp(z[start + n_pinned : start + n_pinned + nf]))
-    return ca.vertcat(*parts)
+    def unpack(self, z) -> dict:
+        """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of their scaled values."""
+        pr = self.problem
+        z = np.asarray(z, dtype=float).ravel()
+        n_pinned, nf = self.n_pinned, self.n_free
+        values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
+        t0, tf = self.t0_position, self.tf_position
+        return {
+            "pinned": dict(zip(pr.parameters, z[:n_pinned].tolist())),
+            "parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())),
+            "t0": float(z[t0] * pr.initial_time.scale) if t0 is not None else pr.t0,
+            "tf": float(z[tf] * pr.tf.scale) if tf is not None else pr.tf,
+        }
+
+    def bounds(self, pinned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Their scaled bounds, the pinned parameters held at ``pinned``."""
+        pr = self.problem
+        pinned = np.asarray(pinned, dtype=float).ravel()
+        lb, ub = [pinned], [pinned]
+        if self.n_free:
+            sc = pr.free_parameter_scaling
+            lb.append(sc.to_nlp([v.lower for v in pr.free_parameters]))
+            ub.append(sc.to_nlp([v.upper for v in pr.free_parameters]))
+        for spec, free in ((pr.initial_time, pr.free_initial_time), (pr.tf, pr.free_final_time)):
+            if free:
+                lb.append([spec.lower / spec.scale])
+                ub.append([spec.upper / spec.scale])
+        return np.concatenate(lb), np.concatenate(ub)
+
+    def time(self, which: str, value):
+        """A free time (``"t0"`` or ``"tf"``) from its scaled NLP value, a number or a symbol."""
+        spec = self.problem.initial_time if which == "t0" else self.problem.tf
+        return value * spec.scale
+
+    # -- symbols (a block's ``z`` ends with these variables; ``q`` holds its constants) -------------------------
+    def t0(self, z):
+        """The symbolic initial time: its NLP variable in ``z``'s tail when free, else the constant."""
+        if self.t0_position is None:
+            return self.problem.t0
+        return self.time("t0", z[z.numel() - self.size + self.t0_position])
+
+    def tf(self, z, q, index: int):
+        """The symbolic final time: its NLP variable in ``z``'s tail when free, else the block constant ``q[index]``."""
+        return self.time("tf", z[z.numel() - 1]) if self.tf_position is not None else q[index]
+
+    def P(self, z):
+        """The parameter vector ``P`` from ``z``'s tail: the pinned values, then the free parameters."""
+        pr = self.problem
+        if not self.n_pinned + self.n_free:
+            return pr._P
+        start = z.numel() - self.size
+        parts = [z[start : start + self.n_pinned]] if self.n_pinned else []
+        if self.n_free:
+            free = z[start + self.n_pinned : start + self.n_pinned + self.n_free]
+            parts.append(pr.free_parameter_scaling.from_nlp(free))
+        return ca.vertcat(*parts)
 
 
 def segment_clock(problem, z, p):
@@ -159,8 +227,9 @@ def segment_clock(problem, z, p):
 
     ``T = tf - t0``, ``t_begin = t0 + T s`` and ``h = T fraction``.
     """
-    t0 = initial_time(problem, z)
-    T = final_time(problem, z, p, 2) - t0
+    layout = GlobalVariables(problem)
+    t0 = layout.t0(z)
+    T = layout.tf(z, p, 2) - t0
     return t0 + T * p[0], T, T * p[1]
 
 

@@ -57,7 +57,7 @@ from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
-from .mesh import Mesh, h_refined, n_globals, parameter_vector, segment_clock
+from .mesh import Mesh, h_refined, segment_clock
 
 COUPLINGS = ("coarse", "fine", "quadrature", "galerkin")
 #: the couplings whose slow defects see the fast states at every fine point (the ones fine controls need)
@@ -281,10 +281,9 @@ class MultiRateHLGL(Transcription):
         pr = self.problem
         M = self.ratio
         nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
-        free = pr.free_final_time
         nup = 4 * self.control_quartics + 1
-        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + nup * nu + n_globals(pr))
-        p = ca.SX.sym("p", 2 + int(not free))
+        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + nup * nu + self.global_variables.size)
+        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
         xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
         off = 0
         X = [xsc.from_nlp(w[off + k * nxs : off + (k + 1) * nxs]) for k in range(3)]
@@ -323,7 +322,7 @@ class MultiRateHLGL(Transcription):
         M = self.ratio
         nu = pr.nu
         w, p, X, Z, U, t_start, h = self._segment_symbols()
-        P = parameter_vector(pr, w)
+        P = self.global_variables.P(w)
         q = self.control_quartics
 
         def u_at(s):

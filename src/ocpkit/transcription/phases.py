@@ -337,7 +337,7 @@ class MultiPhase(session.SolveSession):
             zs.append(z)
             qs.append(q)
             variables.append(self.variable_offsets[k] + np.concatenate([first, last, ph.global_indices()]))
-            values.append([] if pr.free_final_time else [pr.tf])
+            values.append(ph.global_variables.constants)
             states = pr.state_names
             ends.append(
                 PhaseEnds(
@@ -533,17 +533,17 @@ class MultiPhase(session.SolveSession):
                 # t0_after - tf_before = 0, each a (scaled) variable where free, a constant where fixed
                 _, tfi = pb.time_indices()
                 t0i, _ = pa.time_indices()
-                ends = [(pb.problem.tf, tfi, ob), (pa.problem.initial_time or pa.problem.t0, t0i, oa)]
-                z = ca.SX.sym("z", sum(i is not None for _, i, _ in ends))
-                q = ca.SX.sym("q", sum(i is None for _, i, _ in ends))
+                ends = [(pb, "tf", tfi, ob), (pa, "t0", t0i, oa)]
+                z = ca.SX.sym("z", sum(e[2] is not None for e in ends))
+                q = ca.SX.sym("q", sum(e[2] is None for e in ends))
                 values, var, par, iz, iq = [], [], [], 0, 0
-                for spec, index, offset in ends:
+                for ph, which, index, offset in ends:
                     if index is None:
                         values.append(q[iq])
-                        par.append(float(spec))
+                        par.append(float(getattr(ph.problem, which)))
                         iq += 1
                     else:
-                        values.append(z[iz] * spec.scale)
+                        values.append(ph.global_variables.time(which, z[iz]))
                         var.append(offset + index)
                         iz += 1
                 scale = max(abs(float(pb.problem.tf_guess)), 1.0)

@@ -30,7 +30,7 @@ from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, n_globals, parameter_vector, segment_clock
+from .mesh import Mesh, segment_clock
 
 
 class PiecewiseBarycentric:
@@ -184,7 +184,7 @@ class Radau(Transcription):
         # -(T_i / 2) f(x_k, u_k, t_k) / scale at every collocation point
         xs = pr.state_scaling
         z, p, x, (u,), t, h = self._point_symbols()
-        P = parameter_vector(pr, z)
+        P = self.global_variables.P(z)
         half = h / 2
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t, P) / ca.DM(xs.scale)])
         var = np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation))
@@ -208,8 +208,8 @@ class Radau(Transcription):
         (tf)]``; physical ``x``, the ``n`` controls, ``t`` and its interval's length ``h`` in them."""
         pr = self.problem
         nx, nu = pr.nx, pr.nu
-        z = ca.SX.sym("z", nx + n_controls * nu + n_globals(pr))
-        p = ca.SX.sym("p", 2 + int(not pr.free_final_time))
+        z = ca.SX.sym("z", nx + n_controls * nu + self.global_variables.size)
+        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
         us = pr.control_scaling
         u = [us.from_nlp(z[nx + k * nu : nx + (k + 1) * nu]) for k in range(n_controls)]
         t, _, h = segment_clock(pr, z, p)
