@@ -456,3 +456,40 @@ def test_the_pieces_of_a_split_continue_the_whole_guess():
     mp = MultiPhase.split(whole, [0.25, 0.5], lambda pr: HLGL(pr, 2))
     starts = [ph.initial_point()[0] for ph in mp.phases]  # each piece's first x node (scale 1)
     assert starts == pytest.approx([0.0, 0.25, 0.5])
+
+
+def test_a_phase_given_by_its_start_and_duration():
+    """Rest to rest over a unit distance with |u| <= 1, starting no earlier than 0.5, as early as possible:
+    t0 = 0.5 and a duration of 2 (bang-bang, the switch at the middle, on the mesh: exact). The windows of t0 and
+    tf overlap, which FreeFinalTime refuses (saying to give the duration)."""
+    from ocpkit import Duration, FreeInitialTime
+
+    def race(tf):
+        return OptimalControlProblem(
+            "race",
+            [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+            [Control("u", -1.0, 1.0)],
+            lambda x, u, t: [x["v"], u["u"]],
+            t0=FreeInitialTime(0.5, 2.0, 1.0),
+            tf=tf,
+            mayer=lambda x0, xf, t0, tf: tf,
+        )
+
+    sol = Radau(race(Duration(0.5, 5.0, 1.5)), 3, 2).solve()
+    assert (sol.t0, sol.tf) == pytest.approx((0.5, 2.5), abs=1e-7)  # IPOPT relaxes bounds by 1e-8
+    with pytest.raises(ValueError, match=r"must exceed t0 \(at most 2.0\); .* give the duration, tf=Duration"):
+        race(FreeFinalTime(1.0, 5.0, 2.5))
+    with pytest.raises(ValueError, match="a duration's lower bound must be positive"):
+        Duration(0.0, 1.0, 0.5)
+
+
+def test_overlapping_windows_of_linked_phases():
+    """The split brachistochrone with its second phase given by a free start and a duration, whose final-time
+    window [0.35, 3.7] overlaps the start's [0.3, 1.7]: the same cycloid time."""
+    from ocpkit import Duration
+
+    mp = split_brachistochrone(lambda p: Radau(p, 5, 10))
+    second = mp.phases[1].problem.replace(tf=Duration(0.05, 2.0, 0.9))
+    sol = MultiPhase({"first": mp.phases[0], "second": Radau(second, 5, 10)}, cost=lambda e: e["second"].tf).solve()
+    assert sol.objective == pytest.approx(cycloid_time(), rel=1e-9)
+    assert sol.phase("second").t0 == pytest.approx(sol.phase("first").tf, abs=1e-12)

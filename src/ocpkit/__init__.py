@@ -4,6 +4,7 @@ from .errors import SolverError
 from .problem import (
     Constraint,
     Control,
+    Duration,
     FreeFinalTime,
     FreeInitialTime,
     FreeParameter,
@@ -21,6 +22,7 @@ __version__ = "0.3.0.dev0"
 __all__ = [
     "Constraint",
     "Control",
+    "Duration",
     "FreeFinalTime",
     "FreeInitialTime",
     "FreeParameter",

@@ -346,6 +346,21 @@ class FreeInitialTime(FreeFinalTime):
 
 
 @dataclass(frozen=True)
+class Duration(FreeFinalTime):
+    """A free final time given by the phase's duration: ``tf = t0 + d`` with ``d`` in ``[lower, upper]``
+    (``lower > 0``); the NLP holds ``d / scale``. With a free initial time (:class:`FreeInitialTime`) the windows
+    of consecutive phases may overlap, each phase's start and duration bounded apart (as GPOPS-II and Dymos
+    parametrise phases); with a fixed t0 it is ``FreeFinalTime(t0 + lower, t0 + upper, t0 + guess)``."""
+
+    _what = "duration"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not self.lower > 0:
+            raise ValueError(f"a duration's lower bound must be positive, got {self.lower}")
+
+
+@dataclass(frozen=True)
 class FreeParameter(Variable):
     """A static parameter the NLP optimises, within ``[lower, upper]``, from a constant ``guess``.
 
@@ -446,7 +461,7 @@ class OptimalControlProblem:
         ``x0`` and ``xf`` of ``mayer`` and of the constraints.
     t0 : float
         Initial time (fixed).
-    tf : float or :class:`FreeFinalTime`
+    tf : float, :class:`FreeFinalTime` or :class:`Duration` (``tf = t0 + d``)
     mayer : callable ``phi(x0, xf, t0, tf)`` returning a scalar, optional.
     lagrange : callable ``L(x, u, t)`` returning a scalar, optional. Without either the cost is 0: a
         feasibility problem, or a phase of a :class:`~ocpkit.MultiPhase` whose cost lies in other phases.
@@ -534,8 +549,11 @@ class OptimalControlProblem:
         if isinstance(tf, FreeInitialTime):
             raise TypeError("tf is a FreeInitialTime: give a FreeFinalTime")
         if isinstance(tf, FreeFinalTime):
-            if tf.lower <= t0_upper:
-                raise ValueError(f"final time lower bound {tf.lower} must exceed t0 (at most {t0_upper})")
+            if not isinstance(tf, Duration) and tf.lower <= t0_upper:
+                raise ValueError(
+                    f"final time lower bound {tf.lower} must exceed t0 (at most {t0_upper}); to let the windows of "
+                    "a free t0 and tf overlap, give the duration, tf=Duration(lower, upper, guess)"
+                )
             set_(self, "tf", tf)
         else:
             if not (isinstance(tf, (int, float, np.floating)) and math.isfinite(tf)):
@@ -757,6 +775,8 @@ class OptimalControlProblem:
 
     @property
     def tf_guess(self) -> float:
+        if isinstance(self.tf, Duration):
+            return self.t0 + self.tf.guess
         return self.tf.guess if isinstance(self.tf, FreeFinalTime) else self.tf
 
     @property

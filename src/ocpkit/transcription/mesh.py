@@ -23,6 +23,7 @@ import casadi as ca
 import numpy as np
 
 from .._deprecation import renamed
+from ..problem import Duration
 
 
 @dataclass(frozen=True)
@@ -121,8 +122,9 @@ class Mesh:
 class GlobalVariables:
     """The problem-wide NLP variables of a problem, last in every NLP vector and in every block's ``z``: the pinned
     parameters (NLP variables held by their bounds, so that new values need no rebuild), the free parameters (scaled),
-    then t0 and tf where free (divided by their ``scale``). The only code that maps them, numerically (:meth:`pack`,
-    :meth:`unpack`, :meth:`bounds`) and symbolically (:meth:`t0`, :meth:`tf`, :meth:`P`).
+    then t0 and tf where free (divided by their ``scale``; a :class:`~ocpkit.problem.Duration` holds ``tf - t0``
+    instead). The only code that maps them, numerically (:meth:`pack`, :meth:`unpack`, :meth:`bounds`) and
+    symbolically (:meth:`t0`, :meth:`tf`, :meth:`P`).
     """
 
     def __init__(self, problem):
@@ -130,6 +132,7 @@ class GlobalVariables:
         self.n_pinned = len(problem.parameters)
         self.n_free = len(problem.free_parameters)
         self.size = self.n_pinned + self.n_free + int(problem.free_initial_time) + int(problem.free_final_time)
+        self.duration = isinstance(problem.tf, Duration)
 
     @property
     def t0_position(self) -> int | None:
@@ -156,12 +159,13 @@ class GlobalVariables:
         if self.n_free:
             values = {v.name: v.guess_value for v in pr.free_parameters} | dict(parameters)
             parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
+        t0 = pr.t0 if t0 is None else t0
         if pr.free_initial_time:
-            parts.append([(pr.t0 if t0 is None else t0) / pr.initial_time.scale])
+            parts.append([t0 / pr.initial_time.scale])
         if pr.free_final_time:
             if tf is None:
                 raise ValueError("this problem has a free final time: give tf")
-            parts.append([tf / pr.tf.scale])
+            parts.append([((tf - t0) if self.duration else tf) / pr.tf.scale])
         return np.concatenate(parts)
 
     def unpack(self, z) -> dict:
@@ -170,13 +174,18 @@ class GlobalVariables:
         z = np.asarray(z, dtype=float).ravel()
         n_pinned, nf = self.n_pinned, self.n_free
         values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
-        t0, tf = self.t0_position, self.tf_position
+        i0, i_f = self.t0_position, self.tf_position
+        t0 = float(z[i0] * pr.initial_time.scale) if i0 is not None else pr.t0
         return {
             "pinned": dict(zip(pr.parameters, z[:n_pinned].tolist())),
             "parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())),
-            "t0": float(z[t0] * pr.initial_time.scale) if t0 is not None else pr.t0,
-            "tf": float(z[tf] * pr.tf.scale) if tf is not None else pr.tf,
+            "t0": t0,
+            "tf": float(self._final(t0, z[i_f])) if i_f is not None else pr.tf,
         }
+
+    def _final(self, t0, value):
+        """The final time from t0 and the scaled NLP value of tf (or of the duration)."""
+        return (t0 if self.duration else 0.0) + value * self.problem.tf.scale
 
     def bounds(self, pinned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Their scaled bounds, the pinned parameters held at ``pinned``."""
@@ -193,21 +202,16 @@ class GlobalVariables:
                 ub.append([spec.upper / spec.scale])
         return np.concatenate(lb), np.concatenate(ub)
 
-    def time(self, which: str, value):
-        """A free time (``"t0"`` or ``"tf"``) from its scaled NLP value, a number or a symbol."""
-        spec = self.problem.initial_time if which == "t0" else self.problem.tf
-        return value * spec.scale
-
     # -- symbols (a block's ``z`` ends with these variables; ``q`` holds its constants) -------------------------
     def t0(self, z):
         """The symbolic initial time: its NLP variable in ``z``'s tail when free, else the constant."""
         if self.t0_position is None:
             return self.problem.t0
-        return self.time("t0", z[z.numel() - self.size + self.t0_position])
+        return z[z.numel() - self.size + self.t0_position] * self.problem.initial_time.scale
 
     def tf(self, z, q, index: int):
         """The symbolic final time: its NLP variable in ``z``'s tail when free, else the block constant ``q[index]``."""
-        return self.time("tf", z[z.numel() - 1]) if self.tf_position is not None else q[index]
+        return self._final(self.t0(z), z[z.numel() - 1]) if self.tf_position is not None else q[index]
 
     def P(self, z):
         """The parameter vector ``P`` from ``z``'s tail: the pinned values, then the free parameters."""

@@ -530,28 +530,22 @@ class MultiPhase(session.SolveSession):
                 )
                 row += m
             if self._time_link_kind(link) == "constraint":
-                # t0_after - tf_before = 0, each a (scaled) variable where free, a constant where fixed
-                _, tfi = pb.time_indices()
-                t0i, _ = pa.time_indices()
-                ends = [(pb, "tf", tfi, ob), (pa, "t0", t0i, oa)]
-                z = ca.SX.sym("z", sum(e[2] is not None for e in ends))
-                q = ca.SX.sym("q", sum(e[2] is None for e in ends))
-                values, var, par, iz, iq = [], [], [], 0, 0
-                for ph, which, index, offset in ends:
-                    if index is None:
-                        values.append(q[iq])
-                        par.append(float(getattr(ph.problem, which)))
-                        iq += 1
-                    else:
-                        values.append(ph.global_variables.time(which, z[iz]))
-                        var.append(offset + index)
-                        iz += 1
+                # t0_after - tf_before = 0 on the two phases' boundary symbols (each time however its phase holds it)
+                zb, qb, _, _, _, tf_before, _ = pb._boundary_symbols()
+                za, qa, _, _, t0_after, _, _ = pa._boundary_symbols()
+                z, q = ca.vertcat(zb, za), ca.vertcat(qb, qa)
+                var, par = [], []
+                for ph, offset in ((pb, ob), (pa, oa)):
+                    first, last, _ = ph._boundary_indices()
+                    var.append(offset + np.concatenate([first, last, ph.global_indices()]))
+                    par.extend(ph.global_variables.constants)
+                values = [tf_before, t0_after]
                 scale = max(abs(float(pb.problem.tf_guess)), 1.0)
                 blocks.append(
                     Block(
                         f"link_time_{link.before}_{link.after}",
                         ca.Function("link_time", [z, q], [(values[1] - values[0]) / scale]),
-                        np.array(var, dtype=np.int64).reshape(-1, 1),
+                        np.concatenate(var).astype(np.int64).reshape(-1, 1),
                         np.array(par, dtype=float).reshape(-1, 1),
                         np.array([[row]]),
                     )
