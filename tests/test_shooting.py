@@ -292,3 +292,34 @@ def test_finite_difference_step_follows_the_noise_of_the_shooting_function(osc_s
     assert Shooting(pr, law, fd_step=1e-6, system=compiled).fd_step == 1e-6
     with pytest.raises(ValueError, match="fd_step"):
         Shooting(pr, law, fd_step=0.0, system=compiled)
+
+
+def test_one_failure_policy_for_integration_failures():
+    """An integration that fails at the last iterate (here every integration: a budget of one step) is a run that
+    failed: raised as a SolverError by default, returned with converged=False and the reason with
+    raise_on_failure=False (it used to raise either way)."""
+    pr = double_integrator(lam=1.0)
+    starved = Shooting(pr, control_law(pr, "box"), max_steps=1)
+    z0 = np.array([1.0, 1.0])
+    with pytest.raises(SolverError):
+        starved.solve(z0)
+    r = starved.solve(z0, raise_on_failure=False)
+    assert not r.converged and r.integration is None and "the integration at the last iterate failed" in r.message
+    assert np.isnan(r.summary()["steps"]) and np.isnan(r.objective)
+    with pytest.raises(ValueError, match="this run has no trajectory"):
+        r.trajectory.state(0.0)
+
+
+def test_solver_options_belong_to_the_solver(di_l1):
+    """MINPACK's xtol and factor are MinpackHybrid's; given to solve() with another solver they are refused (they
+    used to be ignored silently), with MINPACK deprecated."""
+    from ocpkit.shooting import MinpackHybrid
+
+    z0 = np.array([1.0, 1.0])
+    good = di_l1.solve(z0, solver=MinpackHybrid(xtol=1e-12, factor=1.0))
+    assert good.converged
+    with pytest.raises(TypeError, match="xtol and factor are MINPACK's options"):
+        di_l1.solve(z0, solver="newton", xtol=1e-12)
+    with pytest.warns(DeprecationWarning, match=r"Shooting.solve\(xtol=..., factor=...\) is deprecated"):
+        old = di_l1.solve(z0, xtol=1e-12)
+    assert old.z == pytest.approx(good.z, rel=1e-8)

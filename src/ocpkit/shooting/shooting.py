@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
@@ -89,6 +90,8 @@ class ShootingResult:
     @property
     def trajectory(self) -> ShootingTrajectory:
         """The solution as functions of time (state, control, costates; re-integration, differences)."""
+        if self.integration is None:
+            raise ValueError(f"this run has no trajectory: {self.message}")
         if "_trajectory" not in self.__dict__:
             self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system, self.objective)
         return self.__dict__["_trajectory"]
@@ -97,6 +100,11 @@ class ShootingResult:
         """The result as a table row; the switching treatment under ``"detection"``, the column of Martinon &
         Gergaud's tables (and of ``data/paper/switching_detection.csv``)."""
         tr = self.integration
+        if tr is None:  # the integration at the last iterate failed
+            nan = float("nan")
+            tr = SimpleNamespace(
+                switchings=nan, accepted=nan, rejected=nan, steps=nan, rejected_ratio=nan, hamiltonian_drift=nan
+            )
         return {
             "detection": self.switching,
             "jacobian": self.jacobian,
@@ -307,11 +315,11 @@ class Shooting:
         *,
         solver="hybr",
         stol: float = 1e-8,
-        xtol: float = 1e-14,
         maxfev: int = 400,
-        factor: float = 100.0,
         raise_on_failure: bool = True,
         record: bool = True,
+        xtol: float | None = None,
+        factor: float | None = None,
     ) -> ShootingResult:
         """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with |S| and counts) on failure.
 
@@ -319,17 +327,30 @@ class Shooting:
         status (which stops on ``xtol`` and can stall at a residual of 1e-16 or
         succeed at one of 1e-3). With ``raise_on_failure=False`` a non-converged run
         is returned with ``converged=False`` (for tables that report failures, as the
-        source does). ``solver``: ``"hybr"`` (MINPACK; ``factor`` is its initial
-        trust-region bound ``factor * |diag * z0|``, ``xtol`` its step tolerance),
-        ``"newton"`` (damped Newton; a Jacobian every iteration, until |S| stops
-        decreasing below ``stol`` or ``maxfev`` evaluations), or a root-solver object
-        (:mod:`ocpkit.shooting.strategies`). With the variational
+        source does), also when the integration at the last iterate fails (then its
+        ``integration`` is None and ``message`` says why). ``solver``: ``"hybr"``
+        (MINPACK with its defaults), ``"newton"`` (damped Newton; a Jacobian every
+        iteration, until |S| stops decreasing below ``stol`` or ``maxfev`` evaluations),
+        or a root-solver object holding its own options (:mod:`ocpkit.shooting.strategies`:
+        ``MinpackHybrid(xtol=..., factor=...)``). ``xtol`` and ``factor`` here are
+        deprecated (MINPACK's options, which other solvers ignored). With the variational
         Jacobian the first notes only which switching mode places the switchings;
         with ``switching="none"`` the variational equations carry no jump terms.
         """
         if not stol > 0:
             raise ValueError(f"stol must be positive, got {stol}")
-        method = MinpackHybrid(xtol=xtol, factor=factor) if solver == "hybr" else solver_strategy(solver)
+        if xtol is not None or factor is not None:
+            if solver != "hybr":
+                raise TypeError(
+                    "xtol and factor are MINPACK's options, which this solver does not take: give "
+                    "solver=MinpackHybrid(xtol=..., factor=...) for MINPACK"
+                )
+            renamed("Shooting.solve(xtol=..., factor=...)", "solver=MinpackHybrid(xtol=..., factor=...)")
+            defaults = MinpackHybrid()
+            solver = MinpackHybrid(
+                xtol=defaults.xtol if xtol is None else xtol, factor=defaults.factor if factor is None else factor
+            )
+        method = solver_strategy(solver)
         P = self._params(parameters)
         z0 = np.asarray(z0, dtype=float).ravel()
         if z0.size != self.nz:
@@ -382,8 +403,14 @@ class Shooting:
             z, message = z0, str(exc)
         cpu = time.process_time() - t
         counts = dict(self.counts)
-        final = self.integrate(z, P, record=record)
-        S = self.residual(z, P, final)
+        try:
+            final = self.integrate(z, P, record=record)
+            S = self.residual(z, P, final)
+        except (SolverError, ValueError, RuntimeError) as exc:  # the one failure policy: raise, or report it
+            if raise_on_failure:
+                raise
+            final, S = None, np.full(self.nz, np.nan)
+            message = f"{message}; the integration at the last iterate failed: {exc}"
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
         p0, tf = self._split(z)
@@ -399,7 +426,7 @@ class Shooting:
             n_jacobian=counts["jac"],
             n_integrations=counts["integrations"],
             cpu_s=cpu,
-            objective=self._objective(final, tf, P),
+            objective=self._objective(final, tf, P) if final is not None else float("nan"),
             switching=self.switching,
             jacobian=self.jacobian,
             parameters=P,
