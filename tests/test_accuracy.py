@@ -63,7 +63,7 @@ def test_the_estimate_follows_the_true_error_on_the_flat_moon():
 
 def test_a_coarse_solve_warns_naming_the_interval():
     problem = flat_moon_ascent()
-    with pytest.warns(AccuracyWarning, match=r"HLGL\(segments=1\): estimated relative state error .* on interval 0"):
+    with pytest.warns(AccuracyWarning, match=r"HLGL\(intervals=1\): estimated relative state error .* on interval 0"):
         HLGL(problem, 1).solve(error_threshold=1e-10)
     with warnings.catch_warnings():
         warnings.simplefilter("error", AccuracyWarning)
@@ -90,7 +90,7 @@ def test_refinement_meets_the_tolerance_and_puts_points_in_the_boundary_layers(m
     # (measured: Radau 110 points 5e-7 against 2.8e-2 uniform; HLGL 28 segments 9.5e-7 against 1.8e-2)
     final = sol.raw["transcription"]
     if isinstance(final, HLGL):
-        uniform = HLGL(hyper_sensitive(), final.segments)
+        uniform = HLGL(hyper_sensitive(), final.intervals)
     else:
         uniform = Radau(hyper_sensitive(), 4, final.n_collocation_points // 4)
     assert uniform.solve(error_threshold=None).error_estimate > 100 * sol.error_estimate
@@ -115,8 +115,8 @@ def test_multirate_refines_its_coarse_mesh():
     tr = MultiRateHLGL(flat_moon_ascent(), 2, ratio=2, fast=["vx", "vy"])
     sol = tr.solve(mesh_tolerance=1e-8)
     assert sol.error_estimate <= 1e-8
-    assert sol.interval_errors.size == 2 * sol.raw["transcription"].segments
-    assert sol.raw["transcription"].segments > 2
+    assert sol.interval_errors.size == 2 * sol.raw["transcription"].intervals
+    assert sol.raw["transcription"].intervals > 2
 
 
 def minimum_time_double_integrator():

@@ -19,7 +19,7 @@ def bryson_denham_exact(t):
 
 
 SCHEMES = {
-    "hlgl": lambda pr: HLGL(pr, segments=30),
+    "hlgl": lambda pr: HLGL(pr, intervals=30),
     "radau": lambda pr: Radau(pr, nodes=4, intervals=30),
     "multirate": lambda pr: MultiRateHLGL(pr, 15, ratio=2, fast=["v"]),
 }

@@ -67,3 +67,16 @@ def test_block_and_mesh_parameters_are_now_constants():
         assert block.parameters is block.constants
     with pytest.warns(DeprecationWarning, match="Mesh.parameters is deprecated; use Mesh.block_constants"):
         assert (tr.mesh.parameters(tr.problem) == tr.mesh.block_constants(tr.problem)).all()
+
+
+def test_segments_are_now_intervals():
+    """One word for a mesh's pieces, as Radau's: HLGL(problem, intervals=...), MultiRateHLGL(..., intervals=...)."""
+    problem = double_integrator()
+    with pytest.warns(DeprecationWarning, match=r"HLGL\(segments=...\) is deprecated; use intervals=..."):
+        old = HLGL(problem, segments=4)
+    assert old.intervals == 4 and old.label == "HLGL(intervals=4)"
+    with pytest.warns(DeprecationWarning, match="HLGL.segments is deprecated; use HLGL.intervals"):
+        assert old.segments == 4
+    with pytest.warns(DeprecationWarning, match=r"MultiRateHLGL\(segments=...\) is deprecated"):
+        multi = MultiRateHLGL(problem, segments=3, ratio=2, fast=["v"])
+    assert multi.intervals == 3 and multi.label.startswith("MultiRateHLGL(intervals=3, ratio=2")

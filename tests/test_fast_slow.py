@@ -57,7 +57,7 @@ def test_designs_build_the_transcriptions_they_name():
     pr = attitude_ascent()
     assert isinstance(transcription(pr, STANDARD, 40), HLGL)
     tr = transcription(pr, "Galerkin, positions slow", 40, 4)
-    assert isinstance(tr, MultiRateHLGL) and tr.segments == 10 and tr.ratio == 4
+    assert isinstance(tr, MultiRateHLGL) and tr.intervals == 10 and tr.ratio == 4
     assert [pr.state_names[i] for i in tr.slow] == ["X", "Y"]
     assert tr.control_mesh == "fine" and tr.coupling == "galerkin"
     # positions slow: (1 - 1/M)/4 of the standard's 16 variables per fine segment are saved

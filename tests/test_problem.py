@@ -114,5 +114,5 @@ def test_mesh_errors_name_the_argument():
     pr = rest_to_rest()
     with pytest.raises(ValueError, match="intervals must be at least 1"):
         Radau(pr, 4, intervals=0)
-    with pytest.raises(ValueError, match="segments must be at least 1"):
+    with pytest.raises(ValueError, match="intervals must be at least 1"):
         HLGL(pr, 0)

@@ -37,7 +37,7 @@ SCRIPT = textwrap.dedent(
         "rest_to_rest", [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
         [Control("u", -1.0, 1.0)], lambda x, u, t: ca.vertcat(x[1], u[0]),
         tf=FreeFinalTime(0.5, 5.0, 1.0), mayer=lambda x0, xf, t0, tf: tf)
-    hlgl = HLGL(problem, segments=20).solve()
+    hlgl = HLGL(problem, intervals=20).solve()
     radau = Radau(problem, nodes=4, intervals=10).solve()
     print("hlgl", hlgl.tf, "radau", radau.tf)
     assert abs(hlgl.tf - 2.0) < 1e-2 and abs(radau.tf - 2.0) < 1e-2

@@ -136,7 +136,7 @@ class Transcription(session.SolveSession, ABC):
     @property
     @abstractmethod
     def label(self) -> str:
-        """Short description, e.g. ``HLGL(segments=20)``."""
+        """Short description, e.g. ``HLGL(intervals=20)``."""
 
     @abstractmethod
     def _groups(self) -> list[VariableGroup]:

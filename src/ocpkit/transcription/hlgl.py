@@ -24,6 +24,7 @@ import casadi as ca
 import numpy as np
 
 from .. import nodes
+from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
 from ..problem import OptimalControlProblem, unwrap_periodic
@@ -88,8 +89,9 @@ class HLGL(Transcription):
     Parameters
     ----------
     problem : OptimalControlProblem
-    segments : int
-        Number of equal segments (or give ``mesh``).
+    intervals : int
+        Number of equal mesh intervals, Herman & Conway's segments (or give ``mesh``); ``segments`` is its
+        deprecated name.
     mesh : array of positive fractions, optional
         Segment lengths as fractions of ``tf - t0`` (normalised to sum to one).
 
@@ -98,23 +100,32 @@ class HLGL(Transcription):
     if it is free. Everything is scaled by the problem's scales.
     """
 
-    def __init__(self, problem: OptimalControlProblem, segments: int | None = None, *, mesh=None):
+    def __init__(
+        self, problem: OptimalControlProblem, intervals: int | None = None, *, mesh=None, segments: int | None = None
+    ):
         super().__init__(problem)
-        self.mesh = Mesh.from_spec(segments, mesh)
-        self.segments = self.mesh.n
+        intervals = renamed_argument("segments", "intervals", segments, intervals, None, "HLGL")
+        self.mesh = Mesh.from_spec(intervals, mesh)
+        self.intervals = self.mesh.n
+
+    @property
+    def segments(self) -> int:
+        """Deprecated name of :attr:`intervals`."""
+        renamed("HLGL.segments", "HLGL.intervals")
+        return self.intervals
 
     # -- sizes and layout --------------------------------------------------------------
     @property
     def label(self) -> str:
-        return f"HLGL(segments={self.segments})"
+        return f"HLGL(intervals={self.intervals})"
 
     @property
     def n_state_nodes(self) -> int:
-        return 2 * self.segments + 1
+        return 2 * self.intervals + 1
 
     @property
     def n_control_points(self) -> int:
-        return 4 * self.segments + 1
+        return 4 * self.intervals + 1
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
@@ -125,7 +136,7 @@ class HLGL(Transcription):
 
     @property
     def n_defects(self) -> int:
-        return 2 * self.problem.nx * self.segments
+        return 2 * self.problem.nx * self.intervals
 
     def state_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2n+1 state nodes."""
@@ -152,7 +163,7 @@ class HLGL(Transcription):
 
     def _segment_tables(self):
         pr = self.problem
-        n = self.segments
+        n = self.intervals
         k = np.arange(n)
         (Xi, Ui), _ = self._index_tables()
         rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
@@ -163,7 +174,7 @@ class HLGL(Transcription):
     def _blocks(self) -> list[Block]:
         pr = self.problem
         nx = pr.nx
-        n = self.segments
+        n = self.intervals
         variables, params = self._segment_tables()
         z, p, x, u, t, h = self._segment_symbols()
         P = self.global_variables.P(z)
@@ -219,7 +230,7 @@ class HLGL(Transcription):
         """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""
         w = self.pack(X, U, tf)
         g = np.asarray(self.nlp.constraint_function(w)).ravel()[: self.n_defects]
-        n, nx = self.segments, self.problem.nx
+        n, nx = self.intervals, self.problem.nx
         return (g.reshape(n, 2, nx) * self.problem.state_scale).transpose(1, 2, 0)
 
     # -- solution ------------------------------------------------------------------------
@@ -233,7 +244,7 @@ class HLGL(Transcription):
         breaks = self._times(tf, self.mesh.breaks, t0)
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
-        Useg = unwrap_periodic(segment_points(U, self.segments), pr.controls, axis=0)
+        Useg = unwrap_periodic(segment_points(U, self.intervals), pr.controls, axis=0)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
         return dict(

@@ -33,7 +33,7 @@ class Mesh:
     fractions: np.ndarray
 
     @classmethod
-    def from_spec(cls, count: int | None, fractions=None, *, what: str = "segments") -> Mesh:
+    def from_spec(cls, count: int | None, fractions=None, *, what: str = "intervals") -> Mesh:
         """``count`` equal segments, or the given ``fractions`` (normalised to sum to one).
 
         ``what`` names the count in errors (``segments``, ``intervals``).

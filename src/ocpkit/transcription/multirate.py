@@ -146,8 +146,9 @@ class MultiRateHLGL(Transcription):
     Parameters
     ----------
     problem : OptimalControlProblem
-    segments : int
-        Number of coarse segments (or give ``mesh``).
+    intervals : int
+        Number of coarse mesh intervals, the paper's coarse segments (or give ``mesh``); ``segments`` is its
+        deprecated name.
     ratio : int
         Fine segments per coarse segment, ``M >= 1``.
     slow, fast : sequences of state names
@@ -167,7 +168,7 @@ class MultiRateHLGL(Transcription):
     def __init__(
         self,
         problem: OptimalControlProblem,
-        segments: int | None = None,
+        intervals: int | None = None,
         *,
         ratio: int,
         slow: Sequence[str] | None = None,
@@ -176,8 +177,10 @@ class MultiRateHLGL(Transcription):
         control_mesh: str = "coarse",
         mesh=None,
         fast_interpolation: str | None = None,
+        segments: int | None = None,
     ):
         super().__init__(problem)
+        intervals = renamed_argument("segments", "intervals", segments, intervals, None, "MultiRateHLGL")
         coupling = renamed_argument(
             "fast_interpolation", "coupling", fast_interpolation, coupling, "coarse", "MultiRateHLGL"
         )
@@ -199,8 +202,14 @@ class MultiRateHLGL(Transcription):
         self.coupling = coupling
         self.control_mesh = control_mesh
         self.slow, self.fast = state_partition(problem, slow, fast)
-        self.mesh = Mesh.from_spec(segments, mesh)
-        self.segments = self.mesh.n
+        self.mesh = Mesh.from_spec(intervals, mesh)
+        self.intervals = self.mesh.n
+
+    @property
+    def segments(self) -> int:
+        """Deprecated name of :attr:`intervals`."""
+        renamed("MultiRateHLGL.segments", "MultiRateHLGL.intervals")
+        return self.intervals
 
     @property
     def fast_interpolation(self) -> str:
@@ -215,15 +224,15 @@ class MultiRateHLGL(Transcription):
         fast = ",".join(names[i] for i in self.fast)
         extra = "" if self.coupling == "coarse" else f", coupling={self.coupling}"
         extra += ", controls on the fine mesh" if self.control_mesh == "fine" else ""
-        return f"MultiRateHLGL(segments={self.segments}, ratio={self.ratio}, fast=[{fast}]{extra})"
+        return f"MultiRateHLGL(intervals={self.intervals}, ratio={self.ratio}, fast=[{fast}]{extra})"
 
     @property
     def n_coarse_nodes(self) -> int:
-        return 2 * self.segments + 1
+        return 2 * self.intervals + 1
 
     @property
     def n_fine_nodes(self) -> int:
-        return 2 * self.ratio * self.segments + 1
+        return 2 * self.ratio * self.intervals + 1
 
     @property
     def control_quartics(self) -> int:
@@ -232,7 +241,7 @@ class MultiRateHLGL(Transcription):
 
     @property
     def n_control_points(self) -> int:
-        return 4 * self.control_quartics * self.segments + 1
+        return 4 * self.control_quartics * self.intervals + 1
 
     def _groups(self) -> list[VariableGroup]:
         pr = self.problem
@@ -244,7 +253,7 @@ class MultiRateHLGL(Transcription):
 
     @property
     def n_defects(self) -> int:
-        return 2 * self.segments * (len(self.slow) + self.ratio * len(self.fast))
+        return 2 * self.intervals * (len(self.slow) + self.ratio * len(self.fast))
 
     def coarse_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2N+1 coarse (slow-state) nodes."""
@@ -461,7 +470,7 @@ class MultiRateHLGL(Transcription):
 
     def _segment_tables(self):
         pr = self.problem
-        N, M = self.segments, self.ratio
+        N, M = self.intervals, self.ratio
         k = np.arange(N)
         X, Z, U, _ = self._indices()
         rows = [X[:, 2 * k + j] for j in range(3)]
@@ -476,7 +485,7 @@ class MultiRateHLGL(Transcription):
         w, p, defects, quad = self._segment_expressions()
         variables, params = self._segment_tables()
         per = defects.shape[0]
-        rows = np.arange(per * self.segments).reshape(self.segments, per).T
+        rows = np.arange(per * self.intervals).reshape(self.intervals, per).T
         blocks = [Block("multirate_defects", ca.Function("mr_defects", [w, p], [defects]), variables, params, rows)]
         if quad is not None:
             fun = ca.Function("mr_lagrange", [w, p], [quad / pr.objective_scale])
@@ -504,18 +513,18 @@ class MultiRateHLGL(Transcription):
     def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
         """All defects (physical units), in NLP row order, at given parameter values."""
         g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()[: self.n_defects]
-        per = g.size // self.segments
+        per = g.size // self.intervals
         scale = np.concatenate(
             [self.problem.state_scale[self.slow]] * (2 if self.slow else 0)
             + [self.problem.state_scale[self.fast]] * (2 * self.ratio if self.fast else 0)
         )
-        return (g.reshape(self.segments, per) * scale).T
+        return (g.reshape(self.intervals, per) * scale).T
 
     # -- solution ---------------------------------------------------------------------
     def _package(self, result: NLPResult) -> dict:
         pr, t0, tf = self._result_problem(result)
         Xs, Zf, U, _ = self.unpack(result.w)
-        N, M = self.segments, self.ratio
+        N, M = self.intervals, self.ratio
         t_c = self._times(tf, self.coarse_node_fractions(), t0)
         t_f = self._times(tf, self.fine_node_fractions(), t0)
         t_u = self._times(tf, self.control_point_fractions(), t0)
@@ -575,12 +584,12 @@ class MultiRateHLGL(Transcription):
         """h-refinement of the coarse mesh: ``errors`` (and ``switches``) are per fine segment (the solution's
         estimate intervals); a coarse segment whose worst fine segment exceeds ``tolerance`` refines as
         :meth:`HLGL.refine` does."""
-        coarse = np.asarray(errors, dtype=float).reshape(self.segments, self.ratio).max(axis=1)
+        coarse = np.asarray(errors, dtype=float).reshape(self.intervals, self.ratio).max(axis=1)
         coarse_switches = None
         if switches is not None:
             coarse_switches = [
                 np.concatenate([(j + np.asarray(switches[k * self.ratio + j])) / self.ratio for j in range(self.ratio)])
-                for k in range(self.segments)
+                for k in range(self.intervals)
             ]
         return MultiRateHLGL(
             self.problem,
