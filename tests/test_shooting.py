@@ -189,16 +189,16 @@ def test_bad_shooting_input(osc_system):
         compiled.integrate(np.zeros(5), 0.0, 1.0, atol=-1.0)
     with pytest.raises(ValueError, match="switching must be one of"):
         compiled.integrate(np.zeros(5), 0.0, 1.0, switching="fast")
-    free_start = OptimalControlProblem(
+    interval_start = OptimalControlProblem(
         "free",
-        [State("x", final=1.0)],
+        [State("x", initial=(0.0, 0.5), final=1.0)],
         [Control("u", -1, 1)],
         lambda x, u, t: u[0],
         tf=1.0,
         lagrange=lambda x, u, t: ca.fabs(u[0]),
     )
-    with pytest.raises(ValueError, match="fixed initial value"):
-        Shooting(free_start, control_law(free_start, "box"))
+    with pytest.raises(ValueError, match="fixed or free initial states, not the interval of 'x'"):
+        Shooting(interval_start, control_law(interval_start, "box"))
 
 
 def test_compiled_library_is_cached(osc_system):
@@ -323,3 +323,50 @@ def test_solver_options_belong_to_the_solver(di_l1):
     with pytest.warns(DeprecationWarning, match=r"Shooting.solve\(xtol=..., factor=...\) is deprecated"):
         old = di_l1.solve(z0, xtol=1e-12)
     assert old.z == pytest.approx(good.z, rel=1e-8)
+
+
+def test_shooting_with_a_free_parameter():
+    """x'' = k u, min int u^2/2 + (k - 2)^2 over u and the static parameter k: J(k) = 6 / k^2 + (k - 2)^2, least
+    where 12 / k^3 = 2 (k - 2). Shooting treats k as a state of zero dynamics, free at both ends (its costate
+    starts at 0 and ends at dphi/dk: the transversality conditions), with both Jacobians; the law derived for the
+    problem as stated is derived again for it."""
+    from scipy.optimize import brentq
+
+    from ocpkit import FreeParameter
+
+    pr = OptimalControlProblem(
+        "gain",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u")],
+        lambda x, u, t, p: [x["v"], p["k"] * u["u"]],
+        tf=1.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+        mayer=lambda x0, xf, t0, tf, p: (p["k"] - 2.0) ** 2,
+        free_parameters=[FreeParameter("k", 0.5, 4.0, guess=1.0)],
+    )
+    k = brentq(lambda k: 12 / k**3 - 2 * (k - 2), 0.5, 4.0)
+    for jacobian in ("variational", "fd"):
+        s = Shooting(pr, control_law(pr, "box", regularized=True), jacobian=jacobian)
+        assert s.problem.state_names == ["x", "v", "k"] and s.nz == 3
+        r = s.solve(np.array([-12.0, -6.0, 2.0]))
+        assert r.converged and r.free_parameters["k"] == pytest.approx(k, rel=1e-10)
+        assert r.objective == pytest.approx(6 / k**2 + (k - 2) ** 2, rel=1e-10)
+    with pytest.raises(ValueError, match=r"derive the law for problem.parameters_as_states\(\)"):
+        Shooting(pr, control_law(pr, lambda x, p: -p["v"]))
+
+
+def test_shooting_with_a_free_initial_state():
+    """The double integrator to (1, 0) at rest from v(0) = 0 and x(0) free: no control at all, x(0) = 1, J = 0;
+    a Mayer term on a free initial state is refused (its costate would not start at 0)."""
+    pr = OptimalControlProblem(
+        "free_start",
+        [State("x", final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u")],
+        lambda x, u, t: [x["v"], u["u"]],
+        tf=1.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+    )
+    r = Shooting(pr, control_law(pr, "box", regularized=True)).solve(np.array([0.3, 0.5]))
+    assert r.converged and r.z[0] == pytest.approx(1.0, abs=1e-12) and abs(r.objective) < 1e-20
+    with pytest.raises(ValueError, match="a Mayer term independent of the free initial states"):
+        Shooting(pr.replace(mayer=lambda x0, xf, t0, tf: x0["x"] ** 2), control_law(pr, "box", regularized=True))

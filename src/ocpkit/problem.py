@@ -681,6 +681,47 @@ class OptimalControlProblem:
     def free_parameter_scaling(self) -> AffineScaling:
         return AffineScaling.of(self.free_parameters)
 
+    def parameters_as_states(self) -> OptimalControlProblem:
+        """This problem with each free parameter a state of zero dynamics, free at both ends (its bounds, scale and
+        guess kept), after the problem's states: the statement of the indirect method, in which the parameter's
+        costate obeys ``dlambda_k/dt = -dH/dk`` with ``lambda_k(t0) = 0`` and ``lambda_k(tf) = dphi/dk`` (the
+        transversality conditions of a free static parameter). Without free parameters, this problem."""
+        if not self.free_parameters:
+            return self
+        if self.path_constraints or self.boundary_constraints:
+            raise ValueError(f"{self.name!r}: free parameters become states only in a problem without constraints")
+        nx, nk = self.nx, len(self.free_parameters)
+        fns = self.functions
+
+        def P(x, p):
+            return ca.vertcat(p.column, x[nx:])
+
+        def dynamics(x, u, t, p):
+            return ca.vertcat(fns.f(x[:nx], u, t, P(x, p)), ca.DM.zeros(nk))
+
+        lagrange = None if fns.L is None else (lambda x, u, t, p: fns.L(x[:nx], u, t, P(x, p)))
+        mayer = None if fns.phi is None else (lambda x0, xf, t0, tf, p: fns.phi(x0[:nx], xf[:nx], t0, tf, P(xf, p)))
+        states = [
+            *self.states,
+            *(
+                State(v.name, v.lower, v.upper, v.scale, v.shift, v.guess_value, v.unit, v.description)
+                for v in self.free_parameters
+            ),
+        ]
+        return OptimalControlProblem(
+            f"{self.name}_parameters_as_states",
+            states,
+            self.controls,
+            dynamics,
+            t0=self.initial_time or self.t0,
+            tf=self.tf,
+            mayer=mayer,
+            lagrange=lagrange,
+            objective_scale=self.objective_scale,
+            description=self.description,
+            parameters=self.parameters,
+        )
+
     def fix_parameters(self, values: Mapping[str, float]) -> OptimalControlProblem:
         """This problem with its free parameters fixed at ``values`` (every one named), sharing its functions."""
         names = [v.name for v in self.free_parameters]

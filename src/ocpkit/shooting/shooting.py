@@ -45,7 +45,7 @@ from .._deprecation import renamed, renamed_argument
 from ..errors import SolverError
 from ..problem import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
-from .hamiltonian import ControlLaw, HamiltonianSystem
+from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
 from .trajectory import ShootingTrajectory
 
@@ -54,7 +54,8 @@ from .trajectory import ShootingTrajectory
 class ShootingResult:
     """A shooting run: unknowns, residual, effort, the final integration and its trajectory.
 
-    ``z`` the unknowns (``p0`` the initial costates, ``tf`` the final time),
+    ``z`` the unknowns (per state its initial costate, or its initial value where free; ``tf`` the final time),
+    ``p0`` the initial costates (0 for a free initial state), ``free_parameters`` the solved free parameters,
     ``residual`` and ``norm`` S(z) and |S|, ``converged`` whether ``norm <= stol``,
     ``message`` the solver's own, ``n_shooting`` / ``n_jacobian`` / ``n_integrations``
     the effort, ``cpu_s`` the process time of the solve, ``objective`` the cost of the
@@ -80,6 +81,8 @@ class ShootingResult:
     parameters: np.ndarray
     integration: Integration = field(repr=False)
     system: HamiltonianSystem = field(repr=False, default=None)
+    #: the solved free parameters by name (states of the shooting's problem, :meth:`parameters_as_states`)
+    free_parameters: dict = field(default_factory=dict)
 
     @property
     def detection(self) -> str:
@@ -130,7 +133,10 @@ class Shooting:
     Parameters
     ----------
     problem : OptimalControlProblem
-        Autonomous, every initial state fixed, final states fixed or free.
+        Autonomous, initial and final states fixed or free (a free initial state is an unknown whose costate
+        starts at 0). Free parameters become states of zero dynamics free at both ends
+        (:meth:`~ocpkit.OptimalControlProblem.parameters_as_states`: :attr:`problem` is that statement, and a
+        derived box law is derived again for it); the solved ones are the result's ``free_parameters``.
     law : ControlLaw
         ``control_law(problem, "box" | "ball", ...)`` (derived) or ``control_law(problem, u_star)``
         (the user's minimiser of H: one smooth mode, for which ``switching`` changes nothing).
@@ -177,6 +183,17 @@ class Shooting:
         self._jacobian = jacobian_strategy(jacobian)
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"tolerances must be positive, got rtol={rtol}, atol={atol}")
+        self.statement = problem
+        if problem.free_parameters:
+            problem = problem.parameters_as_states()
+            if law.hamiltonian is not None and law.hamiltonian.x.numel() != problem.nx:
+                if law.control_set != "box":
+                    raise ValueError(
+                        f"{problem.name!r} has free parameters, which shooting treats as states (their costates "
+                        "start and end at their transversality conditions): derive the law for "
+                        "problem.parameters_as_states()"
+                    )
+                law = control_law(problem, "box", regularized=law.regularized)
         self.problem, self.law = problem, law
         self.switching = switching
         self.jacobian = jacobian if isinstance(jacobian, str) else getattr(jacobian, "name", type(jacobian).__name__)
@@ -194,11 +211,14 @@ class Shooting:
                 "solve the problem with a direct transcription (HLGL, Radau)"
             )
         for s in problem.states:
-            if s.fixed_initial is None:
-                raise ValueError(f"shooting needs a fixed initial value for state {s.name!r}, got {s.initial!r}")
+            if s.initial is not None and s.fixed_initial is None:
+                raise ValueError(f"shooting supports fixed or free initial states, not the interval of {s.name!r}")
             if s.final is not None and s.fixed_final is None:
                 raise ValueError(f"shooting supports fixed or free final states, not the interval of {s.name!r}")
-        self.x0 = np.array([s.fixed_initial for s in problem.states])
+        # a free initial state is an unknown of the shooting, its costate starting at 0 (transversality); the
+        # unknowns z: per state, its initial costate (fixed initial value) or its initial value (free), then tf
+        self.free_initial = np.array([s.initial is None for s in problem.states])
+        self.x0 = np.array([0.0 if s.initial is None else s.fixed_initial for s in problem.states])
         self.fixed_final = [s.fixed_final is not None for s in problem.states]
         self.free_tf = isinstance(problem.tf, FreeFinalTime)
         self.nz = nx + int(self.free_tf)
@@ -212,7 +232,11 @@ class Shooting:
         mode = ca.SX.sym("mode")
         P = ca.SX.sym("P", len(problem.parameters))
         xf, pf = yf[:nx], yf[nx : 2 * nx]
-        phi = problem.phi(ca.DM(self.x0), xf, problem.t0, tf, P) if problem.phi is not None else ca.SX(0)
+        x0 = ca.SX.sym("x0", nx)
+        phi = problem.phi(x0, xf, problem.t0, tf, P) if problem.phi is not None else ca.SX(0)
+        if np.any(self.free_initial) and ca.depends_on(phi, x0[np.flatnonzero(self.free_initial).tolist()]):
+            raise ValueError(f"{problem.name!r}: shooting needs a Mayer term independent of the free initial states")
+        phi = ca.substitute(phi, x0, ca.DM(self.x0))
         dphi = ca.gradient(phi, xf)
         rows = []
         for i, s in enumerate(problem.states):
@@ -227,7 +251,10 @@ class Shooting:
     def _split(self, z):
         z = np.asarray(z, dtype=float).ravel()
         if z.size != self.nz:
-            raise ValueError(f"z must have {self.nz} entries (initial costates{' and tf' if self.free_tf else ''})")
+            raise ValueError(
+                f"z must have {self.nz} entries (per state its initial costate, or its initial value where it is "
+                f"free{', then tf' if self.free_tf else ''})"
+            )
         tf = z[-1] if self.free_tf else float(self.problem.tf)
         if not tf > self.problem.t0:
             raise ValueError(f"final time {tf} must exceed t0 = {self.problem.t0}")
@@ -240,13 +267,15 @@ class Shooting:
         (not those of the problem the shared compiled system was built from).
         """
         P = self._params(parameters)
-        p0, tf = self._split(z)
+        unknowns, tf = self._split(z)
         nx, sysm = self.problem.nx, self.compiled.system
-        y0 = np.concatenate([self.x0, p0, [0.0]])
+        x0, p0 = self._initial(unknowns)
+        y0 = np.concatenate([x0, p0, [0.0]])
         Psi0 = None
         if variational:
             Psi0 = np.zeros((sysm.n, nx))
-            Psi0[nx : 2 * nx] = np.eye(nx)
+            rows = np.where(self.free_initial, np.arange(nx), nx + np.arange(nx))
+            Psi0[rows, np.arange(nx)] = 1.0
         self.counts["integrations"] += 1
         res = self.compiled.integrate(
             y0,
@@ -270,6 +299,12 @@ class Shooting:
                 unit="steps",
             )
         return res
+
+    def _initial(self, unknowns) -> tuple[np.ndarray, np.ndarray]:
+        """The initial state and costates from the unknowns (initial costates, or initial values of free states)."""
+        x0 = np.where(self.free_initial, unknowns, self.x0)
+        p0 = np.where(self.free_initial, 0.0, unknowns)
+        return x0, p0
 
     def _params(self, parameters):
         return self.problem.parameter_vector(parameters)
@@ -413,7 +448,8 @@ class Shooting:
             message = f"{message}; the integration at the last iterate failed: {exc}"
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
-        p0, tf = self._split(z)
+        unknowns, tf = self._split(z)
+        x0, p0 = self._initial(unknowns)
         result = ShootingResult(
             z=z,
             p0=p0,
@@ -432,6 +468,9 @@ class Shooting:
             parameters=P,
             integration=final,
             system=self.compiled.system,
+            free_parameters={
+                v.name: float(x0[self.problem.state_index(v.name)]) for v in self.statement.free_parameters
+            },
         )
         if not ok and raise_on_failure:
             name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(
@@ -454,5 +493,5 @@ class Shooting:
         nx = self.problem.nx
         J = float(res.y[2 * nx])
         if self.problem.phi is not None:
-            J += float(self.problem.phi(self.x0, res.y[:nx], self.problem.t0, tf, P))
+            J += float(self.problem.phi(self.x0, res.y[:nx], self.problem.t0, tf, P))  # independent of free x0
         return J
