@@ -17,6 +17,7 @@ import time
 from contextlib import contextmanager
 
 import casadi as ca
+import numpy as np
 from _harness import parser, report
 
 from ocpkit import HLGL, MultiRateHLGL
@@ -65,8 +66,8 @@ def solve_sqpmethod(tr) -> tuple[int, float, float, str]:
         res = solver(x0=tr.initial_point(), lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t
     stats = solver.stats()
-    pr = tr.problem
-    return int(stats["iter_count"]), elapsed, float(res["x"][-1]) * pr.tf.scale, stats["return_status"]
+    tf = tr.global_values(np.asarray(res["x"]).ravel())["tf"]
+    return int(stats["iter_count"]), elapsed, tf, stats["return_status"]
 
 
 def main() -> None:

@@ -80,3 +80,25 @@ def test_segments_are_now_intervals():
     with pytest.warns(DeprecationWarning, match=r"MultiRateHLGL\(segments=...\) is deprecated"):
         multi = MultiRateHLGL(problem, segments=3, ratio=2, fast=["v"])
     assert multi.intervals == 3 and multi.label.startswith("MultiRateHLGL(intervals=3, ratio=2")
+
+
+def test_each_deprecation_points_at_the_caller():
+    import ocpkit.shooting
+    from ocpkit.transcription import multirate
+
+    problem = double_integrator()
+    law = control_law(problem, "box", regularized=True)
+    uses = [
+        lambda: HLGL(problem, segments=4),
+        lambda: HLGL(problem, 4).segments,
+        lambda: MultiRateHLGL(problem, 4, ratio=2, fast=["v"], fast_interpolation="fine"),
+        lambda: MultiRateHLGL(problem, 4, ratio=2, fast=["v"]).fast_interpolation,
+        lambda: multirate.FAST_INTERPOLATIONS,
+        lambda: Shooting(problem, law, detection="none"),
+        lambda: ocpkit.shooting.DETECTION_MODES,
+        lambda: HLGL(problem, 4).solve(error_threshold=None).nlp_parameters,
+    ]
+    for use in uses:
+        with pytest.warns(DeprecationWarning) as record:
+            use()
+        assert record[0].filename == __file__, (record[0].message, record[0].filename)

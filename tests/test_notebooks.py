@@ -31,6 +31,7 @@ def test_notebook_structure(path):
     assert not [o for o in outputs if o.output_type == "error"]
     text = json.dumps([o for o in outputs if o.output_type != "display_data"])
     assert str(paths.repo_root()) not in text, "outputs must not record machine-specific paths"
+    assert "is deprecated; use" not in text, "a notebook uses a renamed name (CHANGELOG.md): use the new one"
 
 
 def test_unknown_parameter_is_an_error():

@@ -493,3 +493,61 @@ def test_overlapping_windows_of_linked_phases():
     sol = MultiPhase({"first": mp.phases[0], "second": Radau(second, 5, 10)}, cost=lambda e: e["second"].tf).solve()
     assert sol.objective == pytest.approx(cycloid_time(), rel=1e-9)
     assert sol.phase("second").t0 == pytest.approx(sol.phase("first").tf, abs=1e-12)
+
+
+def test_a_duration_is_not_an_absolute_final_time():
+    """Start as late as possible (t0 <= 2) for a race that takes at least 2: with a duration in [2, 2.5] the start
+    is 2.0; read as an absolute final time in [2, 2.5] it could be no later than 0.5."""
+    from ocpkit import Duration, FreeInitialTime
+
+    late = OptimalControlProblem(
+        "late",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t: [x["v"], u["u"]],
+        t0=FreeInitialTime(0.5, 2.0, 1.0),
+        tf=Duration(2.0, 2.5, 2.2),
+        mayer=lambda x0, xf, t0, tf: -t0,
+    )
+    sol = Radau(late, 3, 2).solve(error_threshold=None)
+    assert sol.t0 == pytest.approx(2.0, abs=1e-7) and 4.0 - 1e-7 <= sol.tf <= 4.5 + 1e-7
+
+
+@pytest.mark.parametrize("t0_free", [False, True])
+@pytest.mark.parametrize("tf_kind", ["fixed", "free", "duration"])
+@pytest.mark.parametrize("pinned, free", [(0, 0), (1, 0), (0, 2), (2, 1)])
+def test_the_global_variables_round_trip(t0_free, tf_kind, pinned, free):
+    """GlobalVariables: pack then unpack gives the physical values back, and the symbols give them from the packed
+    vector, for every combination of a fixed or free t0, a fixed, free or duration tf, pinned and free parameters."""
+    from ocpkit import Duration, FreeInitialTime, FreeParameter
+    from ocpkit.transcription.mesh import GlobalVariables
+
+    t0 = FreeInitialTime(0.0, 1.0, 0.5, scale=2.0) if t0_free else 0.25
+    tf = {"fixed": 3.0, "free": FreeFinalTime(1.5, 4.0, 3.0, scale=3.0), "duration": Duration(0.5, 4.0, 2.0, 4.0)}
+    problem = OptimalControlProblem(
+        "globals",
+        [State("x")],
+        [],
+        lambda x, u, t, p: [0 * x["x"]],
+        t0=t0,
+        tf=tf[tf_kind],
+        parameters={f"a{i}": 1.0 + i for i in range(pinned)} or None,
+        free_parameters=[FreeParameter(f"k{j}", -5.0, 5.0, scale=2.0, shift=1.0) for j in range(free)],
+    )
+    layout = GlobalVariables(problem)
+    start, end = (0.7 if t0_free else 0.25), (3.0 if tf_kind == "fixed" else 3.3)
+    values = {f"k{j}": 0.5 * j - 1.0 for j in range(free)}
+    pinned_values = np.arange(pinned, dtype=float) + 7.0
+    z = layout.pack(pinned_values, values, start, end)
+    assert z.size == layout.size == pinned + free + int(t0_free) + int(tf_kind != "fixed")
+    out = layout.unpack(z)
+    assert out["t0"] == pytest.approx(start) and out["tf"] == pytest.approx(end)
+    assert out["parameters"] == pytest.approx(values) and list(out["pinned"].values()) == pytest.approx(pinned_values)
+    sym = ca.SX.sym("z", 3 + layout.size)  # a block's z ends with them
+    q = ca.SX.sym("q", len(layout.constants))
+    f = ca.Function("f", [sym, q], [layout.t0(sym), layout.tf(sym, q, 0), layout.P(sym)])
+    t0_, tf_, P_ = f(np.concatenate([np.zeros(3), z]), layout.constants)
+    assert float(t0_) == pytest.approx(start) and float(tf_) == pytest.approx(end)
+    assert np.asarray(P_).ravel() == pytest.approx([*pinned_values, *values.values()])
+    lb, ub = layout.bounds(pinned_values)
+    assert np.all(lb <= z + 1e-12) and np.all(z <= ub + 1e-12)

@@ -321,8 +321,35 @@ def test_solver_options_belong_to_the_solver(di_l1):
     with pytest.raises(TypeError, match="xtol and factor are MINPACK's options"):
         di_l1.solve(z0, solver="newton", xtol=1e-12)
     with pytest.warns(DeprecationWarning, match=r"Shooting.solve\(xtol=..., factor=...\) is deprecated"):
-        old = di_l1.solve(z0, xtol=1e-12)
-    assert old.z == pytest.approx(good.z, rel=1e-8)
+        old = di_l1.solve(z0, xtol=1e-12, factor=1.0)
+    assert old.z == pytest.approx(good.z, rel=1e-8) and old.n_shooting == good.n_shooting  # forwarded, not dropped
+    assert di_l1.solve(z0).n_shooting != good.n_shooting  # (factor 1 against the default 100 changes the path)
+
+
+def test_a_last_iterate_outside_the_domain_is_a_failed_run():
+    """A solver that stops where tf <= t0: returned as a failed run under raise_on_failure=False, raised otherwise;
+    a free t0 is refused (the engine integrates from a fixed one)."""
+    from ocpkit import FreeFinalTime, FreeInitialTime
+
+    pr = OptimalControlProblem(
+        "min_time",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -1, 1)],
+        lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=FreeFinalTime(0.5, 5.0, 2.0),
+        mayer=lambda x0, xf, t0, tf: tf,
+    )
+    s = Shooting(pr, control_law(pr, "box"))
+
+    def stops_outside(fun, jac, z0, *, stol, maxfev):
+        return np.array([-1.0, -1.0, -0.5]), "stopped at tf < t0"
+
+    r = s.solve(np.array([-1.0, -1.0, 2.0]), solver=stops_outside, raise_on_failure=False)
+    assert not r.converged and r.integration is None and "stopped at tf < t0" in r.message
+    with pytest.raises(ValueError, match="final time -0.5 must exceed t0"):
+        s.solve(np.array([-1.0, -1.0, 2.0]), solver=stops_outside)
+    with pytest.raises(ValueError, match="integrates from a fixed t0"):
+        Shooting(pr.replace(t0=FreeInitialTime(0.0, 0.4, 0.1)), control_law(pr, "box"))
 
 
 def test_shooting_with_a_free_parameter():

@@ -21,9 +21,3 @@ def renamed_argument(old: str, new: str, old_value, new_value, default, where: s
         raise TypeError(f"{where}: give {new}= only ({old}= is its deprecated name)")
     renamed(f"{where}({old}=...)", f"{new}=...", stacklevel)
     return old_value
-
-
-def renamed_value(argument: str, old: str, new: str, where: str, stacklevel: int = 4) -> str:
-    """``new`` for a deprecated value ``old`` of ``argument`` (with a DeprecationWarning)."""
-    renamed(f"{where}({argument}={old!r})", f"{argument}={new!r}", stacklevel)
-    return new

@@ -42,7 +42,8 @@ __all__ = [
 
 def __getattr__(name: str):
     if name == "DETECTION_MODES":
-        from . import strategies
+        from .._deprecation import renamed
 
-        return strategies.__getattr__(name)
+        renamed("ocpkit.shooting.DETECTION_MODES", "SWITCHING_MODES")
+        return SWITCHING_MODES
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -204,6 +204,11 @@ class Shooting:
         if not (self.fd_step > 0 and np.isfinite(self.fd_step)):
             raise ValueError(f"fd_step must be positive, got {fd_step!r}")
         nx = problem.nx
+        if problem.free_initial_time:
+            raise ValueError(
+                f"the shooting engine integrates from a fixed t0; {problem.name!r} has a free one: solve it with a "
+                "direct transcription (HLGL, Radau)"
+            )
         constrained = [c.name for c in (*problem.path_constraints, *problem.boundary_constraints)]
         if constrained:
             raise ValueError(
@@ -377,8 +382,8 @@ class Shooting:
         if xtol is not None or factor is not None:
             if solver != "hybr":
                 raise TypeError(
-                    "xtol and factor are MINPACK's options, which this solver does not take: give "
-                    "solver=MinpackHybrid(xtol=..., factor=...) for MINPACK"
+                    "xtol and factor are MINPACK's options, which belong to its solver object: give "
+                    "solver=MinpackHybrid(xtol=..., factor=...) (another solver does not take them)"
                 )
             renamed("Shooting.solve(xtol=..., factor=...)", "solver=MinpackHybrid(xtol=..., factor=...)")
             defaults = MinpackHybrid()
@@ -415,7 +420,15 @@ class Shooting:
             self.counts["jac"] += 1
             key = z.tobytes()
             if key not in last_J:
-                S, J = self.jacobian_matrix(z, P, S0=last_S.get(key))
+                try:
+                    S, J = self.jacobian_matrix(z, P, S0=last_S.get(key))
+                except ValueError as exc:  # an iterate outside the domain (tf <= t0), as fun reports it
+                    raise SolverError(
+                        "shooting",
+                        f"the Jacobian at an iterate outside the domain: {exc}",
+                        self.counts["S"],
+                        unit="shooting-function evaluations",
+                    ) from exc
                 if not np.all(np.isfinite(J)):
                     raise SolverError(
                         "shooting",
@@ -448,7 +461,10 @@ class Shooting:
             message = f"{message}; the integration at the last iterate failed: {exc}"
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
-        unknowns, tf = self._split(z)
+        if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
+            unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(self.problem.tf))
+        else:
+            unknowns, tf = self._split(z)
         x0, p0 = self._initial(unknowns)
         result = ShootingResult(
             z=z,

@@ -466,10 +466,8 @@ class Transcription(session.SolveSession, ABC):
                 }
             else:
                 values = guess.parameter_values(self.problem)
-            n_pinned, nf = len(self.problem.parameters), len(self.problem.free_parameters)
-            w0[self.global_indices()[n_pinned : n_pinned + nf]] = self.problem.free_parameter_scaling.to_nlp(
-                [values[v.name] for v in self.problem.free_parameters]
-            )
+            layout = self.global_variables
+            w0[self.global_indices()[layout.free_positions]] = layout.free_to_nlp(values)
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 

@@ -61,7 +61,7 @@ class Mesh:
         """Fractions of this mesh with segment ``k`` split into ``pieces[k]`` equal parts (1: unchanged)."""
         pieces = np.asarray(pieces, dtype=np.int64)
         if pieces.shape != self.fractions.shape or np.any(pieces < 1):
-            raise ValueError(f"give a positive number of pieces for each of the {self.n} segments")
+            raise ValueError(f"give a positive number of pieces for each of the {self.n} intervals")
         return np.repeat(self.fractions / pieces, pieces)
 
     def split_at(self, cuts) -> tuple[np.ndarray, np.ndarray]:
@@ -135,6 +135,22 @@ class GlobalVariables:
         self.duration = isinstance(problem.tf, Duration)
 
     @property
+    def free_positions(self) -> np.ndarray:
+        """The positions of the free parameters among them."""
+        return np.arange(self.n_pinned, self.n_pinned + self.n_free, dtype=np.int64)
+
+    def free_to_nlp(self, values: dict) -> np.ndarray:
+        """The scaled values of the free parameters from physical ones by name (default their guesses)."""
+        pr = self.problem
+        values = {v.name: v.guess_value for v in pr.free_parameters} | dict(values)
+        return pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters])
+
+    def free_value(self, j: int, scaled):
+        """Free parameter ``j``'s physical value from its scaled NLP value (a number or a symbol)."""
+        sc = self.problem.free_parameter_scaling
+        return float(sc.scale[j]) * scaled + float(sc.shift[j])
+
+    @property
     def t0_position(self) -> int | None:
         """The position of t0 among them (None when fixed)."""
         return self.n_pinned + self.n_free if self.problem.free_initial_time else None
@@ -157,8 +173,7 @@ class GlobalVariables:
         pr = self.problem
         parts = [np.asarray(pinned, dtype=float).ravel()]
         if self.n_free:
-            values = {v.name: v.guess_value for v in pr.free_parameters} | dict(parameters)
-            parts.append(pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters]))
+            parts.append(self.free_to_nlp(parameters))
         t0 = pr.t0 if t0 is None else t0
         if pr.free_initial_time:
             parts.append([t0 / pr.initial_time.scale])

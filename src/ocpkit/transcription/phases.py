@@ -437,7 +437,7 @@ class MultiPhase(session.SolveSession):
     def _parameter_index(self, k: int, j: int) -> int:
         """The NLP index (in the stacked vector) of phase ``k``'s free parameter ``j``."""
         ph = self.phases[k]
-        return int(self.variable_offsets[k] + ph.global_indices()[len(ph.problem.parameters) + j])
+        return int(self.variable_offsets[k] + ph.global_indices()[ph.global_variables.free_positions[j]])
 
     def _parameter_blocks(self, row: int) -> list[Block]:
         """``(p_k - p_first) / scale = 0`` for every further phase naming a shared parameter (physical values)."""
@@ -446,8 +446,7 @@ class MultiPhase(session.SolveSession):
             (k0, j0), rest = where[0], where[1:]
 
             def physical(k, j, z):
-                sc = self.phases[k].problem.free_parameter_scaling
-                return float(sc.scale[j]) * z + float(sc.shift[j])
+                return self.phases[k].global_variables.free_value(j, z)
 
             for k, j in rest:
                 z = ca.SX.sym("z", 2)
