@@ -296,6 +296,19 @@ class Constraint:
         return lo, hi
 
 
+def checked_constraints(given, kind: str) -> tuple[Constraint, ...]:
+    """``given`` as a tuple of :class:`Constraint` with distinct names; a TypeError or ValueError naming ``kind``."""
+    given = tuple(given)
+    for c in given:
+        if not isinstance(c, Constraint):
+            raise TypeError(f"{kind} must be Constraint objects, got {c!r}")
+    names = [c.name for c in given]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"duplicate constraint names in {kind}: {dup}")
+    return given
+
+
 @dataclass(frozen=True)
 class ConstraintSet:
     """Compiled constraints of one kind: the stacked function, bounds, names and the rows of each constraint."""
@@ -580,15 +593,7 @@ class OptimalControlProblem:
             raise ValueError(f"parameter names used twice (fixed and free, or free twice): {clash}")
         set_(self, "free_parameters", free)
         for kind, given in (("path_constraints", path_constraints), ("boundary_constraints", boundary_constraints)):
-            given = tuple(given)
-            for c in given:
-                if not isinstance(c, Constraint):
-                    raise TypeError(f"{kind} must be Constraint objects, got {c!r}")
-            names = [c.name for c in given]
-            dup = sorted({n for n in names if names.count(n) > 1})
-            if dup:
-                raise ValueError(f"duplicate constraint names in {kind}: {dup}")
-            set_(self, kind, given)
+            set_(self, kind, checked_constraints(given, kind))
         if _functions is None:
             _functions = _build_functions(
                 self.nx,

@@ -37,7 +37,7 @@ import numpy as np
 from .._deprecation import renamed
 from ..names import Named, NamedParameters, UnknownName, call
 from ..nlp import Block, NLPResult, SeparableNLP
-from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set
+from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set, checked_constraints
 from ..solution import Solution
 from ..trajectory import Reintegration, Trajectory
 from . import session
@@ -392,14 +392,7 @@ class MultiPhase(session.SolveSession):
 
     def _linkage_constraints(self, constraints) -> ConstraintSet | None:
         """The linkage constraints compiled into one function ``(z, q) -> g`` with bounds (None without)."""
-        constraints = tuple(constraints)
-        for c in constraints:
-            if not isinstance(c, Constraint):
-                raise TypeError(f"constraints must be Constraint objects, got {c!r}")
-        names = [c.name for c in constraints]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"duplicate linkage constraint names: {dup}")
+        constraints = checked_constraints(constraints, "linkage constraints")
         z, q = self._ends[:2]
         return _constraint_set("linkage", constraints, [z], ["z"], q, self._call_on_ends)
 
