@@ -3,9 +3,11 @@
 :func:`solve` is the policy of :meth:`Transcription.solve` and :meth:`MultiPhase.solve`: the parameters
 checked, one IPOPT solve (an exact warm start from a solution of the same mesh) or a mesh refinement
 (:func:`solve_refined`), the failure policy of :func:`~ocpkit.transcription.base.settle`, and the accuracy
-warnings. What it asks of a mesh object: ``label``, ``build_s``, ``n_collocation_points``, ``_solve_once``,
-``refine(errors, tolerance, cuts)``, ``_check_parameters``, ``_warn_if_inaccurate`` and, per estimate interval
-of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cuts``, and ``_refinement_hint``; of a solution:
+warnings. What it asks of a mesh object: ``label``, ``build_s``, ``n_collocation_points``, ``nlp``,
+``solver(options)``, ``initial_point(guess)``, ``_bounds(parameters)``, ``_constraint_bounds()``, ``_solution``,
+``_solve_once``, ``refine(errors, tolerance, cuts)``, ``_check_parameters``, ``_warn_if_inaccurate`` and, per
+estimate interval of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cuts``, and ``_refinement_hint``; of a
+solution:
 ``interval_errors``, ``accuracy``, ``converged``, ``status``, ``iterations``, ``decision_variables``, ``solve_s``,
 ``raw["transcription"]``.
 """
