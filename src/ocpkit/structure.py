@@ -1,0 +1,210 @@
+"""The switching structure of a solution: per control, its arcs and the junction times between them.
+
+The first step from a direct solution to an extremal of the maximum principle (Martinon & Gergaud's slides set the
+direct method's robustness against the indirect one's precision; the hybrid reads the structure and the costates
+of the first to start the second). On a dense grid of the admissible control, each bounded control is
+
+* ``"lower"`` or ``"upper"``: on that bound (within ``band`` of its range);
+* ``"zero"``: at zero, strictly inside its bounds (the "off" arc of an L1 cost);
+* ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`);
+* ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control).
+
+Runs shorter than ``min_share`` of the horizon, and interior runs within fewer than three mesh intervals, are the
+smearing of a switch by the polynomial control, not arcs: each is shared between its neighbours at its middle. A junction is first the midpoint of the two samples either side; where
+the solution has costates (Radau) and the Hamiltonian has the form ``H0 + psi u + w |u|`` in the control, it is
+refined to the crossing of the switching function that decides it: ``psi = 0`` between the two bounds or at a
+singular arc, ``psi = w`` between ``"lower"`` and ``"zero"``, ``psi = -w`` between ``"zero"`` and ``"upper"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+#: the kinds of arc, in the order of :func:`control_structure`'s classification
+ARC_KINDS = ("lower", "upper", "zero", "singular", "regular")
+
+
+@dataclass(frozen=True)
+class Arc:
+    """One arc of one control: its ``kind`` (:data:`ARC_KINDS`) on ``[start, end]``."""
+
+    control: str
+    kind: str
+    start: float
+    end: float
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Every control's arcs, in time order (:func:`control_structure`)."""
+
+    arcs: tuple[Arc, ...]
+
+    def of(self, control: str) -> list[Arc]:
+        """The arcs of ``control``."""
+        out = [a for a in self.arcs if a.control == control]
+        if not out:
+            raise KeyError(f"unknown control {control!r}; the controls are {sorted({a.control for a in self.arcs})}")
+        return out
+
+    def kinds(self, control: str) -> list[str]:
+        """The sequence of arc kinds of ``control``, e.g. ``["lower", "zero", "upper"]`` (bang-off-bang)."""
+        return [a.kind for a in self.of(control)]
+
+    def junctions(self, control: str) -> np.ndarray:
+        """The junction times of ``control`` (the ends of its arcs but the last)."""
+        return np.array([a.end for a in self.of(control)[:-1]])
+
+    def describe(self) -> str:
+        """The structure in words: ``u: lower on [0, 0.5], zero on [0.5, 2.5], upper on [2.5, 3]``."""
+        lines = []
+        for name in dict.fromkeys(a.control for a in self.arcs):
+            parts = [f"{a.kind} on [{a.start:.6g}, {a.end:.6g}]" for a in self.of(name)]
+            lines.append(f"{name}: " + ", ".join(parts))
+        return "\n".join(lines)
+
+
+def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_share: float = 0.01) -> Structure:
+    """The arcs of every bounded control of ``trajectory`` and their junction times (module docstring).
+
+    ``samples``: grid points over the horizon; ``band``: the distance to a bound, or to zero, that counts as on it,
+    as a fraction of the bounds' range; ``min_share``: the shortest arc, as a fraction of the horizon.
+    """
+    from .accuracy import linear_controls
+
+    if samples < 3:
+        raise ValueError(f"samples must be at least 3, got {samples}")
+    if not 0 < min_share < 0.5:
+        raise ValueError(f"min_share must lie in (0, 0.5), got {min_share}")
+    problem = trajectory.problem
+    t = np.linspace(trajectory.t0, trajectory.tf, samples)
+    U = np.asarray(trajectory.control(t), dtype=float).reshape(samples, problem.nu)
+    affine = set(linear_controls(problem))
+    breaks = np.asarray(trajectory.breakpoints, dtype=float)
+    switching = _switching_functions(trajectory)
+    arcs = []
+    for i, c in enumerate(problem.controls):
+        if not (np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower):
+            continue
+        tol = band * (c.upper - c.lower)
+        u = U[:, i]
+        interior = "singular" if c.name in affine else "regular"
+        labels = np.full(samples, interior, dtype=object)
+        if c.lower < 0 < c.upper:
+            labels[np.abs(u) <= tol] = "zero"
+        labels[u <= c.lower + tol] = "lower"
+        labels[u >= c.upper - tol] = "upper"
+        shortest = max(int(np.ceil(min_share * (samples - 1))), 1)
+
+        def short(label, a, b, interior=interior, shortest=shortest):
+            # an interior run within fewer than three mesh intervals is a switch the polynomial smears (a
+            # transcription's control is one polynomial per interval), not an arc
+            spans = np.count_nonzero((breaks > t[a]) & (breaks < t[b])) + 1
+            return b - a + 1 < shortest or (label == interior and spans < 3)
+
+        runs = _runs(labels, short)
+        for k, (kind, a, b) in enumerate(runs):
+            start = t[0] if k == 0 else _junction(t, runs[k - 1], (kind, a, b), switching, i)
+            end = t[-1] if k == len(runs) - 1 else _junction(t, (kind, a, b), runs[k + 1], switching, i)
+            arcs.append(Arc(c.name, kind, float(start), float(end)))
+    return Structure(tuple(arcs))
+
+
+def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
+    """Runs ``(label, first, last)`` of equal labels; a run that ``short(label, first, last)`` calls too short to
+    be an arc (the shortest first) is shared between its neighbours at its middle, or given to its only one."""
+    runs = []
+    for k, label in enumerate(labels):
+        if runs and runs[-1][0] == label:
+            runs[-1][2] = k
+        else:
+            runs.append([label, k, k])
+    while len(runs) > 1:
+        candidates = [k for k, (label, a, b) in enumerate(runs) if short(label, a, b)]
+        if not candidates:
+            break
+        k = min(candidates, key=lambda j: runs[j][2] - runs[j][1])
+        _, a, b = runs[k]
+        if 0 < k < len(runs) - 1:
+            middle = (a + b) // 2
+            runs[k - 1][2], runs[k + 1][1] = middle, middle + 1
+        elif k == 0:
+            runs[1][1] = a
+        else:
+            runs[k - 1][2] = b
+        del runs[k]
+        merged = []  # neighbours that now carry the same label become one run
+        for run in runs:
+            if merged and merged[-1][0] == run[0]:
+                merged[-1][2] = run[2]
+            else:
+                merged.append(run)
+        runs = merged
+    return [tuple(r) for r in runs]
+
+
+def _switching_functions(trajectory):
+    """``(psi, w)`` as functions of time for each control, where the solution has costates and ``H`` has the form
+    ``H0 + psi u + w |u|`` in each control; else None."""
+    if not trajectory.has_costates:
+        return None
+    from .shooting.hamiltonian import _extract
+
+    problem = trajectory.problem
+    ham = problem.functions.hamiltonian
+    H0, psi, w, _ = _extract(ham.H, ham.u, problem.nu)
+    psi, w = ca.vertcat(*psi), ca.vertcat(*w)
+    # the form holds where H - (H0 + psi u + w |u|) vanishes: checked at random points (a quadratic or nonlinear
+    # control term leaves a residual, and then no switching function decides the junctions)
+    residual = ca.Function(
+        "residual", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H - H0 - ca.dot(psi, ham.u) - ca.dot(w, ca.fabs(ham.u))]
+    )
+    rng = np.random.default_rng(0)
+    P = problem.parameter_vector()
+    for _ in range(5):
+        args = [rng.normal(size=problem.nx), rng.normal(size=problem.nx), rng.uniform(-1, 1, problem.nu), 0.3, P]
+        if not abs(float(residual(*args))) <= 1e-9:
+            return None
+    fun = ca.Function("switching", [ham.x, ham.p, ham.t, ham.P], [psi, w])
+
+    def at(times):
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        X = trajectory.state(times).reshape(times.size, -1).T
+        L = trajectory.costate(times).reshape(times.size, -1).T
+        out = fun.map(times.size)(X, L, times[None, :], np.repeat(P[:, None], times.size, axis=1))
+        return np.asarray(out[0]).T, np.asarray(out[1]).T
+
+    return at
+
+
+def _junction(t, before, after, switching, i) -> float:
+    """The junction between two runs: the midpoint of the samples either side, refined to the crossing of the
+    switching function that decides it (module docstring) within a few samples of it, where there is one."""
+    (kind_a, _, last), (kind_b, first, _) = before, after
+    guess = 0.5 * (t[last] + t[first])
+    if switching is None:
+        return guess
+    pair = {kind_a, kind_b}
+    if pair == {"lower", "upper"} or "singular" in pair:
+        sign = 0.0
+    elif pair == {"lower", "zero"}:
+        sign = 1.0
+    elif pair == {"zero", "upper"}:
+        sign = -1.0
+    else:
+        return guess  # a regular arc meets the bound continuously: no switching function decides it
+    h = t[1] - t[0]
+    grid = np.linspace(max(t[0], guess - 8 * h), min(t[-1], guess + 8 * h), 161)
+    psi, w = switching(grid)
+    g = psi[:, i] - sign * w[:, i]
+    change = np.flatnonzero(np.sign(g[:-1]) * np.sign(g[1:]) < 0)
+    if change.size == 0:
+        return guess
+    k = change[np.argmin(np.abs(grid[change] - guess))]
+    return float(grid[k] - g[k] * (grid[k + 1] - grid[k]) / (g[k + 1] - g[k]))
+
+
+__all__ = ["ARC_KINDS", "Arc", "Structure", "control_structure"]
