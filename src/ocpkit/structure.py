@@ -9,8 +9,9 @@ of the first to start the second). On a dense grid of the admissible control, ea
 * ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`);
 * ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control).
 
-Runs shorter than ``min_share`` of the horizon, and interior runs within fewer than three mesh intervals, are the
-smearing of a switch by the polynomial control, not arcs: each is shared between its neighbours at its middle. A junction is first the midpoint of the two samples either side; where
+Runs shorter than ``min_share`` of the horizon, and a direct solution's interior runs within fewer than three mesh
+intervals, are the smearing of a switch by the polynomial control, not arcs: each is shared between its neighbours
+at its middle. A junction is first the midpoint of the two samples either side; where
 the solution has costates (Radau) and the Hamiltonian has the form ``H0 + psi u + w |u|`` in the control, it is
 refined to the crossing of the switching function that decides it: ``psi = 0`` between the two bounds or at a
 singular arc, ``psi = w`` between ``"lower"`` and ``"zero"``, ``psi = -w`` between ``"zero"`` and ``"upper"``.
@@ -74,6 +75,7 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
     as a fraction of the bounds' range; ``min_share``: the shortest arc, as a fraction of the horizon.
     """
     from .accuracy import linear_controls
+    from .solution import Solution
 
     if samples < 3:
         raise ValueError(f"samples must be at least 3, got {samples}")
@@ -83,6 +85,8 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
     t = np.linspace(trajectory.t0, trajectory.tf, samples)
     U = np.asarray(trajectory.control(t), dtype=float).reshape(samples, problem.nu)
     affine = set(linear_controls(problem))
+    # a transcription's control is one polynomial per mesh interval; an extremal's (shooting) is exact
+    polynomial = isinstance(trajectory, Solution)
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
     arcs = []
@@ -103,7 +107,7 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
             # an interior run within fewer than three mesh intervals is a switch the polynomial smears (a
             # transcription's control is one polynomial per interval), not an arc
             spans = np.count_nonzero((breaks > t[a]) & (breaks < t[b])) + 1
-            return b - a + 1 < shortest or (label == interior and spans < 3)
+            return b - a + 1 < shortest or (polynomial and label == interior and spans < 3)
 
         runs = _runs(labels, short)
         for k, (kind, a, b) in enumerate(runs):
@@ -201,10 +205,11 @@ def _junction(t, before, after, switching, i) -> float:
     psi, w = switching(grid)
     g = psi[:, i] - sign * w[:, i]
     change = np.flatnonzero(np.sign(g[:-1]) * np.sign(g[1:]) < 0)
-    if change.size == 0:
+    roots = [grid[k] - g[k] * (grid[k + 1] - grid[k]) / (g[k + 1] - g[k]) for k in change]
+    roots += list(grid[g == 0])  # a crossing that falls on a grid point
+    if not roots:
         return guess
-    k = change[np.argmin(np.abs(grid[change] - guess))]
-    return float(grid[k] - g[k] * (grid[k + 1] - grid[k]) / (g[k + 1] - g[k]))
+    return float(min(roots, key=lambda r: abs(r - guess)))
 
 
 __all__ = ["ARC_KINDS", "Arc", "Structure", "control_structure"]

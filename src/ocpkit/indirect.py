@@ -1,0 +1,236 @@
+"""From a direct solution to a certified extremal of the maximum principle, in one call: :func:`to_extremal`.
+
+The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the indirect one's precision):
+
+1. the switching structure of the direct solution (:func:`ocpkit.structure.control_structure`);
+2. the control law from the Hamiltonian, derived, with no line of the user's: each control enters
+   ``H = H0 + psi u + w |u| + b u^2`` within its bounds, bang-bang or bang-off-bang where ``b = 0`` and saturated
+   linear where ``b > 0`` (:func:`ocpkit.shooting.control_law`);
+3. shooting (:class:`ocpkit.shooting.Shooting`: switchings located and corrected, the variational Jacobian) from
+   the direct solution's costate estimates at t0, its free initial states and parameters, and its final time;
+4. a :class:`Certificate` of the result (:func:`certify`).
+
+What the chain does not treat yet stops it with a named error, never a wrong extremal: a singular arc (its flow
+needs the switching function's second derivative), a solution without costate estimates (Radau gives them), and
+what the shooting engine refuses (path and boundary constraints, a non-autonomous problem, a free t0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .errors import SolverError
+from .structure import Structure, control_structure
+
+
+@dataclass(frozen=True)
+class Check:
+    """One check of a certificate: ``value`` against ``tolerance`` (passed when ``value <= tolerance``)."""
+
+    name: str
+    value: float
+    tolerance: float
+    meaning: str
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.value <= self.tolerance)
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The checks of an extremal (:func:`certify`), by name."""
+
+    checks: tuple[Check, ...]
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failed(self) -> list[str]:
+        return [c.name for c in self.checks if not c.passed]
+
+    def __getitem__(self, name: str) -> Check:
+        for c in self.checks:
+            if c.name == name:
+                return c
+        raise KeyError(f"no check {name!r}; the checks are {[c.name for c in self.checks]}")
+
+    def describe(self) -> str:
+        return "\n".join(
+            f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.value:.2e} (at most {c.tolerance:.0e}; {c.meaning})"
+            for c in self.checks
+        )
+
+
+@dataclass
+class Extremal:
+    """The result of :func:`to_extremal`: the extremal as a :class:`~ocpkit.Trajectory` (``trajectory``), the
+    shooting run (``shooting``), the structure read from the direct solution (``structure``), its
+    ``certificate``, and the wall times of the structure detection and of the shooting."""
+
+    trajectory: object
+    shooting: object
+    structure: Structure
+    certificate: Certificate
+    timings: dict = field(default_factory=dict)
+
+
+def to_extremal(
+    solution,
+    *,
+    tol: float = 1e-10,
+    switching: str = "correction",
+    jacobian: str = "variational",
+    solver="hybr",
+    strict: bool = True,
+) -> Extremal:
+    """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
+    approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
+
+    ``strict``: a certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (the
+    result is its ``.result``); False: the result carries it. ``switching``, ``jacobian`` and ``solver`` are the
+    shooting's.
+    """
+    from .shooting import Shooting, control_law
+
+    if not getattr(solution, "has_costates", False):
+        raise ValueError(
+            "to_extremal needs the direct solution's costate estimates: solve with Radau (HLGL's Lobatto "
+            "multipliers oscillate and are not mapped to costates here)"
+        )
+    start = time.perf_counter()
+    structure = control_structure(solution)
+    detect_s = time.perf_counter() - start
+    singular = [a for a in structure.arcs if a.kind == "singular"]
+    if singular:
+        a = singular[0]
+        raise ValueError(
+            f"control {a.control!r} has a singular arc on [{a.start:.6g}, {a.end:.6g}]: its flow (the feedback from "
+            "the switching function's second derivative) is not derived yet; regularise it "
+            f"(ocpkit.regularisation.penalise_control(problem, weight, [{a.control!r}])) or keep the direct solution"
+        )
+    problem = solution.problem
+    statement = _statement(solution)
+    law = control_law(statement, "box", regularized=_quadratic(statement))
+    shooting = Shooting(statement, law, switching=switching, jacobian=jacobian)
+    z0 = _unknowns(shooting, solution)
+    start = time.perf_counter()
+    result = shooting.solve(z0, solver=solver, stol=tol)
+    shoot_s = time.perf_counter() - start
+    trajectory = result.trajectory
+    certificate = certify(trajectory, result, solution, structure, tol=tol)
+    extremal = Extremal(trajectory, result, structure, certificate, {"structure_s": detect_s, "shooting_s": shoot_s})
+    if strict and not certificate.passed:
+        raise SolverError(
+            "certificate",
+            f"failed checks {certificate.failed}",
+            result.n_shooting,
+            f"{problem.name!r}:\n{certificate.describe()}",
+            unit="shooting-function evaluations",
+            result=extremal,
+        )
+    return extremal
+
+
+def _statement(solution):
+    """The problem as stated by the user (with its free parameters free again), from a direct solution."""
+    raw = getattr(solution, "raw", {}) or {}
+    transcription = raw.get("transcription")
+    return transcription.problem if transcription is not None else solution.problem
+
+
+def _quadratic(problem) -> bool:
+    """Whether some control has a quadratic term in H (then the saturated linear law)."""
+    from .shooting.hamiltonian import _extract
+
+    ham = problem.functions.hamiltonian
+    _, _, _, b = _extract(ham.H, ham.u, problem.nu)
+    f = ca.Function("b", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*b)])
+    rng = np.random.default_rng(1)
+    P = ca.DM.zeros(ham.P.numel())
+    values = [np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.0, P)) for _ in range(3)]
+    return bool(np.max(np.abs(values)) > 1e-12)
+
+
+def _unknowns(shooting, solution) -> np.ndarray:
+    """The shooting's unknowns from the direct solution: per state of the shooting's problem its initial costate,
+    or its initial value where free (a free parameter's, its solved value); then tf where free."""
+    t0 = solution.t0
+    lam = np.asarray(solution.costate(np.array([t0])), dtype=float).ravel()
+    x0 = np.asarray(solution.state(np.array([t0])), dtype=float).ravel()
+    nx = solution.problem.nx
+    values = []
+    for j, name in enumerate(shooting.problem.state_names):
+        if j < nx:
+            values.append(x0[j] if shooting.free_initial[j] else lam[j])
+        else:  # a free parameter, a state of the shooting's problem
+            values.append(solution.parameters[name])
+    if shooting.free_tf:
+        values.append(solution.tf)
+    return np.array(values, dtype=float)
+
+
+def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10, samples: int = 401) -> Certificate:
+    """The checks of an extremal (every one named; :class:`Certificate`):
+
+    * ``shooting_residual``: ``|S|`` at the solution, at most ``tol``;
+    * ``hamiltonian_minimum``: on ``samples`` times, how much lower H gets than at the extremal's control over a
+      sampled admissible set (41 values per bounded control, the bounds included), relative to ``1 + |H|``: the
+      maximum principle, checked on the set rather than on the law that produced the control;
+    * ``hamiltonian_constant``: the drift of H along the integration (autonomous problems);
+    * ``structure``: 0 when the extremal has the direct solution's arcs (kinds in order, for each control), else 1;
+    * ``objective_gap``: ``|J_indirect - J_direct| / (1 + |J|)``, at most 1e-2, and ``state_gap``: the largest
+      difference of the direct solution's states in percent of each one's magnitude, in normalised time, at most
+      5 %: another extremal than the one the direct solution approximates, not its discretisation error (a
+      switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch.
+    """
+    problem = trajectory.problem
+    ham = problem.functions.hamiltonian
+    Hf = ca.Function("H", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H])
+    t = np.linspace(trajectory.t0, trajectory.tf, samples)
+    X, L, U = trajectory.state(t), trajectory.costate(t), trajectory.control(t)
+    P = problem.parameter_vector()
+    grids = []
+    for i, c in enumerate(problem.controls):
+        lo, hi = c.lower, c.upper
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            span = max(1.0, float(np.ptp(U[:, i])))
+            lo, hi = float(U[:, i].min()) - span, float(U[:, i].max()) + span
+        grids.append(np.linspace(lo, hi, 41))
+    candidates = np.array(np.meshgrid(*grids, indexing="ij")).reshape(problem.nu, -1).T if problem.nu else None
+    worst = 0.0
+    Hmap = Hf.map(samples)
+    H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], np.repeat(P[:, None], samples, axis=1))).ravel()
+    if candidates is not None:
+        for v in candidates:
+            V = np.repeat(v[:, None], samples, axis=1)
+            H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], np.repeat(P[:, None], samples, axis=1))).ravel()
+            worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
+    found = control_structure(trajectory)
+    names = [c.name for c in problem.controls if np.isfinite(c.lower) and np.isfinite(c.upper)]
+    same = all(found.kinds(n) == structure.kinds(n) for n in names)
+    J = float(result.objective)
+    s = np.linspace(0.0, 1.0, 2001)
+    names = direct.problem.state_names  # the shooting's problem may have more (free parameters as states)
+    ours = trajectory.state(trajectory.t0 + s * (trajectory.tf - trajectory.t0))[:, : len(names)]
+    theirs = direct.state(direct.t0 + s * (direct.tf - direct.t0))
+    ranges = np.maximum(np.abs(theirs).max(axis=0), 1e-300)
+    state_gap = float(100 * np.max(np.abs(ours - theirs).max(axis=0) / ranges))
+    checks = (
+        Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
+        Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
+        Check("hamiltonian_constant", float(result.integration.hamiltonian_drift), 1e-6, "drift of H"),
+        Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs, in order"),
+        Check("objective_gap", abs(J - float(direct.objective)) / (1.0 + abs(J)), 1e-2, "indirect against direct"),
+        Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"),
+    )
+    return Certificate(checks)
+
+
+__all__ = ["Certificate", "Check", "Extremal", "certify", "to_extremal"]
