@@ -2,9 +2,10 @@
 
 import numpy as np
 import pytest
-from test_structure import race  # the minimum-time double integrator: switch at 1, t_f = 2
+from test_shooting import gain_optimum, gain_problem
+from test_structure import race, saturated  # closed forms: switch at 1, t_f = 2; J = 3/8 - sqrt(3)/12
 
-from ocpkit import HLGL, Control, FreeParameter, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import HLGL, Radau, SolverError
 from ocpkit.indirect import Certificate, Check, to_extremal
 from ocpkit.structure import control_structure
 
@@ -22,15 +23,7 @@ def test_a_bang_bang_extremal_from_radau_in_one_call():
 
 def test_a_saturated_regular_extremal():
     """Minimum energy with |u| <= 0.5 from (1, 0) to rest in 3: J = 3/8 - sqrt(3)/12 (closed form)."""
-    pr = OptimalControlProblem(
-        "saturated",
-        [State("x", initial=1.0, final=0.0), State("v", initial=0.0, final=0.0)],
-        [Control("u", -0.5, 0.5)],
-        lambda x, u, t: [x["v"], u["u"]],
-        tf=3.0,
-        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-    )
-    extremal = to_extremal(Radau(pr, 4, 16).solve(error_threshold=None))
+    extremal = to_extremal(Radau(saturated(), 4, 16).solve(error_threshold=None))
     assert extremal.structure.kinds("u") == ["lower", "regular", "upper"]
     assert extremal.trajectory.objective == pytest.approx(3 / 8 - np.sqrt(3) / 12, abs=1e-12)
     assert extremal.certificate["hamiltonian_minimum"].value <= 1e-8
@@ -39,20 +32,8 @@ def test_a_saturated_regular_extremal():
 def test_an_extremal_with_a_free_parameter():
     """x'' = k u, min int u^2/2 + (k - 2)^2: the direct solution's k starts the shooting, which treats k as a state;
     k solves 12 / k^3 = 2 (k - 2)."""
-    from scipy.optimize import brentq
-
-    pr = OptimalControlProblem(
-        "gain",
-        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
-        [Control("u")],
-        lambda x, u, t, p: [x["v"], p["k"] * u["u"]],
-        tf=1.0,
-        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-        mayer=lambda x0, xf, t0, tf, p: (p["k"] - 2.0) ** 2,
-        free_parameters=[FreeParameter("k", 0.5, 4.0, guess=1.0)],
-    )
-    extremal = to_extremal(Radau(pr, 4, 4).solve(error_threshold=None))
-    k = brentq(lambda k: 12 / k**3 - 2 * (k - 2), 0.5, 4.0)
+    extremal = to_extremal(Radau(gain_problem(), 4, 4).solve(error_threshold=None))
+    k = gain_optimum()
     assert extremal.shooting.free_parameters["k"] == pytest.approx(k, rel=1e-12) and extremal.certificate.passed
 
 

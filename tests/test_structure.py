@@ -63,10 +63,9 @@ def test_bad_input_is_named():
         control_structure(sol, samples=2)
 
 
-def test_a_saturated_regular_control():
-    """Minimum energy with |u| <= 0.5 from (1, 0) to rest in 3: on the lower bound, regular (H_u = 0), on the upper
-    bound, symmetric about t = 1.5 (the problem is)."""
-    pr = OptimalControlProblem(
+def saturated():
+    """Minimum energy with |u| <= 0.5 from (1, 0) to rest in 3 (J = 3/8 - sqrt(3)/12, the README's problem)."""
+    return OptimalControlProblem(
         "saturated",
         [State("x", initial=1.0, final=0.0), State("v", initial=0.0, final=0.0)],
         [Control("u", -0.5, 0.5)],
@@ -74,6 +73,10 @@ def test_a_saturated_regular_control():
         tf=3.0,
         lagrange=lambda x, u, t: u["u"] ** 2 / 2,
     )
-    s = control_structure(Radau(pr, 4, 30).solve(error_threshold=None))
+
+
+def test_a_saturated_regular_control():
+    """On the lower bound, regular (H_u = 0), on the upper bound, symmetric about t = 1.5 (the problem is)."""
+    s = control_structure(Radau(saturated(), 4, 30).solve(error_threshold=None))
     assert s.kinds("u") == ["lower", "regular", "upper"]
     assert sum(s.junctions("u")) == pytest.approx(3.0, abs=1e-2)
