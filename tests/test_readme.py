@@ -119,3 +119,16 @@ def test_constraints_and_phases_example_runs_and_prints_what_the_readme_shows(tm
     proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == printed.split()
+
+
+def test_the_one_call_on_a_singular_arc_runs_and_prints_what_the_readme_shows(tmp_path):
+    """The Goddard rocket with a speed limit, stated with the library alone: bang, singular, boundary and off arcs,
+    the junctions of OptimalControl.jl's reference solution."""
+    section = _section("The library on its own")
+    blocks = re.findall(r"```(?:python)?\n(.*?)```", section, flags=re.S)
+    index = next(k for k, b in enumerate(blocks) if "to_extremal(" in b)
+    code, printed = blocks[index], blocks[index + 1]
+    assert "compendium" not in code, "the example uses the library alone"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert _same_print(proc.stdout, printed) == []

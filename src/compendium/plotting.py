@@ -98,3 +98,30 @@ def time_histories(
     if len(columns) > 1:
         ax.legend()
     return fig
+
+
+ARC_COLOURS = {"lower": "C0", "upper": "C3", "zero": "C7", "singular": "C2", "regular": "C1", "boundary": "C4"}
+
+
+def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n: int = 801) -> None:
+    """The control history of a direct solution (thin, grey) and of its extremal (:func:`ocpkit.indirect.to_extremal`)
+    drawn arc by arc (the extremal's own structure) in the colour of its kind, with a legend of the kinds and the
+    junctions dotted; ``scale`` divides the control (e.g. its maximum)."""
+    from ocpkit.structure import control_structure
+
+    i = direct.problem.control_names.index(control)
+    t = np.linspace(direct.t0, direct.tf, n)
+    ax.plot(t, direct.control(t)[:, i] / scale, color="0.6", lw=0.8, label="direct (Radau)")
+    tr = extremal.trajectory
+    found = control_structure(tr)
+    seen = set()
+    for arc in found.of(control):
+        s = np.linspace(arc.start, arc.end, 200)
+        kind = arc.kind if arc.constraint is None else f"boundary ({arc.constraint})"
+        ax.plot(s, tr.control(s)[:, i] / scale, color=ARC_COLOURS[arc.kind], lw=2, label=None if kind in seen else kind)
+        seen.add(kind)
+    for tj in found.junctions(control):
+        ax.axvline(tj, color="k", ls=":", lw=0.7)
+    ax.set_xlabel("t")
+    ax.set_ylabel(control if scale == 1.0 else f"{control} / {scale:g}")
+    ax.legend(fontsize=7, loc="best")

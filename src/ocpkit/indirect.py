@@ -3,16 +3,22 @@
 The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the indirect one's precision):
 
 1. the switching structure of the direct solution (:func:`ocpkit.structure.control_structure`);
-2. the control law from the Hamiltonian, derived, with no line of the user's: each control enters
-   ``H = H0 + psi u + w |u| + b u^2`` within its bounds, bang-bang or bang-off-bang where ``b = 0`` and saturated
-   linear where ``b > 0`` (:func:`ocpkit.shooting.control_law`);
-3. shooting (:class:`ocpkit.shooting.Shooting`: switchings located and corrected, the variational Jacobian) from
-   the direct solution's costate estimates at t0, its free initial states and parameters, and its final time;
-4. a :class:`Certificate` of the result (:func:`certify`).
+2. the shooting problem, derived with no line of the user's, by one of two methods (``method="auto"`` picks):
 
-What the chain does not treat yet stops it with a named error, never a wrong extremal: a singular arc (its flow
-needs the switching function's second derivative), a solution without costate estimates (Radau gives them), and
-what the shooting engine refuses (path and boundary constraints, a non-autonomous problem, a free t0).
+   * ``"arcs"``: multiple shooting over the detected arcs with the junction times unknowns
+     (:class:`ocpkit.shooting.arcs.ArcShooting`): bang, regular (``H_u = 0``), singular (the feedback from the
+     switching function's derivatives, Poisson brackets with H) and boundary arcs (mixed constraints, and state
+     constraints of order one), boundary equalities with their multipliers, non-autonomous problems; started
+     from the direct solution's states and costates at every estimated junction; the method wherever the
+     structure has a singular or boundary arc, or the problem constraints or explicit time;
+   * ``"switching"``: simple shooting of the slides' engine (:class:`ocpkit.shooting.Shooting`, switchings
+     located and corrected inside the integration, the variational Jacobian) with the control law derived from
+     ``H = H0 + psi u + w |u| + b u^2`` (:func:`ocpkit.shooting.control_law`), started from the costates at t0;
+     the method for bang-bang and saturated laws, and for free parameters (as states);
+3. a :class:`Certificate` of the result (:func:`certify`).
+
+What the chain does not treat yet stops it with a named error, never a wrong extremal: a solution without costate
+estimates (Radau gives them), an arc or junction whose flow is not derived (named with what to do), a free t0.
 """
 
 from __future__ import annotations
@@ -71,20 +77,27 @@ class Certificate:
 @dataclass
 class Extremal:
     """The result of :func:`to_extremal`: the extremal as a :class:`~ocpkit.Trajectory` (``trajectory``), the
-    shooting run (``shooting``), the structure read from the direct solution (``structure``), its
-    ``certificate``, and the wall times of the structure detection and of the shooting."""
+    shooting run (``shooting``: an :class:`~ocpkit.shooting.arcs.ArcResult` or a
+    :class:`~ocpkit.shooting.ShootingResult`), the structure read from the direct solution (``structure``), its
+    ``certificate``, the wall times of the structure detection and of the shooting, and the ``direct`` solution."""
 
     trajectory: object
     shooting: object
     structure: Structure
     certificate: Certificate
     timings: dict = field(default_factory=dict)
+    #: the direct solution the chain started from
+    direct: object = None
+
+
+METHODS = ("auto", "arcs", "switching")
 
 
 def to_extremal(
     solution,
     *,
     tol: float = 1e-10,
+    method: str = "auto",
     switching: str = "correction",
     jacobian: str = "variational",
     solver="hybr",
@@ -93,11 +106,15 @@ def to_extremal(
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
 
-    ``strict``: a certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (the
-    result is its ``.result``); False: the result carries it. ``switching``, ``jacobian`` and ``solver`` are the
-    shooting's.
+    ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``strict``: a certificate that fails
+    raises a :class:`~ocpkit.SolverError` naming the failed checks (the result is its ``.result``); False: the
+    result carries it. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     """
     from .shooting import Shooting, control_law
+    from .shooting.arcs import ArcShooting, arc_sequence
+
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
 
     if not getattr(solution, "has_costates", False):
         raise ValueError(
@@ -107,25 +124,35 @@ def to_extremal(
     start = time.perf_counter()
     structure = control_structure(solution)
     detect_s = time.perf_counter() - start
-    singular = [a for a in structure.arcs if a.kind == "singular"]
-    if singular:
-        a = singular[0]
-        raise ValueError(
-            f"control {a.control!r} has a singular arc on [{a.start:.6g}, {a.end:.6g}]: its flow (the feedback from "
-            "the switching function's second derivative) is not derived yet; regularise it "
-            f"(ocpkit.regularisation.penalise_control(problem, weight, [{a.control!r}])) or keep the direct solution"
-        )
     problem = solution.problem
     statement = _statement(solution)
-    law = control_law(statement, "box", regularized=_quadratic(statement))
-    shooting = Shooting(statement, law, switching=switching, jacobian=jacobian)
-    z0 = _unknowns(shooting, solution)
+    if method == "auto":
+        method = "arcs" if _needs_arcs(statement, structure) else "switching"
     start = time.perf_counter()
-    result = shooting.solve(z0, solver=solver, stol=tol)
+    if method == "arcs":
+        if statement.free_parameters:
+            raise ValueError(
+                f"{problem.name!r} has free parameters: the arc method does not take them yet; "
+                "use method='switching' (free parameters as states) where the structure allows"
+            )
+        shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf))
+        result = shooting.solve(shooting.guess(solution), tol=tol)
+    else:
+        singular = [a for a in structure.arcs if a.kind in ("singular", "boundary")]
+        if singular:
+            a = singular[0]
+            raise ValueError(
+                f"control {a.control!r} has a {a.kind} arc on [{a.start:.6g}, {a.end:.6g}]: the switching method's "
+                "laws have no such arc; use method='arcs'"
+            )
+        law = control_law(statement, "box", regularized=_quadratic(statement))
+        shooting = Shooting(statement, law, switching=switching, jacobian=jacobian)
+        result = shooting.solve(_unknowns(shooting, solution), solver=solver, stol=tol)
     shoot_s = time.perf_counter() - start
     trajectory = result.trajectory
     certificate = certify(trajectory, result, solution, structure, tol=tol)
-    extremal = Extremal(trajectory, result, structure, certificate, {"structure_s": detect_s, "shooting_s": shoot_s})
+    timings = {"structure_s": detect_s, "shooting_s": shoot_s}
+    extremal = Extremal(trajectory, result, structure, certificate, timings, direct=solution)
     if strict and not certificate.passed:
         raise SolverError(
             "certificate",
@@ -136,6 +163,16 @@ def to_extremal(
             result=extremal,
         )
     return extremal
+
+
+def _needs_arcs(problem, structure: Structure) -> bool:
+    """Whether only the arc method fits: a singular or boundary arc, constraints, or explicit time."""
+    if any(a.kind in ("singular", "boundary") for a in structure.arcs):
+        return True
+    if problem.path_constraints or problem.boundary_constraints:
+        return True
+    ham = problem.functions.hamiltonian
+    return bool(ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t))
 
 
 def _statement(solution):
@@ -182,25 +219,32 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     * ``shooting_residual``: ``|S|`` at the solution, at most ``tol``;
     * ``hamiltonian_minimum``: on ``samples`` times, how much lower H gets than at the extremal's control over a
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
-      six controls),
-      relative to ``1 + |H|``: the maximum principle, checked on the set rather than on the law that produced
-      the control;
-    * ``hamiltonian_constant``: the drift of H along the integration (autonomous problems);
+      six controls; a value that violates a mixed state-control constraint is not admissible), relative to
+      ``1 + |H|``: the maximum principle, checked on the set rather than on the law that produced the control;
+    * ``hamiltonian_constant``: the largest change of H along the extremal relative to ``1 + |H|`` (autonomous
+      problems only);
+    * ``legendre_clebsch``: on singular arcs of order q, how negative ``(-1)^q d/du (d/dt)^(2q) H_u`` gets
+      (relative to its largest magnitude), the generalised Legendre-Clebsch (Kelley) condition; with
+      ``multiplier_sign``: on boundary arcs, how negative the inequality's multiplier gets (relative to its largest
+      magnitude); both 0 where there are no such arcs;
     * ``structure``: 0 when the extremal has the direct solution's arcs (kinds in order, for each control), else 1;
     * ``objective_gap``: ``|J_indirect - J_direct| / (1 + |J|)``, at most 1e-2, and ``state_gap``: the largest
       difference of the direct solution's states in percent of each one's magnitude, in normalised time, at most
       5 %: another extremal than the one the direct solution approximates, not its discretisation error (a
       switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch.
     """
+    from .structure import inequalities
+
     problem = trajectory.problem
     ham = problem.functions.hamiltonian
     Hf = ca.Function("H", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H])
     t = np.linspace(trajectory.t0, trajectory.tf, samples)
     X, L, U = trajectory.state(t), trajectory.costate(t), trajectory.control(t)
-    P = problem.parameter_vector()
+    P = np.asarray(problem._P, dtype=float).ravel()
     Hmap = Hf.map(samples)
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()
+    mixed = [q.function.map(samples) for q in inequalities(problem) if not q.pure]
     worst = 0.0
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
@@ -223,7 +267,13 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
         else:
             V[:, :] = np.asarray(trial)[:, None]
         H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
+        for c in mixed:
+            H_v[np.asarray(c(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = np.inf
         worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
+    ineq = [q.function(ham.x, ham.u, ham.t, ham.P) for q in inequalities(problem)]
+    autonomous = not ca.depends_on(ca.vertcat(ham.f, ham.L, *ineq), ham.t)
+    drift = float(np.max(np.abs(H_star - H_star[0])) / (1.0 + abs(H_star[0])))
+    kelley, sign = _arc_conditions(trajectory, t, X, L, P)
     found = control_structure(trajectory)
     names = [c.name for c in problem.controls if np.isfinite(c.lower) and np.isfinite(c.upper)]
     same = all(found.kinds(n) == structure.kinds(n) for n in names)
@@ -237,7 +287,9 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     checks = (
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
         Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
-        Check("hamiltonian_constant", float(result.integration.hamiltonian_drift), 1e-6, "drift of H"),
+        *((Check("hamiltonian_constant", drift, 1e-6, "change of H along the extremal"),) if autonomous else ()),
+        Check("legendre_clebsch", kelley, 1e-8, "generalised Legendre-Clebsch condition on singular arcs"),
+        Check("multiplier_sign", sign, 1e-8, "the inequality's multiplier is nonnegative on boundary arcs"),
         Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs, in order"),
         Check("objective_gap", abs(J - float(direct.objective)) / (1.0 + abs(J)), 1e-2, "indirect against direct"),
         Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"),
@@ -245,4 +297,31 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     return Certificate(checks)
 
 
-__all__ = ["Certificate", "Check", "Extremal", "certify", "to_extremal"]
+def _arc_conditions(trajectory, t, X, L, P) -> tuple[float, float]:
+    """The Legendre-Clebsch violation on singular arcs and the multiplier's sign violation on boundary arcs of an
+    arc-shooting extremal (0 for another trajectory, which has no such arcs)."""
+    from .shooting.arcs import ArcTrajectory
+
+    if not isinstance(trajectory, ArcTrajectory):
+        return 0.0, 0.0
+    flows = trajectory.shooting.flows
+    fl_in = [flows.x, flows.p, flows.t, flows.P]
+    kelley = sign = 0.0
+    for k, kind in enumerate(trajectory.shooting.kinds):
+        a, b = trajectory.breakpoints[k], trajectory.breakpoints[k + 1]
+        inside = (t > a) & (t < b)
+        if not inside.any():
+            continue
+        flow = flows.flow(kind)
+        Ps = np.repeat(P[:, None], inside.sum(), axis=1)
+        for _, q, coefficient in flow.singular:
+            f = ca.Function("lc", fl_in, [coefficient]).map(int(inside.sum()))
+            v = (-1) ** q * np.asarray(f(X[inside].T, L[inside].T, t[inside][None, :], Ps)).ravel()
+            kelley = max(kelley, float(np.max(-v) / max(np.abs(v).max(), 1e-300)))
+        if kind.constraint is not None:
+            mu = trajectory.multiplier(t[inside])
+            sign = max(sign, float(np.max(-mu) / max(np.abs(mu).max(), 1e-300)))
+    return max(kelley, 0.0), max(sign, 0.0)
+
+
+__all__ = ["METHODS", "Certificate", "Check", "Extremal", "certify", "to_extremal"]

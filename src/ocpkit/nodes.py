@@ -223,3 +223,12 @@ def lgr_estimate_points(n: int) -> tuple[np.ndarray, np.ndarray]:
     Cached: the arrays are shared, do not modify them."""
     tau = lgr_nodes(n)
     return tau, integration_matrix(tau, np.append(tau, 1.0))
+
+
+def cubic_hermite(y0, d0, y1, d1, h, s):
+    """The cubic Hermite interpolant between ``(y0, dy/dt = d0)`` and ``(y1, d1)`` a step ``h`` apart, at the
+    fraction ``s`` of the step: ``(1 + 2s)(1 - s)^2 y0 + s(1 - s)^2 h d0 + s^2(3 - 2s) y1 + s^2(s - 1) h d1``
+    (fourth-order accurate in ``h``). Arrays broadcast: rows of points, ``h`` and ``s`` as columns."""
+    h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+    h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+    return h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1

@@ -2,16 +2,20 @@
 
 The first step from a direct solution to an extremal of the maximum principle (Martinon & Gergaud's slides set the
 direct method's robustness against the indirect one's precision; the hybrid reads the structure and the costates
-of the first to start the second). On a dense grid of the admissible control, each bounded control is
+of the first to start the second). On a dense grid, each bounded control, and each control an active inequality
+involves, is
 
 * ``"lower"`` or ``"upper"``: on that bound (within ``band`` of its range);
-* ``"zero"``: at zero, strictly inside its bounds (the "off" arc of an L1 cost);
+* ``"zero"``: at zero, strictly inside its bounds, for a control with an L1 cost (``w |u|`` in H: an "off" arc);
 * ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`);
-* ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control).
+* ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control);
+* ``"boundary"``: inside its bounds where an inequality of the problem is active (:func:`inequalities`: a state
+  on its bound, a pure state constraint, or a mixed state-control path constraint at its bound); the arc names it.
 
-Runs shorter than ``min_share`` of the horizon, and a direct solution's interior runs within fewer than three mesh
-intervals, are the smearing of a switch by the polynomial control, not arcs: each is shared between its neighbours
-at its middle. A junction is first the midpoint of the two samples either side; where
+Runs shorter than ``min_share`` of the horizon, a direct solution's interior runs of an affine control within fewer
+than three mesh intervals (the smearing of a switch by the polynomial control), and its runs on a bound within fewer than three
+mesh intervals between two singular runs (the chattering of collocation on a singular arc) are not arcs: each is
+shared between its neighbours at its middle. A junction is first the midpoint of the two samples either side; where
 the solution has costates (Radau) and the Hamiltonian has the form ``H0 + psi u + w |u|`` in the control, it is
 refined to the crossing of the switching function that decides it: ``psi = 0`` between the two bounds or at a
 singular arc, ``psi = w`` between ``"lower"`` and ``"zero"``, ``psi = -w`` between ``"zero"`` and ``"upper"``.
@@ -25,7 +29,49 @@ import casadi as ca
 import numpy as np
 
 #: the kinds of arc, in the order of :func:`control_structure`'s classification
-ARC_KINDS = ("lower", "upper", "zero", "singular", "regular")
+ARC_KINDS = ("lower", "upper", "zero", "singular", "regular", "boundary")
+
+
+@dataclass(frozen=True)
+class Inequality:
+    """One inequality of a problem as ``c(x, u, t, P) <= 0`` (CasADi Function ``function``), named
+    ``"<state>.lower"``/``"<state>.upper"`` for a state's bound or ``"<constraint>.lower"``/``".upper"`` for a path
+    constraint's; ``pure`` when ``c`` does not depend on the control (a state constraint)."""
+
+    name: str
+    function: object
+    pure: bool
+    #: the indices of the controls in ``c`` (mixed), or in its time derivative (a state constraint of order one)
+    controls: tuple = ()
+
+
+def inequalities(problem) -> list[Inequality]:
+    """Every finite state bound and path-constraint bound of ``problem`` as an :class:`Inequality` ``c <= 0``."""
+    ham = problem.functions.hamiltonian
+    x, u, t, P = ham.x, ham.u, ham.t, ham.P
+    out = []
+
+    def add(name, expr):
+        fun = ca.Function("inequality", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["c"])
+        pure = not ca.depends_on(expr, u)
+        moved = ca.jtimes(expr, x, ham.f) + ca.jacobian(expr, t) if pure else expr
+        controls = tuple(i for i in range(problem.nu) if ca.depends_on(moved, u[i]))
+        out.append(Inequality(name, fun, pure, controls))
+
+    for i, s in enumerate(problem.states):
+        if np.isfinite(s.lower):
+            add(f"{s.name}.lower", s.lower - x[i])
+        if np.isfinite(s.upper):
+            add(f"{s.name}.upper", x[i] - s.upper)
+    path = problem.functions.path
+    if path is not None:
+        g = path.function(x, u, t, P)
+        for k, label in enumerate(path.labels):
+            if np.isfinite(path.lower[k]):
+                add(f"{label}.lower", path.lower[k] - g[k])
+            if np.isfinite(path.upper[k]):
+                add(f"{label}.upper", g[k] - path.upper[k])
+    return out
 
 
 @dataclass(frozen=True)
@@ -36,6 +82,12 @@ class Arc:
     kind: str
     start: float
     end: float
+    #: on a ``"boundary"`` arc, the active inequality (:func:`inequalities`), e.g. ``"v.upper"``
+    constraint: str | None = None
+
+    def __str__(self) -> str:
+        kind = self.kind if self.constraint is None else f"{self.kind} ({self.constraint})"
+        return f"{kind} on [{self.start:.6g}, {self.end:.6g}]"
 
 
 @dataclass(frozen=True)
@@ -59,17 +111,19 @@ class Structure:
         """The junction times of ``control`` (the ends of its arcs but the last)."""
         return np.array([a.end for a in self.of(control)[:-1]])
 
-    def describe(self) -> str:
-        """The structure in words: ``u: lower on [0, 0.5], zero on [0.5, 2.5], upper on [2.5, 3]``."""
+    def describe(self, times: bool = True) -> str:
+        """The structure in words, a line per control: ``u: lower on [0, 0.5], zero on [0.5, 2.5], upper on [2.5,
+        3]``; without ``times``, the arcs only: ``u: lower, zero, upper``."""
         lines = []
         for name in dict.fromkeys(a.control for a in self.arcs):
-            parts = [f"{a.kind} on [{a.start:.6g}, {a.end:.6g}]" for a in self.of(name)]
+            parts = [str(a) if times else str(a).split(" on [")[0] for a in self.of(name)]
             lines.append(f"{name}: " + ", ".join(parts))
         return "\n".join(lines)
 
 
 def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_share: float = 0.01) -> Structure:
-    """The arcs of every bounded control of ``trajectory`` and their junction times (module docstring).
+    """The arcs of every bounded control of ``trajectory`` (and of every control an active inequality involves) and
+    their junction times (module docstring).
 
     ``samples``: grid points over the horizon; ``band``: the distance to a bound, or to zero, that counts as on it,
     as a fraction of the bounds' range; ``min_share``: the shortest arc, as a fraction of the horizon.
@@ -89,37 +143,97 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
     polynomial = isinstance(trajectory, Solution)
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
+    active = _active(trajectory, t, U, band)
+    l1 = _l1_controls(problem)
     arcs = []
     for i, c in enumerate(problem.controls):
-        if not (np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower):
-            continue
-        tol = band * (c.upper - c.lower)
+        bounded = np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower
+        mine = {name: on for name, (on, controls) in active.items() if i in controls}
+        if not bounded and not mine:
+            continue  # an unbounded control without an active inequality: regular throughout, no arcs
         u = U[:, i]
         interior = "singular" if c.name in affine else "regular"
         labels = np.full(samples, interior, dtype=object)
-        if c.lower < 0 < c.upper:
-            labels[np.abs(u) <= tol] = "zero"
-        labels[u <= c.lower + tol] = "lower"
-        labels[u >= c.upper - tol] = "upper"
+        if bounded:
+            tol = band * (c.upper - c.lower)
+            if c.lower < 0 < c.upper and i in l1:
+                labels[np.abs(u) <= tol] = "zero"
+            labels[u <= c.lower + tol] = "lower"
+            labels[u >= c.upper - tol] = "upper"
+        for name, on in mine.items():  # an inequality active where the control is inside: a boundary arc
+            labels[on & (labels == interior)] = f"boundary:{name}"
         shortest = max(int(np.ceil(min_share * (samples - 1))), 1)
 
-        def short(label, a, b, interior=interior, shortest=shortest):
+        def short(label, a, b, left, right, interior=interior, shortest=shortest):
             # an interior run within fewer than three mesh intervals is a switch the polynomial smears (a
-            # transcription's control is one polynomial per interval), not an arc
+            # transcription's control is one polynomial per interval), not an arc; a bound run as short between
+            # two singular runs is the singular arc's chattering
             spans = np.count_nonzero((breaks > t[a]) & (breaks < t[b])) + 1
-            return b - a + 1 < shortest or (polynomial and label == interior and spans < 3)
+            chatter = label in ("lower", "upper", "zero") and left == right == "singular"
+            smear = label == interior == "singular"  # a regular control is continuous: nothing to smear
+            return b - a + 1 < shortest or (polynomial and (smear or chatter) and spans < 3)
 
         runs = _runs(labels, short)
         for k, (kind, a, b) in enumerate(runs):
             start = t[0] if k == 0 else _junction(t, runs[k - 1], (kind, a, b), switching, i)
             end = t[-1] if k == len(runs) - 1 else _junction(t, (kind, a, b), runs[k + 1], switching, i)
-            arcs.append(Arc(c.name, kind, float(start), float(end)))
+            kind, _, constraint = kind.partition(":")
+            arcs.append(Arc(c.name, kind, float(start), float(end), constraint or None))
     return Structure(tuple(arcs))
 
 
+def switching_function(trajectory, control: str, t) -> np.ndarray:
+    """``H_u`` of ``control`` along a trajectory with costates at times ``t``: the switching function of an affine
+    control (zero on its singular arcs; its sign picks the bound on bang arcs)."""
+    problem = trajectory.problem
+    if control not in problem.control_names:
+        raise KeyError(f"unknown control {control!r}; the controls are {problem.control_names}")
+    if not trajectory.has_costates:
+        raise ValueError("the switching function needs costates (a Radau solution or an extremal)")
+    ham = problem.functions.hamiltonian
+    i = problem.control_names.index(control)
+    f = ca.Function("H_u", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.jacobian(ham.H, ham.u[i])])
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    X, L, U = trajectory.state(t), trajectory.costate(t), trajectory.control(t)
+    P = np.repeat(np.asarray(problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
+    return np.asarray(f.map(t.size)(X.T, L.T, U.T, t[None, :], P)).ravel()
+
+
+def _l1_controls(problem) -> set:
+    """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs."""
+    from .shooting.hamiltonian import _extract
+
+    ham = problem.functions.hamiltonian
+    _, _, w, _ = _extract(ham.H, ham.u, problem.nu)
+    f = ca.Function("w", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*w)])
+    rng = np.random.default_rng(3)
+    P = np.asarray(problem._P, dtype=float).ravel()
+    W = [
+        np.abs(np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.3, P))).ravel()
+        for _ in range(3)
+    ]
+    return set(np.flatnonzero(np.max(W, axis=0) > 1e-12).tolist())
+
+
+def _active(trajectory, t, U, band) -> dict:
+    """Per inequality (:func:`inequalities`) active somewhere on the grid ``t`` (within ``band`` of zero, relative
+    to the range of its values along the trajectory): where, and the controls it involves."""
+    problem = trajectory.problem
+    X = np.asarray(trajectory.state(t), dtype=float).reshape(t.size, problem.nx)
+    P = np.repeat(np.asarray(problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
+    out = {}
+    for ineq in inequalities(problem):
+        c = np.asarray(ineq.function.map(t.size)(X.T, U.T, t[None, :], P)).ravel()
+        on = c >= -band * max(float(np.ptp(c)), 1e-12)
+        if on.any():
+            out[ineq.name] = (on, ineq.controls)
+    return out
+
+
 def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
-    """Runs ``(label, first, last)`` of equal labels; a run that ``short(label, first, last)`` calls too short to
-    be an arc (the shortest first) is shared between its neighbours at its middle, or given to its only one."""
+    """Runs ``(label, first, last)`` of equal labels; a run that ``short(label, first, last, left, right)`` (the
+    neighbours' labels, None at an end) calls too short to be an arc (the shortest first) is shared between its
+    neighbours at its middle, or given to its only one."""
     runs = []
     for k, label in enumerate(labels):
         if runs and runs[-1][0] == label:
@@ -127,7 +241,11 @@ def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
         else:
             runs.append([label, k, k])
     while len(runs) > 1:
-        candidates = [k for k, (label, a, b) in enumerate(runs) if short(label, a, b)]
+        candidates = [
+            k
+            for k, (label, a, b) in enumerate(runs)
+            if short(label, a, b, runs[k - 1][0] if k else None, runs[k + 1][0] if k + 1 < len(runs) else None)
+        ]
         if not candidates:
             break
         k = min(candidates, key=lambda j: runs[j][2] - runs[j][1])
@@ -192,6 +310,8 @@ def _junction(t, before, after, switching, i) -> float:
     if switching is None:
         return guess
     pair = {kind_a, kind_b}
+    if any(k.startswith("boundary") for k in pair):
+        return guess  # an inequality becomes active or inactive: no switching function decides it
     if pair == {"lower", "upper"} or "singular" in pair:
         sign = 0.0
     elif pair == {"lower", "zero"}:
@@ -212,4 +332,4 @@ def _junction(t, before, after, switching, i) -> float:
     return float(min(roots, key=lambda r: abs(r - guess)))
 
 
-__all__ = ["ARC_KINDS", "Arc", "Structure", "control_structure"]
+__all__ = ["ARC_KINDS", "Arc", "Inequality", "Structure", "control_structure", "inequalities", "switching_function"]

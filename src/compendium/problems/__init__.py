@@ -2,7 +2,14 @@
 
 from ._data import load_problem_data
 from .attitude_ascent import attitude_ascent
-from .beyond_the_seeds import catalyst_mixing, free_flying_robot, miser3_state_constraint, orbit_raising, tumour
+from .beyond_the_seeds import (
+    catalyst_mixing,
+    free_flying_robot,
+    miser3_state_constraint,
+    orbit_raising,
+    rayleigh_mixed,
+    tumour,
+)
 from .bryson_denham import bryson_denham, bryson_denham_solution
 from .cops_gasoil import gasoil, gasoil_fit, gasoil_measurements
 from .delta3 import delta3_constants, delta3_guesses, delta3_mass_drops, delta3_phases
@@ -12,7 +19,12 @@ from .goddard import goddard_constants, goddard_rocket
 from .hang_glider import hang_glider
 from .hyper_sensitive import hyper_sensitive
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants
-from .minimum_fuel import double_integrator, double_integrator_solution, harmonic_oscillator
+from .minimum_fuel import (
+    double_integrator,
+    double_integrator_solution,
+    double_integrator_thrusters,
+    harmonic_oscillator,
+)
 from .orbit_transfer import (
     final_longitude,
     minimum_longitude,
@@ -28,6 +40,7 @@ __all__ = [
     "free_flying_robot",
     "miser3_state_constraint",
     "orbit_raising",
+    "rayleigh_mixed",
     "shuttle_heating",
     "shuttle_reentry",
     "shuttle_reentry_constants",
@@ -49,6 +62,7 @@ __all__ = [
     "thrust_units",
     "double_integrator",
     "double_integrator_solution",
+    "double_integrator_thrusters",
     "harmonic_oscillator",
     "entry_landing",
     "entry_landing_constants",

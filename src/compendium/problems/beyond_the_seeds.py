@@ -9,7 +9,9 @@
 * :func:`miser3_state_constraint`: MISER3's linear-quadratic problem under a time-varying ceiling on a state, active
   on an interior arc (a path constraint that collocation holds at its points only);
 * :func:`orbit_raising`: Bryson & Ho's maximum-radius orbit transfer, the thrust angle as the control (an angle:
-  declared periodic), and a terminal condition that couples two states (a boundary constraint).
+  declared periodic), and a terminal condition that couples two states (a boundary constraint);
+* :func:`rayleigh_mixed`: the Rayleigh problem under the mixed state-control constraint ``u + x1 / 6 <= 0``
+  (Maurer & Augustin 2001; Betts 2010, Sec. 4.14), whose boundary arc is that of a mixed constraint.
 
 The shuttle's reentry is in :mod:`.shuttle_reentry`.
 """
@@ -152,4 +154,26 @@ def orbit_raising(periodic: bool = True) -> OptimalControlProblem:
     )
 
 
-__all__ = ["catalyst_mixing", "free_flying_robot", "miser3_state_constraint", "orbit_raising", "tumour"]
+def rayleigh_mixed() -> OptimalControlProblem:
+    c = load_problem_data("beyond_the_seeds")["rayleigh"]
+    a, b = c["damping"]
+    return OptimalControlProblem(
+        "rayleigh_mixed",
+        states=[State("x1", initial=c["x0"][0], guess=0.0), State("x2", initial=c["x0"][1], guess=0.0)],
+        controls=[Control("u", guess=0.0)],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], -x[0] + x[1] * (a - b * x[1] ** 2) + c["gain"] * u[0]),
+        tf=c["tf"],
+        lagrange=lambda x, u, t: u[0] ** 2 + x[0] ** 2,
+        path_constraints=[Constraint("mixed", lambda x, u, t: u[0] + x[0] / c["ratio"], upper=0.0)],
+        description="Rayleigh problem with a mixed state-control constraint (Maurer & Augustin 2001; Betts 2010)",
+    )
+
+
+__all__ = [
+    "catalyst_mixing",
+    "free_flying_robot",
+    "miser3_state_constraint",
+    "orbit_raising",
+    "rayleigh_mixed",
+    "tumour",
+]

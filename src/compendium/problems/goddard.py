@@ -18,7 +18,8 @@ from ._data import load_problem_data
 
 
 def goddard_constants() -> dict:
-    """The COPS constants and the derived ones: ``c``, ``D_c``, ``T_max``, ``m_f``."""
+    """The COPS constants and the derived ones: ``c``, ``D_c``, ``T_max``, ``m_f``; ``v_max`` of the speed-limited
+    variant."""
     d = load_problem_data("goddard")
     c = dict(d["constants"])
     c["c"] = 0.5 * (c["g0"] * c["h0"]) ** 0.5
@@ -27,11 +28,17 @@ def goddard_constants() -> dict:
     c["m_f"] = c["m_c"] * c["m0"]
     c["tf_bounds"] = tuple(d["bounds"]["tf"])
     c["tf_guess"] = d["guess"]["tf"]
+    c["v_max"] = d["speed_limit"]["v_max"]
     return c
 
 
-def goddard_rocket() -> OptimalControlProblem:
+def goddard_rocket(v_max: float | None = None) -> OptimalControlProblem:
+    """The COPS Goddard rocket; with ``v_max``, the speed limited to ``v <= v_max``: the control-toolbox variant
+    (OptimalControl.jl's Goddard tutorial, ``v_max = 0.1`` in ``data/problems/goddard.toml``), whose thrust is
+    full, singular, on the speed limit (a boundary arc), then zero."""
     c = goddard_constants()
+    if v_max is not None and not v_max > 0:
+        raise ValueError(f"v_max must be positive, got {v_max}")
 
     def dynamics(x, u, t):
         h, v, m = x[0], x[1], x[2]
@@ -41,10 +48,18 @@ def goddard_rocket() -> OptimalControlProblem:
 
     lo, hi = c["tf_bounds"]
     return OptimalControlProblem(
-        "goddard_rocket",
+        "goddard_rocket" if v_max is None else "goddard_rocket_speed_limit",
         states=[
             State("h", c["h0"], 2 * c["h0"], initial=c["h0"], guess=(c["h0"], 1.01 * c["h0"]), description="altitude"),
-            State("v", 0.0, 1.0, initial=c["v0"], scale=0.1, guess=0.05, description="velocity"),
+            State(
+                "v",
+                0.0,
+                1.0 if v_max is None else float(v_max),
+                initial=c["v0"],
+                scale=0.1,
+                guess=0.05,
+                description="velocity",
+            ),
             State(
                 "m", c["m_f"], c["m0"], initial=c["m0"], final=c["m_f"], guess=(c["m0"], c["m_f"]), description="mass"
             ),
@@ -53,5 +68,6 @@ def goddard_rocket() -> OptimalControlProblem:
         dynamics=dynamics,
         tf=FreeFinalTime(lo, hi, c["tf_guess"], scale=0.1),
         mayer=lambda x0, xf, t0, tf: -xf[0],
-        description="Goddard rocket, maximum altitude (COPS 3.0)",
+        description="Goddard rocket, maximum altitude (COPS 3.0)"
+        + ("" if v_max is None else f", speed limited to {v_max:g} (control-toolbox)"),
     )

@@ -38,6 +38,24 @@ def double_integrator(lam: float = 1.0, x0=None, horizon: float | None = None) -
     )
 
 
+def double_integrator_thrusters(x0=None, horizon: float | None = None) -> OptimalControlProblem:
+    """The fuel-optimal double integrator as a direct method states it without ``|u|``: two thrusters, ``push`` and
+    ``brake`` in [0, 1], ``x2' = push - brake``, cost ``push + brake`` (the same optimum as ``double_integrator(1)``:
+    brake, coast, push, at the times of :func:`double_integrator_solution`)."""
+    d = load_problem_data("minimum_fuel")["double_integrator"]
+    x0 = d["x0"] if x0 is None else list(x0)
+    T = d["horizon"] if horizon is None else float(horizon)
+    return OptimalControlProblem(
+        "double_integrator_thrusters",
+        [State("x1", initial=x0[0], final=0.0), State("x2", initial=x0[1], final=0.0)],
+        [Control("push", 0.0, 1.0), Control("brake", 0.0, 1.0)],
+        lambda x, u, t: [x["x2"], u["push"] - u["brake"]],
+        tf=T,
+        lagrange=lambda x, u, t: u["push"] + u["brake"],
+        description="Minimum-fuel double integrator, two thrusters",
+    )
+
+
 @dataclass(frozen=True)
 class BangOffBang:
     """Closed-form fuel-optimal solution of the double integrator: u = -1, 0, +1 on [0, t1], [t1, t2], [t2, T]."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..nodes import cubic_hermite
 from ..trajectory import Trajectory
 from .compiled import Integration
 from .hamiltonian import HamiltonianSystem
@@ -83,11 +84,7 @@ class ShootingTrajectory(Trajectory):
 
     def _y(self, t) -> np.ndarray:
         shape, i, s, h = self._locate(t)
-        s = s[:, None]
-        h = h[:, None]
-        h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
-        h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
-        y = h00 * self._Y[i] + h10 * h * self._D0[i] + h01 * self._Y[i + 1] + h11 * h * self._D1[i]
+        y = cubic_hermite(self._Y[i], self._D0[i], self._Y[i + 1], self._D1[i], h[:, None], s[:, None])
         return y.reshape(shape + (y.shape[-1],)), i
 
     def _state(self, t):

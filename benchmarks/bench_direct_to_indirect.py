@@ -1,0 +1,77 @@
+"""From a direct solution to a certified extremal: the cost of each step of the chain (issue 24).
+
+    python benchmarks/bench_direct_to_indirect.py [--repeat 5]
+
+For every case of notebook 10 that ends certified (``compendium.studies.direct_to_indirect``): the direct solve
+(Radau, its case's mesh), then ``ocpkit.indirect.to_extremal`` split into the structure detection, the shooting
+(build of the arc flows and CVODES integrators, Newton's iterations) and the rest (the dense trajectory and the
+certificate); the median of ``--repeat`` runs in one process, and the chain's time as a multiple of the direct
+solve's. Issue 24's goal: the Goddard rocket with a speed limit, from ``Radau(...).solve(mesh_tolerance=...)`` to the
+certified extremal, in under 2 s end to end on the 2-core reference machine (printed as met or not). Writes
+``build/bench/direct_to_indirect.csv``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from _harness import parser, report
+
+from ocpkit import Radau
+from ocpkit.indirect import to_extremal
+
+from compendium.paths import build_dir
+from compendium.studies.direct_to_indirect import CASES
+
+GOAL_S = 2.0
+CERTIFIED = [
+    "double_integrator",
+    "goddard_speed_limit",
+    "goddard_cops",
+    "catalyst_mixing",
+    "orbit_raising",
+    "rayleigh_mixed",
+]
+
+
+def main() -> None:
+    ap = parser(__doc__.split("\n")[0], str(build_dir() / "bench" / "direct_to_indirect.csv"))
+    args = ap.parse_args()
+    rows = []
+    for name in CERTIFIED:
+        case = CASES[name]
+        runs = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            direct = Radau(case.problem(), case.nodes, case.intervals).solve(**case.solve_options)
+            t1 = time.perf_counter()
+            extremal = to_extremal(direct)
+            t2 = time.perf_counter()
+            runs.append((t1 - t0, extremal.timings["structure_s"], extremal.timings["shooting_s"], t2 - t1, t2 - t0))
+        direct_s, structure_s, shooting_s, chain_s, total_s = np.median(np.array(runs), axis=0)
+        rows.append(
+            {
+                "problem": name,
+                "direct_s": direct_s,
+                "structure_s": structure_s,
+                "shooting_s": shooting_s,
+                "certificate_s": chain_s - structure_s - shooting_s,
+                "chain_s": chain_s,
+                "total_s": total_s,
+                "chain_over_direct": chain_s / direct_s,
+                "newton_iterations": extremal.shooting.n_jacobian,
+            }
+        )
+        print(f"{name}: {total_s:.3f} s end to end", flush=True)
+    cols = list(rows[0])
+    df = report(
+        rows, cols, args.output, "Direct solve, then to_extremal (median of runs)", {"chain_over_direct": ".2f"}
+    )
+    goddard = float(df.set_index("problem").loc["goddard_speed_limit", "total_s"])
+    verdict = "met" if goddard < GOAL_S else "NOT met"
+    print(f"goal: Goddard with a speed limit end to end under {GOAL_S:g} s: {goddard:.3f} s, {verdict}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,213 @@
+"""From a direct solution to a certified extremal in one call (notebook 10; issue 24).
+
+Each case is a published problem, a direct solve (Radau) and the reference it is compared with: closed-form
+junction times, a published junction table (``data/paper/goddard_control_toolbox.csv``) or a published optimum
+(``data/paper/beyond_the_seeds.csv``, ``goddard_cops.csv``). :func:`run_case` solves it directly, calls
+:func:`ocpkit.indirect.to_extremal` and reports the structure found, the extremal's numbers against the reference,
+|S|, the drift of H, the certificate and the gap to the direct solution, or, where the chain stops, its named error.
+No user-written Hamiltonian, control law or shooting function appears anywhere.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ocpkit import Radau, SolverError
+from ocpkit.indirect import to_extremal
+
+from ..paper import paper_table
+from ..problems import (
+    catalyst_mixing,
+    double_integrator_solution,
+    double_integrator_thrusters,
+    free_flying_robot,
+    goddard_constants,
+    goddard_rocket,
+    miser3_state_constraint,
+    orbit_raising,
+    rayleigh_mixed,
+    tumour,
+)
+from ..problems.entry_landing import entry_landing
+
+
+def _published(table: str, problem: str | None, quantity: str) -> float:
+    df = paper_table(table)
+    if problem is not None:
+        df = df[df.problem == problem]
+    return float(df.set_index("quantity").loc[quantity, "value"])
+
+
+def _junctions(extremal) -> np.ndarray:
+    return np.asarray(extremal.trajectory.breakpoints[1:-1], dtype=float)
+
+
+@dataclass(frozen=True)
+class Case:
+    """A problem, its direct solve and its reference: ``reference()`` gives ``{quantity: published value}`` and
+    ``measure(extremal)`` the extremal's values of the same quantities."""
+
+    name: str
+    what: str
+    problem: Callable
+    nodes: int
+    intervals: int
+    solve_options: dict
+    reference: Callable[[], dict] = field(default=lambda: {})
+    measure: Callable[[object], dict] = field(default=lambda e: {})
+
+
+def _di_reference() -> dict:
+    exact = double_integrator_solution()
+    return {"t1": exact.t1, "t2": exact.t2}
+
+
+def _goddard_ct_reference() -> dict:
+    table = paper_table("goddard_control_toolbox").set_index("quantity")
+    return {q: float(table.loc[q, "value"]) for q in ("t1", "t2", "t3", "tf")}
+
+
+def _goddard_ct_measure(e) -> dict:
+    t = _junctions(e)
+    return {"t1": t[0], "t2": t[1], "t3": t[2], "tf": e.trajectory.tf} if t.size == 3 else {}
+
+
+CASES = {
+    c.name: c
+    for c in [
+        Case(
+            "double_integrator",
+            "minimum fuel, two thrusters: bang-off-bang",
+            double_integrator_thrusters,
+            4,
+            20,
+            {"error_threshold": None},
+            _di_reference,
+            lambda e: dict(zip(("t1", "t2"), _junctions(e))),
+        ),
+        Case(
+            "goddard_speed_limit",
+            "Goddard with v <= 0.1 (control-toolbox): bang, singular, boundary, off",
+            lambda: goddard_rocket(v_max=goddard_constants()["v_max"]),
+            4,
+            20,
+            {"mesh_tolerance": 1e-6},
+            _goddard_ct_reference,
+            _goddard_ct_measure,
+        ),
+        Case(
+            "goddard_cops",
+            "Goddard (COPS 3.0): bang, singular, off",
+            goddard_rocket,
+            4,
+            20,
+            {"mesh_tolerance": 1e-6},
+            lambda: {"final_altitude": _published("goddard_cops", None, "final_altitude")},
+            lambda e: {"final_altitude": float(e.trajectory.state(e.trajectory.tf)[0])},
+        ),
+        Case(
+            "catalyst_mixing",
+            "catalyst mixing (COPS 3.0): bang, singular, bang",
+            catalyst_mixing,
+            4,
+            30,
+            {"error_threshold": None},
+            lambda: {"objective": _published("beyond_the_seeds", "catalyst_mixing", "objective")},
+            lambda e: {"objective": e.trajectory.objective},
+        ),
+        Case(
+            "orbit_raising",
+            "orbit raising (Bryson & Ho): regular, time-dependent mass, boundary equality",
+            orbit_raising,
+            4,
+            20,
+            {"mesh_tolerance": 1e-6},
+            lambda: {"final_radius": _published("beyond_the_seeds", "orbit_raising", "final_radius")},
+            lambda e: {"final_radius": float(e.trajectory.state(e.trajectory.tf)[0])},
+        ),
+        Case(
+            "rayleigh_mixed",
+            "Rayleigh, u + x1/6 <= 0: boundary arcs of a mixed constraint",
+            rayleigh_mixed,
+            4,
+            30,
+            {"mesh_tolerance": 1e-6},
+            lambda: {"objective": _published("beyond_the_seeds", "rayleigh_mixed", "objective")},
+            lambda e: {"objective": e.trajectory.objective},
+        ),
+        Case(
+            "entry_landing",
+            "the seeds' entry landing (Radau, refined)",
+            entry_landing,
+            4,
+            20,
+            {"mesh_tolerance": 1e-6},
+        ),
+        Case(
+            "miser3_state_constraint",
+            "MISER3: a state constraint on a regular control",
+            miser3_state_constraint,
+            4,
+            30,
+            {"mesh_tolerance": 1e-6},
+        ),
+        Case(
+            "tumour_anti_angiogenesis",
+            "tumour anti-angiogenesis: a state constraint entered from a bang arc",
+            tumour,
+            4,
+            30,
+            {"error_threshold": None},
+        ),
+        Case(
+            "free_flying_robot",
+            "free-flying robot: two controls on one mixed constraint",
+            free_flying_robot,
+            4,
+            30,
+            {"error_threshold": None},
+        ),
+    ]
+}
+
+
+def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
+    """The case's rows (one per compared quantity, or one saying where the chain stopped), its timings and its
+    extremal (None where the chain stopped)."""
+    start = time.perf_counter()
+    direct = Radau(case.problem(), case.nodes, case.intervals).solve(**case.solve_options)
+    direct_s = time.perf_counter() - start
+    base = {"problem": case.name, "what": case.what}
+    timings = {"problem": case.name, "direct_s": direct_s}
+    try:
+        extremal = to_extremal(direct, tol=tol)
+    except (ValueError, SolverError) as exc:
+        timings["chain_s"] = time.perf_counter() - start - direct_s
+        return [{**base, "verdict": "stopped", "reason": str(exc).split(";")[0]}], timings, None
+    timings.update(extremal.timings)
+    cert = extremal.certificate
+    common = {
+        **base,
+        "verdict": "certified",
+        "reason": "",
+        "structure": "; ".join(extremal.structure.describe(times=False).splitlines()),
+        "norm_S": extremal.shooting.norm,
+        "hamiltonian_drift": cert["hamiltonian_constant"].value if _has(cert, "hamiltonian_constant") else np.nan,
+        "objective_gap": cert["objective_gap"].value,
+    }
+    reference, measured = case.reference(), case.measure(extremal)
+    rows = [{**common, "quantity": q, "reference": reference[q], "value": measured.get(q, np.nan)} for q in reference]
+    for r in rows:
+        r["error"] = abs(r["value"] - r["reference"])
+    return rows or [common], timings, extremal
+
+
+def _has(certificate, name: str) -> bool:
+    return any(c.name == name for c in certificate.checks)
+
+
+__all__ = ["CASES", "Case", "run_case"]

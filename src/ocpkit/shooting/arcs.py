@@ -1,0 +1,764 @@
+"""Multiple shooting over a known sequence of arcs, the junction times unknowns (Maurer, "Numerical solution of
+singular control problems using multiple shooting techniques", JOTA 18, 1976; the arc-wise shooting of the
+control-toolbox tutorials, here with every flow and condition derived from the problem).
+
+Each arc gives each control a *kind* (:data:`ocpkit.structure.ARC_KINDS`) and its flow follows from the
+Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative along the Hamiltonian flow
+``D F = F_x f - F_p H_x + F_t`` (a Poisson bracket with H, CasADi-symbolic):
+
+* **bang** (``lower``, ``upper``, ``zero``): the control at that value;
+* **regular**: the control from ``H_u = 0``, explicit where H is quadratic in it; otherwise the control becomes a
+  state of the arc with ``du/dt = -H_uu^-1 (H_ux f - H_up H_x + H_ut)`` (the derivative of ``H_u = 0`` along the
+  flow), its value at the arc's start an unknown and ``H_u = 0`` there a condition;
+* **singular**: ``phi = H_u`` does not depend on ``u``; its derivatives ``D^k phi`` are taken until ``u`` appears,
+  in ``D^(2q) phi`` (order ``q``), which gives the feedback ``u = -D^(2q) phi|_(u=0) / d_u D^(2q) phi``; at the
+  arc's entry ``phi, D phi, ..., D^(2q-1) phi`` vanish;
+* **boundary** of an inequality ``c <= 0`` (:func:`ocpkit.structure.inequalities`): for a mixed constraint
+  (``c_u != 0``) the control from ``c = 0``, the multiplier ``mu = -H_u / c_u`` and ``dp/dt = -H_x - mu c_x``; at
+  each of its ends ``mu = 0``. For a pure state constraint of order one the control from ``D c = 0``, and, where H
+  is affine in the control, the multiplier that keeps ``H_u = 0`` on the arc, ``mu = D H_u / (H_up . c_x)``; at its
+  entry ``c = 0`` (no jump of the costate).
+
+Junctions between two bang arcs satisfy ``H(u_left) = H(u_right)`` (the switching function crosses its
+threshold); between a regular arc and a bound the control is continuous. Unknowns: the free initial states, the
+initial costates, at each junction its time and ``(x, p)`` there (multiple shooting: each arc integrated from its
+own node, matched at its end), a free final time, one multiplier per boundary equality, and the starting controls
+of implicit regular arcs. Conditions: the matching, the junctions', and the transversality conditions of
+``Phi = phi + nu' psi`` (``p(t0) = -Phi_x0`` for a free initial state, ``p(tf) = Phi_xf`` for a free final one,
+``H(tf) + Phi_tf = 0`` for a free final time). The arcs are integrated by CVODES on a normalised time, with exact
+derivatives of the shooting function through its forward sensitivities.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SolverError
+from ..nodes import cubic_hermite
+from ..problem import FreeFinalTime
+from ..structure import Structure, inequalities
+from ..trajectory import Trajectory
+
+BANG = ("lower", "upper", "zero")
+
+
+@dataclass(frozen=True)
+class ArcType:
+    """The kind of each control on one arc (in the problem's control order) and its active inequality, if any."""
+
+    kinds: tuple[str, ...]
+    constraint: str | None = None
+
+
+def arc_sequence(structure: Structure, problem, t0: float, tf: float) -> list[tuple[ArcType, float, float]]:
+    """The arcs of the whole control vector on ``[t0, tf]`` from each control's arcs: the common refinement of
+    their partitions, as ``(ArcType, start, end)``. A control without bounds is ``regular`` throughout."""
+    cuts = sorted({float(t0), float(tf)} | {a.start for a in structure.arcs} | {a.end for a in structure.arcs})
+    out = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        mid = 0.5 * (a + b)
+        kinds, constraint = [], None
+        for c in problem.controls:
+            arcs = [x for x in structure.arcs if x.control == c.name and x.start <= mid <= x.end]
+            if not arcs:
+                kinds.append("regular")
+                continue
+            kinds.append(arcs[0].kind)
+            if arcs[0].constraint is not None:
+                constraint = arcs[0].constraint
+        kind = ArcType(tuple(kinds), constraint)
+        if out and out[-1][0] == kind:
+            out[-1] = (kind, out[-1][1], b)
+        else:
+            out.append((kind, a, b))
+    return out
+
+
+@dataclass
+class _Flow:
+    """One arc's derived flow: the control, the extra (implicit control) states, the costate multiplier term."""
+
+    kind: ArcType
+    control: ca.SX  # in x, p, t, P (and w, the implicit controls)
+    w: ca.SX  # the implicit regular controls carried as states (0 x 1 if none)
+    wdot: ca.SX
+    mu: ca.SX  # the boundary multiplier (0 without)
+    entry: list  # the arc type's conditions at its start (a singular arc's, a boundary arc's), in x, p, t, P, w
+    boundary_control: int | None = None  # the control a boundary arc's constraint determines
+    implicit: list = field(default_factory=list)  # H_u = 0 at the start of an implicit regular arc
+    singular: list = field(default_factory=list)  # (control index, order q, d_u D^(2q) phi) for Legendre-Clebsch
+
+
+class ArcFlows:
+    """The symbolic flows and conditions of a problem's arcs (module docstring)."""
+
+    def __init__(self, problem):
+        self.problem = problem
+        ham = problem.functions.hamiltonian
+        self.ham = ham
+        self.x, self.p, self.u, self.t, self.P = ham.x, ham.p, ham.u, ham.t, ham.P
+        self.H, self.f = ham.H, ham.f
+        self.Hx = ca.gradient(ham.H, ham.x)
+        self.ineq = {q.name: q for q in inequalities(problem)}
+        self._cache = {}
+
+    def depends(self, expr: ca.SX, ui: ca.SX) -> bool:
+        """Whether ``expr`` depends on the control ``ui``: structurally, and then at random points (a bracket such
+        as ``D H_u`` contains ``u`` in terms that cancel, which CasADi does not simplify)."""
+        if not ca.depends_on(expr, ui):
+            return False
+        d = ca.Function("d", [self.x, self.p, self.u, self.t, self.P], [ca.jacobian(expr, ui), expr])
+        rng = np.random.default_rng(7)
+        P = np.asarray(self.problem._P, dtype=float).ravel()
+        from .hamiltonian import _sample
+
+        x = np.array([_sample(s) for s in self.problem.states])
+        for _ in range(6):
+            lo = np.array([c.lower if np.isfinite(c.lower) else -1.0 for c in self.problem.controls])
+            hi = np.array([c.upper if np.isfinite(c.upper) else 1.0 for c in self.problem.controls])
+            args = (x * (1 + 0.1 * rng.normal(size=x.size)), rng.normal(size=x.size), rng.uniform(lo, hi), 0.1, P)
+            dv, v = (np.asarray(a, dtype=float) for a in d(*args))
+            if np.any(np.abs(dv) > 1e-9 * (1 + np.abs(v).max())):
+                return True
+        return False
+
+    def D(self, F: ca.SX, u: ca.SX | None = None, mu: ca.SX | None = None, c: ca.SX | None = None) -> ca.SX:
+        """``dF/dt`` along the Hamiltonian flow ``(f, -H_x - mu c_x)``, at the control ``u`` (symbolic if None)."""
+        x, p, t = self.x, self.p, self.t
+        pdot = -self.Hx if mu is None else -self.Hx - mu * ca.gradient(c, x)
+        out = ca.jtimes(F, x, self.f) + ca.jtimes(F, p, pdot) + ca.jacobian(F, t)
+        return out if u is None else ca.substitute(out, self.u, u)
+
+    def flow(self, kind: ArcType) -> _Flow:
+        if kind not in self._cache:
+            self._cache[kind] = self._derive(kind)
+        return self._cache[kind]
+
+    def _derive(self, kind: ArcType) -> _Flow:
+        problem, u, H = self.problem, self.u, self.H
+        nu = problem.nu
+        names = problem.control_names
+        value = [None] * nu
+        for i, k in enumerate(kind.kinds):
+            c = problem.controls[i]
+            if k in BANG:
+                value[i] = ca.SX({"lower": c.lower, "upper": c.upper, "zero": 0.0}[k])
+        free = [i for i in range(nu) if value[i] is None]
+        mu, entry, singular = ca.SX(0), [], []
+        w, wdot = ca.SX(0, 1), ca.SX(0, 1)
+
+        bang = [i for i in range(nu) if value[i] is not None]
+
+        def fixed(expr):  # the bang controls at their values
+            if not bang:
+                return expr
+            return ca.substitute(expr, ca.vertcat(*[u[i] for i in bang]), ca.vertcat(*[value[i] for i in bang]))
+
+        boundary_control = None
+        if kind.constraint is not None:
+            value, mu, entry, boundary_control = self._boundary(kind, value, free, fixed)
+        sing = [i for i in free if kind.kinds[i] == "singular"]
+        if kind.constraint is None and sing:
+            if len(sing) > 1:
+                raise ValueError(
+                    f"controls {[names[i] for i in sing]} are singular on the same arc: a joint singular feedback is "
+                    "not derived; keep the direct solution"
+                )
+            i = sing[0]
+            other = [j for j in free if j != i]
+            if other:
+                raise ValueError(
+                    f"control {names[i]!r} is singular while {[names[j] for j in other]} are not at a bound: this "
+                    "combination is not derived; keep the direct solution"
+                )
+            phi = fixed(ca.jacobian(H, u[i]))
+            if self.depends(phi, u[i]):
+                raise ValueError(f"control {names[i]!r}: H is not affine in it, so it has no singular arc")
+            phi = ca.substitute(phi, u[i], 0)
+            derivs = [phi]
+            while len(derivs) < 5:
+                d = fixed(self.D(derivs[-1]))
+                if self.depends(d, u[i]):
+                    derivs.append(d)
+                    break
+                derivs.append(ca.substitute(d, u[i], 0))  # the control's terms cancel
+            k = len(derivs) - 1
+            if not self.depends(derivs[-1], u[i]) or k % 2:
+                raise ValueError(
+                    f"control {names[i]!r}: the singular arc's control does not appear in an even derivative of the "
+                    f"switching function up to the fourth (found order {k / 2:g}): its feedback is not derived"
+                )
+            a = ca.jacobian(derivs[-1], u[i])
+            if ca.depends_on(a, u[i]):
+                raise ValueError(f"control {names[i]!r}: its singular feedback is not affine in it")
+            value[i] = -ca.substitute(derivs[-1], u[i], 0) / a
+            entry = derivs[:k]
+            singular.append((i, k // 2, a))
+        reg = [i for i in free if value[i] is None]
+        implicit = []
+        if reg:
+            value, w, wdot, implicit = self._regular(reg, value, fixed)
+        control = ca.vertcat(*value)
+        entry = [ca.substitute(e, u, control) for e in entry]
+        return _Flow(kind, control, w, wdot, mu, entry, boundary_control, implicit, singular)
+
+    def _regular(self, reg, value, fixed):
+        """The regular controls from ``H_u = 0``: explicit when H is quadratic in them, else carried as states."""
+        u, H = self.u, self.H
+        ur = ca.vertcat(*[u[i] for i in reg])
+        Hu = fixed(ca.jacobian(H, ur).T)
+        Huu = ca.jacobian(Hu, ur)
+        if Huu.is_zero():
+            names = [self.problem.control_names[i] for i in reg]
+            raise ValueError(
+                f"H is affine in {names} on a regular arc: H_u = 0 does not give the control (a singular arc does)"
+            )
+        if not ca.depends_on(Huu, ur):
+            sol = -ca.solve(Huu, ca.substitute(Hu, ur, ca.DM.zeros(len(reg))))
+            for k, i in enumerate(reg):
+                value[i] = sol[k]
+            return value, ca.SX(0, 1), ca.SX(0, 1), []
+        w = ca.SX.sym("w", len(reg))
+        full = [value[i] if value[i] is not None else None for i in range(len(value))]
+        for k, i in enumerate(reg):
+            full[i] = w[k]
+        ufull = ca.vertcat(*full)
+        Hu_w = ca.substitute(Hu, ur, w)
+        dHu = ca.substitute(self.D(Hu), u, ufull)  # the part of d/dt H_u at fixed u
+        wdot = -ca.solve(ca.substitute(Huu, ur, w), ca.substitute(dHu, ur, w))
+        return full, w, wdot, [ca.substitute(Hu_w, u, ufull)]
+
+    def _boundary(self, kind, value, free, fixed):
+        """The control and the multiplier on a boundary arc of ``kind.constraint``, and the arc's entry conditions."""
+        names = self.problem.control_names
+        q = self.ineq.get(kind.constraint)
+        if q is None:
+            raise ValueError(f"unknown inequality {kind.constraint!r}; the problem's are {sorted(self.ineq)}")
+        x, u, t, P = self.x, self.u, self.t, self.P
+        c = q.function(x, u, t, P)
+        inside = [i for i in free if kind.kinds[i] == "boundary"]
+        if len(inside) != 1:
+            raise ValueError(
+                f"the boundary arc of {kind.constraint!r} has {len(inside)} controls inside their bounds: one "
+                "constraint determines one control"
+            )
+        i = inside[0]
+        if not q.pure:
+            cu = ca.jacobian(c, u[i])
+            if ca.depends_on(cu, u[i]):
+                raise ValueError(
+                    f"{kind.constraint!r} is not affine in {names[i]!r}: its boundary control is not derived"
+                )
+            value[i] = fixed(-ca.substitute(c, u[i], 0) / cu)
+            Hu = ca.jacobian(self.H, u[i])
+            mu = fixed(-Hu / cu)
+            mu = ca.substitute(mu, u[i], value[i])
+            return value, mu, [mu], i
+        c1 = fixed(self.D(c))
+        if not ca.depends_on(c1, u[i]):
+            raise ValueError(
+                f"{kind.constraint!r} is a state constraint of order two or more (its first derivative does not "
+                f"contain {names[i]!r}): boundary arcs of order one only"
+            )
+        a = ca.jacobian(c1, u[i])
+        if ca.depends_on(a, u[i]):
+            raise ValueError(f"the derivative of {kind.constraint!r} is not affine in {names[i]!r}")
+        value[i] = -ca.substitute(c1, u[i], 0) / a
+        phi = fixed(ca.jacobian(self.H, u[i]))
+        if self.depends(phi, u[i]):
+            raise ValueError(
+                f"H is not affine in {names[i]!r} on the boundary arc of the state constraint {kind.constraint!r}: "
+                "that arc's multiplier and junction conditions are not derived; keep the direct solution"
+            )
+        # the switching function phi = H_u is kept at zero on the arc by the multiplier: D phi - mu phi_p . c_x = 0
+        phi = ca.substitute(phi, u[i], 0)
+        denominator = ca.dot(ca.gradient(phi, self.p), ca.gradient(c, x))
+        mu = ca.substitute(fixed(self.D(phi)), u[i], value[i]) / denominator
+        return value, mu, [c], i
+
+    def rhs(self, kind: ArcType):
+        """``(y, rhs, control, mu)``: ``y = (x, p, w, J)`` and its time derivative on this arc."""
+        fl = self.flow(kind)
+        x, p, t, P, u = self.x, self.p, self.t, self.P, self.u
+        ineq = self.ineq[kind.constraint].function(x, u, t, P) if kind.constraint else ca.SX(0)
+        J = ca.SX.sym("J")
+        y = ca.vertcat(x, p, fl.w, J)
+        L = self.ham.L
+        pdot = -self.Hx - fl.mu * ca.gradient(ineq, x) if kind.constraint else -self.Hx
+        rhs = ca.vertcat(self.f, pdot, ca.SX.zeros(fl.w.numel()), L)
+        rhs = ca.substitute(rhs, u, fl.control)
+        if fl.w.numel():
+            rhs[2 * self.problem.nx : 2 * self.problem.nx + fl.w.numel()] = fl.wdot
+        return y, rhs, fl
+
+
+@dataclass
+class ArcResult:
+    """A multiple-shooting run over arcs: ``z`` the unknowns, ``residual``/``norm`` S and |S|, ``times`` the arcs'
+    bounds (t0, junctions, tf), ``nodes`` (x, p) at each arc's start, ``multipliers`` of the boundary equalities,
+    ``converged``, ``message``, ``n_shooting`` and ``n_jacobian`` the effort, ``objective`` and :attr:`trajectory`."""
+
+    z: np.ndarray
+    residual: np.ndarray
+    norm: float
+    times: np.ndarray
+    converged: bool
+    message: str
+    n_shooting: int
+    n_jacobian: int
+    cpu_s: float
+    objective: float
+    trajectory: Trajectory
+    multipliers: np.ndarray
+    arcs: list
+
+
+class ArcShooting:
+    """Multiple shooting of ``problem`` over the arcs ``arcs`` (``[(ArcType, start, end), ...]`` from
+    :func:`arc_sequence`; start and end are estimates); module docstring. ``rtol``/``atol``: CVODES's."""
+
+    def __init__(self, problem, arcs, *, rtol: float = 1e-12, atol: float = 1e-12):
+        if problem.free_initial_time:
+            raise ValueError(f"{problem.name!r}: arc shooting integrates from a fixed t0")
+        self.problem = problem
+        self.kinds = [a[0] for a in arcs]
+        self.estimates = np.array([a[1] for a in arcs] + [arcs[-1][2]], dtype=float)
+        self.flows = ArcFlows(problem)
+        nx = problem.nx
+        self.nx = nx
+        self.free_tf = isinstance(problem.tf, FreeFinalTime)
+        for s in problem.states:
+            for which in ("initial", "final"):
+                if getattr(s, which) is not None and getattr(s, f"fixed_{which}") is None:
+                    raise ValueError(
+                        f"arc shooting supports fixed or free {which} states, not the interval of {s.name!r}"
+                    )
+        bc = problem.functions.boundary
+        if bc is not None and np.any(bc.lower != bc.upper):
+            raise ValueError(f"{problem.name!r}: arc shooting takes boundary equalities only, not inequalities")
+        self.n_nu = 0 if bc is None else bc.size
+        self.free_initial = [s.initial is None for s in problem.states]
+        self.x0 = np.array([0.0 if s.initial is None else s.fixed_initial for s in problem.states])
+        self.integrators = []
+        self.rhs = []
+        for k, kind in enumerate(self.kinds):
+            y, rhs, fl = self.flows.rhs(kind)
+            tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
+            ode = ca.substitute(dt * rhs, self.flows.t, ta + tau * dt)
+            dae = {"x": y, "p": ca.vertcat(ta, dt, self.flows.P), "t": tau, "ode": ode}
+            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 100000}
+            self.integrators.append(ca.integrator(f"arc{k}", "cvodes", dae, 0.0, 1.0, opts))
+            self.rhs.append((y, rhs, fl))
+        self.rtol, self.atol = rtol, atol
+        self._build()
+
+    # -- the shooting function, symbolic -----------------------------------------------------------------
+    def _build(self):
+        problem, nx, fl = self.problem, self.nx, self.flows
+        K = len(self.kinds)
+        nw = [self.rhs[k][2].w.numel() for k in range(K)]
+        nfree = int(np.sum(self.free_initial))
+        sizes = [("x0", nfree), ("p0", nx)]
+        for k in range(1, K):
+            sizes += [(f"t{k}", 1), (f"y{k}", 2 * nx)]
+        if self.free_tf:
+            sizes.append(("tf", 1))
+        sizes.append(("nu", self.n_nu))
+        for k in range(K):
+            sizes.append((f"w{k}", nw[k]))
+        self.layout = sizes
+        nz = sum(n for _, n in sizes)
+        z = ca.MX.sym("z", nz)
+        parts, offset = {}, 0
+        for name, n in sizes:
+            parts[name] = z[offset : offset + n]
+            offset += n
+        P = ca.MX.sym("P", fl.P.numel())
+        t0 = float(problem.t0)
+        tf = parts["tf"] if self.free_tf else ca.MX(float(problem.tf))
+        times = [ca.MX(t0)] + [parts[f"t{k}"] for k in range(1, K)] + [tf]
+        xs = []
+        it = iter(range(nx))
+        free_iter = iter(range(nfree))
+        for i in it:
+            xs.append(parts["x0"][next(free_iter)] if self.free_initial[i] else ca.MX(self.x0[i]))
+        x0 = ca.vertcat(*xs)
+        starts = [ca.vertcat(x0, parts["p0"])] + [parts[f"y{k}"] for k in range(1, K)]
+        rows, ends, costs = [], [], []
+        # the functions of the conditions, in the SX symbols of ArcFlows
+        sym_in = [fl.x, fl.p, fl.t, fl.P]
+        for k in range(K):
+            y, rhs, flow = self.rhs[k]
+            w = parts[f"w{k}"]
+            y0 = ca.vertcat(starts[k], w, 0)
+            out = self.integrators[k](x0=y0, p=ca.vertcat(times[k], times[k + 1] - times[k], P))["xf"]
+            ends.append(out)
+            costs.append(out[-1])
+            if k + 1 < K:
+                rows.append(starts[k + 1] - out[: 2 * nx])
+            # the arc's entry conditions at its start: an implicit regular arc's H_u = 0; a singular arc's (from its
+            # start, t0 included); a boundary arc's at a junction (c = 0 for a state constraint, mu = 0 for a mixed)
+            entry = list(flow.implicit)
+            if flow.entry and not self._continued(k) and (k > 0 or self.kinds[k].constraint is None):
+                self._check_entry(k)
+                entry += flow.entry
+            if entry:
+                E = ca.Function("entry", [*sym_in, flow.w], [ca.vertcat(*entry)])
+                rows.append(E(starts[k][:nx], starts[k][nx:], times[k], P, w))
+            if k > 0:
+                rows += self._junction(k, ends[k - 1], starts[k], w, times[k], P)
+        # the end: fixed final states, transversality, boundary equalities, free tf
+        yf = ends[-1]
+        xf, pf = yf[:nx], yf[nx : 2 * nx]
+        X0, XF, T0, TF, Pm = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf"), fl.P
+        nu = ca.SX.sym("nu", self.n_nu)
+        Phi = problem.phi(X0, XF, T0, TF, Pm) if problem.phi is not None else ca.SX(0)
+        psi = ca.SX(0, 1)
+        bc = problem.functions.boundary
+        if bc is not None:
+            psi = bc.function(X0, XF, T0, TF, Pm) - ca.DM(bc.lower)
+            Phi = Phi + ca.dot(nu, psi)
+        grads = ca.Function(
+            "transversality",
+            [X0, XF, T0, TF, Pm, nu],
+            [ca.gradient(Phi, X0), ca.gradient(Phi, XF), ca.gradient(Phi, TF), psi],
+        )
+        g0, gf, gt, psi_v = grads(x0, xf, t0, tf, P, parts["nu"])
+        for i, s in enumerate(problem.states):
+            rows.append(xf[i] - s.fixed_final if s.final is not None else pf[i] - gf[i])
+            if self.free_initial[i]:
+                rows.append(parts["p0"][i] + g0[i])
+        rows.append(psi_v)
+        if self.free_tf:
+            y, rhs, flow = self.rhs[-1]
+            Hf = ca.Function("H", [*sym_in, flow.w], [ca.substitute(fl.H, fl.u, flow.control)])
+            rows.append(Hf(xf, pf, tf, P, yf[2 * nx : 2 * nx + flow.w.numel()]) + gt)
+        S = ca.vertcat(*rows)
+        if S.numel() < nz:
+            raise ValueError(
+                f"the arcs {[self._name(k) for k in self.kinds]} give {S.numel()} conditions for {nz} unknowns: "
+                "this structure is not one the derived junction conditions close (a junction the theory treats "
+                "otherwise); keep the direct solution"
+            )
+        Phi_val = ca.Function(
+            "Phi", [X0, XF, T0, TF, Pm], [problem.phi(X0, XF, T0, TF, Pm) if problem.phi is not None else ca.SX(0)]
+        )
+        objective = Phi_val(x0, xf, t0, tf, P) + sum(costs)
+        self.S = ca.Function("S", [z, P], [S])
+        self.SJ = ca.Function("SJ", [z, P], [S, ca.jacobian(S, z)])
+        self.times = ca.Function("times", [z, P], [ca.vertcat(*times)])
+        self.objective = ca.Function("objective", [z, P], [objective])
+        self.nz = nz
+
+    def _check_entry(self, k: int) -> None:
+        """A state constraint's boundary arc is entered here from a singular arc only (H_u = 0 holds already, no
+        jump of the costate): entered from a bang arc the costate jumps, which is not derived."""
+        kind = self.kinds[k]
+        if kind.constraint is None or not self.flows.ineq[kind.constraint].pure:
+            return
+        i = self.flows.flow(kind).boundary_control
+        before = self.kinds[k - 1].kinds[i]
+        if before != "singular":
+            raise ValueError(
+                f"the boundary arc of the state constraint {kind.constraint!r} is entered from a {before!r} arc of "
+                f"{self.problem.control_names[i]!r}: the costate's jump there is not derived (only the entry from a "
+                "singular arc is); keep the direct solution"
+            )
+
+    def _leaves_continuously(self, k: int) -> bool:
+        """Whether boundary arc ``k``'s multiplier vanishes at its exit: a mixed constraint's (the control is
+        continuous there)."""
+        return not self.flows.ineq[self.kinds[k].constraint].pure
+
+    def _continued(self, k: int) -> bool:
+        """Whether arc ``k``'s entry conditions already hold from the arc before: a singular arc after a boundary
+        arc of a state constraint, on which ``H_u = 0`` was kept (and the converse)."""
+        if k == 0:
+            return False
+        a, b = self.kinds[k - 1], self.kinds[k]
+        pure = [c for c in (a.constraint, b.constraint) if c is not None and self.flows.ineq[c].pure]
+        if a.constraint is None and b.constraint is None or not pure:
+            return False
+        # the same control inside its bounds on both arcs, singular on one and on the state constraint on the other
+        return any({ka, kb} == {"singular", "boundary"} for ka, kb in zip(a.kinds, b.kinds)) and b.constraint is None
+
+    @staticmethod
+    def _name(kind: ArcType) -> str:
+        k = "/".join(kind.kinds)
+        return k if kind.constraint is None else f"{k} ({kind.constraint})"
+
+    def _junction(self, k, left_end, right_start, w_right, tj, P) -> list:
+        """The conditions at the junction between arcs ``k - 1`` and ``k`` (module docstring)."""
+        fl, nx = self.flows, self.nx
+        a, b = self.kinds[k - 1], self.kinds[k]
+        la, ra = self.rhs[k - 1][2], self.rhs[k][2]
+        sym_in = [fl.x, fl.p, fl.t, fl.P]
+        xl, pl, wl = left_end[:nx], left_end[nx : 2 * nx], left_end[2 * nx : 2 * nx + la.w.numel()]
+        xr, pr = right_start[:nx], right_start[nx:]
+        rows = []
+        if a.constraint and a.constraint != b.constraint and self._leaves_continuously(k - 1):
+            # the multiplier of a mixed constraint vanishes at the arc's exit (the control is continuous there)
+            M = ca.Function("mu", [*sym_in, la.w], [la.mu])
+            rows.append(M(xl, pl, tj, P, wl))
+        for i, (ka, kb) in enumerate(zip(a.kinds, b.kinds)):
+            if ka == kb or "boundary" in (ka, kb) or (kb == "singular" and ka in BANG):
+                continue  # entries of singular and boundary arcs are the arcs' own conditions
+            if ka in BANG and kb in BANG:
+                H = fl.H
+                Ha = ca.substitute(H, fl.u, la.control)
+                Hb = ca.substitute(H, fl.u, ra.control)
+                F = ca.Function("switch", [*sym_in, ra.w], [Ha - Hb])
+                rows.append(F(xr, pr, tj, P, w_right))
+            elif ka == "regular" and kb in BANG:
+                F = ca.Function("continuity", [*sym_in, la.w], [la.control[i] - ra.control[i]])
+                rows.append(F(xl, pl, tj, P, wl))
+            elif ka in BANG and kb == "regular":
+                F = ca.Function("continuity", [*sym_in, ra.w], [ra.control[i] - la.control[i]])
+                rows.append(F(xr, pr, tj, P, w_right))
+            elif ka == "singular" and kb in BANG:
+                continue  # leaving a singular arc: no condition
+            else:
+                raise ValueError(
+                    f"a junction from {ka!r} to {kb!r} of control {self.problem.control_names[i]!r} is not derived; "
+                    "keep the direct solution"
+                )
+        return rows
+
+    # -- the initial guess from a trajectory with costates -----------------------------------------------
+    def guess(self, trajectory, parameters=None) -> np.ndarray:
+        """The unknowns from a trajectory with costates (a Radau solution): its values at the estimated junctions;
+        the boundary multipliers by least squares on the final transversality condition."""
+        times = self.estimates.copy()
+        if self.free_tf:
+            times[-1] = trajectory.tf
+        out = []
+        X = trajectory.state(times)
+        L = trajectory.costate(times)
+        for name, n in self.layout:
+            if n == 0:
+                continue
+            if name == "x0":
+                out.append(X[0][np.array(self.free_initial)])
+            elif name == "p0":
+                out.append(L[0])
+            elif name.startswith("t") and name[1:].isdigit():
+                out.append([times[int(name[1:])]])
+            elif name.startswith("y"):
+                k = int(name[1:])
+                out.append(np.concatenate([X[k], L[k]]))
+            elif name == "tf":
+                out.append([times[-1]])
+            elif name == "nu":
+                out.append(self._multiplier_guess(trajectory, parameters))
+            elif name.startswith("w"):
+                k = int(name[1:])
+                reg = [i for i, kind in enumerate(self.kinds[k].kinds) if kind == "regular"]
+                inside = times[k] + 1e-3 * (times[k + 1] - times[k])  # off the junction, where U jumps
+                out.append(trajectory.control(np.array([inside]))[0][reg])
+        return np.concatenate([np.ravel(v) for v in out]).astype(float)
+
+    def _multiplier_guess(self, trajectory, parameters) -> np.ndarray:
+        problem, nx = self.problem, self.nx
+        X0, XF, T0, TF = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+        P = self.flows.P
+        phi = problem.phi(X0, XF, T0, TF, P) if problem.phi is not None else ca.SX(0)
+        psi = problem.functions.boundary.function(X0, XF, T0, TF, P)
+        F = ca.Function("g", [X0, XF, T0, TF, P], [ca.gradient(phi, XF), ca.jacobian(psi, XF)])
+        x = trajectory.state(np.array([trajectory.t0, trajectory.tf]))
+        pf = trajectory.costate(np.array([trajectory.tf]))[0]
+        g, A = (np.asarray(v) for v in F(x[0], x[1], trajectory.t0, trajectory.tf, self._P(parameters)))
+        free = [i for i, s in enumerate(problem.states) if s.final is None]
+        return np.linalg.lstsq(A.T[free], pf[free] - g.ravel()[free], rcond=None)[0]
+
+    def _P(self, parameters=None) -> np.ndarray:
+        return np.asarray(self.problem._P if parameters is None else parameters, dtype=float).ravel()
+
+    # -- solve --------------------------------------------------------------------------------------------
+    def solve(self, z0, parameters=None, *, tol: float = 1e-10, max_iterations: int = 50) -> ArcResult:
+        """Newton's method on ``S(z) = 0`` from ``z0`` with the exact Jacobian (least-squares steps, Gauss-Newton
+        where the conditions outnumber the unknowns, as when a singular arc reaching tf makes a transversality
+        condition hold already; halved until ``|S|`` decreases); stops at ``|S| <= tol`` once a step no longer gains a factor ten, or at the
+        integrator's noise. A failure raises a :class:`~ocpkit.SolverError` naming it, the last iterate's result
+        attached."""
+        P = self._P(parameters)
+        z = np.asarray(z0, dtype=float).copy()
+        if z.size != self.nz:
+            raise ValueError(f"z0 must have {self.nz} entries (layout {self.layout})")
+        start = time.process_time()
+        n_S = n_J = 0
+        message = "maximum number of iterations"
+
+        def residual(z):
+            try:
+                return np.asarray(self.S(z, P)).ravel()
+            except RuntimeError:  # CVODES failed on this iterate
+                return np.full(self.nz, np.inf)
+
+        S = residual(z)
+        n_S += 1
+        for _ in range(max_iterations):
+            norm = float(np.linalg.norm(S))
+            if not np.isfinite(norm):
+                message = "the arcs' integration failed at the starting point"
+                break
+            Sv, J = self.SJ(z, P)
+            n_J += 1
+            step = np.linalg.lstsq(np.asarray(J), -np.asarray(Sv).ravel(), rcond=None)[0]
+            a = 1.0
+            while a >= 2.0**-12:
+                trial = z + a * step
+                times = np.asarray(self.times(trial, P)).ravel()
+                if np.all(np.diff(times) > 0):
+                    St = residual(trial)
+                    n_S += 1
+                    if np.linalg.norm(St) < (1 - 1e-4 * a) * norm or (norm <= tol and np.linalg.norm(St) <= norm):
+                        break
+                a *= 0.5
+            else:
+                message = "no step decreases |S| (the integrator's noise, or far from a solution)"
+                break
+            gain = np.linalg.norm(St) / max(norm, 1e-300)
+            z, S = trial, St
+            if np.linalg.norm(S) <= tol and gain > 0.1 or np.linalg.norm(S) <= 1e-15:
+                message = "converged"
+                break
+        norm = float(np.linalg.norm(S))
+        times = np.asarray(self.times(z, P)).ravel()
+        try:
+            objective = np.asarray(self.objective(z, P)).ravel()
+        except RuntimeError:  # the arcs cannot be integrated from the last iterate
+            objective = np.array([np.nan])
+        result = ArcResult(
+            z,
+            S,
+            norm,
+            times,
+            norm <= tol,
+            message,
+            n_S,
+            n_J,
+            time.process_time() - start,
+            float(objective[0]),
+            None,
+            self._part(z, "nu"),
+            list(self.kinds),
+        )
+        if np.all(np.diff(times) > 0) and np.isfinite(norm):
+            result.trajectory = ArcTrajectory(self, z, P, times, result.objective)
+        if not result.converged:
+            raise SolverError(
+                "arc shooting", message, n_J, f"|S| = {norm:.3e} > {tol:g}", unit="Newton iterations", result=result
+            )
+        return result
+
+    def _part(self, z, name) -> np.ndarray:
+        offset = 0
+        for n_, n in self.layout:
+            if n_ == name:
+                return np.asarray(z[offset : offset + n])
+            offset += n
+        raise KeyError(name)
+
+
+class ArcTrajectory(Trajectory):
+    """The extremal of an :class:`ArcShooting` run as functions of time: each arc integrated again on a dense grid
+    (CVODES, the shooting's tolerances), cubic Hermite between grid points with the arc's flow as derivative; the
+    control the arc's derived control (bang value, singular feedback, boundary control, ``H_u = 0``)."""
+
+    def __init__(self, shooting: ArcShooting, z, P, times, objective: float, per_arc: int = 1000):
+        self.problem = shooting.problem
+        self.shooting = shooting
+        self.objective = float(objective)
+        self.t0, self.tf = float(times[0]), float(times[-1])
+        self.breakpoints = np.asarray(times, dtype=float)
+        nx = shooting.nx
+        self._n = nx
+        self._pieces = []
+        K = len(shooting.kinds)
+        starts = [np.concatenate([self._x0(shooting, z), shooting._part(z, "p0")])] + [
+            shooting._part(z, f"y{k}") for k in range(1, K)
+        ]
+        fl = shooting.flows
+        self.mu = []
+        for k in range(K):
+            y, rhs, flow = shooting.rhs[k]
+            w = shooting._part(z, f"w{k}")
+            grid = np.linspace(0.0, 1.0, per_arc + 1)
+            tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
+            ode = ca.substitute(dt * rhs, fl.t, ta + tau * dt)
+            dae = {"x": y, "p": ca.vertcat(ta, dt, fl.P), "t": tau, "ode": ode}
+            opts = {"abstol": shooting.atol, "reltol": shooting.rtol, "max_num_steps": 100000}
+            F = ca.integrator("dense", "cvodes", dae, 0.0, grid[1:].tolist(), opts)
+            a, b = times[k], times[k + 1]
+            y0 = np.concatenate([starts[k], w, [0.0]])
+            Y = np.vstack([y0, np.asarray(F(x0=y0, p=np.concatenate([[a, b - a], P]))["xf"]).T])
+            t = a + grid * (b - a)
+            f = ca.Function("f", [y, fl.t, fl.P], [rhs]).map(t.size)
+            D = np.asarray(f(Y.T, t[None, :], np.repeat(P[:, None], t.size, axis=1))).T
+            u = ca.Function("u", [fl.x, fl.p, fl.t, fl.P, flow.w], [flow.control, flow.mu])
+            self._pieces.append((t, Y, D, u))
+        self._P = P
+
+    @staticmethod
+    def _x0(shooting, z):
+        free = iter(shooting._part(z, "x0"))
+        return np.array([next(free) if f else shooting.x0[i] for i, f in enumerate(shooting.free_initial)])
+
+    def _eval(self, t):
+        t = np.asarray(t, dtype=float)
+        flat = t.ravel()
+        arc = np.clip(np.searchsorted(self.breakpoints, flat, side="right") - 1, 0, len(self._pieces) - 1)
+        out = np.empty((flat.size, self._pieces[0][1].shape[1]))
+        for k in np.unique(arc):
+            sel = np.flatnonzero(arc == k)
+            tk, Y, D, _ = self._pieces[k]
+            i = np.clip(np.searchsorted(tk, flat[sel], side="right") - 1, 0, tk.size - 2)
+            h = (tk[i + 1] - tk[i])[:, None]
+            out[sel] = cubic_hermite(Y[i], D[i], Y[i + 1], D[i + 1], h, (flat[sel] - tk[i])[:, None] / h)
+        return t.shape, flat, arc, out
+
+    def _state(self, t):
+        shape, _, _, y = self._eval(t)
+        return y[:, : self._n].reshape(shape + (self._n,))
+
+    @property
+    def has_costates(self) -> bool:
+        return True
+
+    def _costate(self, t):
+        shape, _, _, y = self._eval(t)
+        return y[:, self._n : 2 * self._n].reshape(shape + (self._n,))
+
+    def _control_and_mu(self, t):
+        shape, flat, arc, y = self._eval(t)
+        nu = self.problem.nu
+        U, M = np.empty((flat.size, nu)), np.empty(flat.size)
+        n = self._n
+        for k in np.unique(arc):
+            sel = np.flatnonzero(arc == k)
+            f = self._pieces[k][3]
+            w = y[sel, 2 * n : -1]
+            u, mu = f.map(sel.size)(
+                y[sel, :n].T,
+                y[sel, n : 2 * n].T,
+                flat[sel][None, :],
+                np.repeat(self._P[:, None], sel.size, axis=1),
+                w.T,
+            )
+            U[sel] = np.asarray(u).T
+            M[sel] = np.asarray(mu).ravel()
+        return U.reshape(shape + (nu,)), M.reshape(shape)
+
+    def _control(self, t):
+        return self._control_and_mu(t)[0]
+
+    def multiplier(self, t) -> np.ndarray:
+        """The multiplier ``mu`` of the active inequality at times ``t`` (0 off boundary arcs)."""
+        return self._control_and_mu(self._check_times(t))[1]
+
+
+__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "arc_sequence"]
