@@ -194,7 +194,7 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
         **base,
         "verdict": "certified",
         "reason": "",
-        "structure": "; ".join(extremal.structure.describe(times=False).splitlines()),
+        "structure": _in_words(extremal),
         "norm_S": extremal.shooting.norm,
         "hamiltonian_drift": cert["hamiltonian_constant"].value if _has(cert, "hamiltonian_constant") else np.nan,
         "objective_gap": cert["objective_gap"].value,
@@ -204,6 +204,13 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     for r in rows:
         r["error"] = abs(r["value"] - r["reference"])
     return rows or [common], timings, extremal
+
+
+def _in_words(extremal) -> str:
+    """The arcs of every control, without times; a control with no arcs (unbounded, no active inequality) is
+    regular throughout."""
+    lines = dict(line.split(": ", 1) for line in extremal.structure.describe(times=False).splitlines())
+    return "; ".join(f"{c}: {lines.get(c, 'regular')}" for c in extremal.direct.problem.control_names)
 
 
 def _has(certificate, name: str) -> bool:
