@@ -1,17 +1,22 @@
 """Multiple shooting over arcs (ocpkit.shooting.arcs), each arc type's derived flow against a closed form or a
 published value, and the certificate catching a wrong extremal."""
 
+import casadi as ca
 import numpy as np
 import pytest
+from scipy.optimize import brentq
+from test_shooting import gain_problem
+from test_structure import saturated
 
-from ocpkit import Control, OptimalControlProblem, Radau, SolverError, State
-from ocpkit.indirect import _arc_conditions, certify, to_extremal
+from ocpkit import Constraint, Control, OptimalControlProblem, Radau, SolverError, State
+from ocpkit.indirect import _arc_conditions, certify, follow_extremal, to_extremal
 from ocpkit.shooting.arcs import ArcShooting, ArcType, arc_sequence
 from ocpkit.structure import control_structure
 
 from compendium.paper import paper_table
 from compendium.problems import (
     catalyst_mixing,
+    double_integrator,
     double_integrator_solution,
     double_integrator_thrusters,
     free_flying_robot,
@@ -47,6 +52,58 @@ def test_a_singular_arc_against_its_closed_form():
     assert extremal.shooting.norm <= 1e-10 and extremal.certificate.passed
 
 
+def test_singular_arcs_either_side_of_a_state_constraint_against_the_closed_form():
+    """min int (x - g)^2, g = 0.8 sin(pi t / 2), x' = u, |u| <= 2, x <= 0.5, x(2) = 0.3: singular (x = g) until g
+    reaches 0.5 at t1 = (2/pi) asin(0.625), on the bound to t2 = 2 - t1, singular again, then full thrust from t3,
+    where g(t3) + 2 (2 - t3) = 0.3. The singular arc after the boundary arc keeps its entry conditions."""
+    problem = OptimalControlProblem(
+        "track",
+        [State("x", -1.0, 0.5, initial=0.0, final=0.3)],
+        [Control("u", -2.0, 2.0)],
+        lambda x, u, t: [u["u"]],
+        tf=2.0,
+        lagrange=lambda x, u, t: (x["x"] - 0.8 * ca.sin(np.pi * t / 2)) ** 2,
+    )
+    extremal = to_extremal(Radau(problem, 4, 40).solve(error_threshold=None))
+    assert extremal.structure.kinds("u") == ["singular", "boundary", "singular", "upper"]
+    t1 = 2 / np.pi * np.arcsin(0.625)
+    t3 = brentq(lambda t: 0.8 * np.sin(np.pi * t / 2) + 2 * (2 - t) - 0.3, 1.6, 2.0)
+    assert extremal.trajectory.breakpoints[1:-1] == pytest.approx([t1, 2 - t1, t3], abs=1e-9)
+    assert extremal.certificate.passed
+
+
+def test_a_mixed_constraint_next_to_a_bang_arc():
+    """max x(2), x' = u, u in [0, 1], u <= x, x(0) = 0.5: u = x until x = 1 at t = ln 2, then full: H is affine
+    in u, so at the junction the control is continuous (not the multiplier zero)."""
+    problem = OptimalControlProblem(
+        "greedy",
+        [State("x", initial=0.5)],
+        [Control("u", 0.0, 1.0)],
+        lambda x, u, t: [u["u"]],
+        tf=2.0,
+        mayer=lambda x0, xf, t0, tf: -xf["x"],
+        path_constraints=[Constraint("below", lambda x, u, t: u["u"] - x["x"], upper=0.0)],
+    )
+    extremal = to_extremal(Radau(problem, 4, 20).solve(mesh_tolerance=1e-7))
+    assert extremal.trajectory.breakpoints[1:-1] == pytest.approx([np.log(2)], abs=1e-10)
+    assert extremal.trajectory.objective == pytest.approx(np.log(2) - 3, abs=1e-9) and extremal.certificate.passed
+
+
+def test_one_unknown_and_explicit_time():
+    """x' = u, x(0) = 0, x(1) = 1, min int u^2/2 + t x: the one unknown p0 = -5/6, J = 37/45 (closed form)."""
+    problem = OptimalControlProblem(
+        "one_unknown",
+        [State("x", initial=0.0, final=1.0)],
+        [Control("u")],
+        lambda x, u, t: [u["u"]],
+        tf=1.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2 + t * x["x"],
+    )
+    extremal = to_extremal(Radau(problem, 4, 10).solve(error_threshold=None))
+    assert extremal.shooting.z == pytest.approx([-5 / 6], abs=1e-10)
+    assert extremal.trajectory.objective == pytest.approx(37 / 45, abs=1e-9) and extremal.certificate.passed
+
+
 def test_the_generalised_legendre_clebsch_check_can_fail():
     """Maximising int x^2 (sign -1) along the same arcs: x = 0 is a singular extremal there, but a maximum of the
     cost along the arc: (-1)^1 d/du phi'' = -2 < 0 violates Kelley's condition."""
@@ -68,6 +125,36 @@ def test_bang_bang_with_two_controls_against_the_closed_form():
     exact = double_integrator_solution()
     assert extremal.trajectory.breakpoints[1:-1] == pytest.approx([exact.t1, exact.t2], abs=1e-11)
     assert extremal.certificate.passed
+
+
+def test_a_mixed_constraint_boundary_arc_against_its_closed_form():
+    """min int (u - 2)^2 / 2 over [0, 1], x' = u, x(0) = 1, u <= x: on the boundary u = x = e^t until x = 2, at
+    t = ln 2, where the multiplier mu = 2 e^-t - e^t / 2 reaches 0; then u = 2. J = (4 ln 2 - 5/2) / 2."""
+    problem = OptimalControlProblem(
+        "follow_the_state",
+        [State("x", initial=1.0)],
+        [Control("u")],
+        lambda x, u, t: [u["u"]],
+        tf=1.0,
+        lagrange=lambda x, u, t: (u["u"] - 2) ** 2 / 2,
+        path_constraints=[Constraint("below", lambda x, u, t: u["u"] - x["x"], upper=0.0)],
+    )
+    extremal = to_extremal(Radau(problem, 4, 20).solve(mesh_tolerance=1e-7))
+    assert [str(a).split(" on")[0] for a in extremal.structure.of("u")] == ["boundary (below.upper)", "regular"]
+    tr = extremal.trajectory
+    assert tr.breakpoints == pytest.approx([0.0, np.log(2), 1.0], abs=1e-11)
+    assert tr.objective == pytest.approx((4 * np.log(2) - 2.5) / 2, abs=1e-9)  # CVODES (tolerances 1e-12)
+    t = np.linspace(0.0, 0.69, 7)
+    assert tr.multiplier(t) == pytest.approx(2 * np.exp(-t) - np.exp(t) / 2, abs=1e-9)
+    assert extremal.certificate.passed
+
+
+def test_a_regular_arc_between_bounds_by_the_arc_method():
+    """The saturated minimum-energy problem (closed form J = 3/8 - sqrt(3)/12) shot over its arcs: lower, regular
+    (u = -p_v from H_u = 0), upper, the junctions where the regular control meets the bounds."""
+    extremal = to_extremal(Radau(saturated(), 4, 16).solve(error_threshold=None), method="arcs")
+    assert extremal.trajectory.objective == pytest.approx(3 / 8 - np.sqrt(3) / 12, abs=1e-9)  # CVODES, 1e-12
+    assert extremal.certificate.passed and len(extremal.trajectory.breakpoints) == 4
 
 
 def test_goddard_with_a_speed_limit_against_the_control_toolbox():
@@ -133,12 +220,27 @@ def test_the_certificate_catches_a_wrong_structure():
     assert "multiplier_sign" in certificate.failed and certificate["multiplier_sign"].value > 0.1
 
 
+def test_a_continuation_through_the_death_of_a_boundary_arc():
+    """The Goddard rocket's speed limit lifted from 0.125 past the free extremal's top speed (about 0.133): the
+    boundary arc shrinks, dies between 0.13 and 0.135, the structure is detected again and the continuation goes on
+    to the unconstrained extremal (the COPS rocket's)."""
+    problem = goddard_rocket(0.125, limit_as_parameter=True)
+    extremal = to_extremal(Radau(problem, 4, 20).solve(error_threshold=None))
+    assert extremal.structure.kinds("T") == ["upper", "singular", "boundary", "lower"]
+    path = follow_extremal(extremal, "v_max", [0.13, 0.135, 0.14])
+    assert path.values == [0.13, 0.135, 0.14] and all(e.certificate.passed for e in path.extremals)
+    assert [(v, before.count("|"), after.count("|")) for v, before, after, _ in path.changes] == [(0.135, 3, 2)]
+    free = to_extremal(Radau(goddard_rocket(), 4, 20).solve(mesh_tolerance=1e-6))
+    assert path.extremals[-1].trajectory.objective == pytest.approx(free.trajectory.objective, abs=1e-10)
+    assert path.extremals[0].trajectory.objective > free.trajectory.objective  # the limit still binds at 0.13
+    with pytest.raises(KeyError, match=r"unknown parameter 'speed'; 'goddard_rocket_speed_limit' has \['v_max'\]"):
+        follow_extremal(extremal, "speed", [0.13])
+
+
 def test_where_the_chain_stops_it_says_which_arc_and_what_to_do():
     with pytest.raises(ValueError, match=r"H is not affine in .u. on the boundary arc of the state constraint"):
         to_extremal(Radau(miser3_state_constraint(), 4, 30).solve(mesh_tolerance=1e-6))
-    with pytest.raises(
-        ValueError, match=r"state constraint 'y.upper' is entered from a 'lower' arc of 'u': the costate"
-    ):
+    with pytest.raises(ValueError, match=r"constraint 'y.upper' is entered from a 'lower' arc of 'u': the costate"):
         to_extremal(Radau(tumour(), 4, 30).solve(error_threshold=None))
     with pytest.raises(ValueError, match=r"has 2 controls inside their bounds: one constraint determines one"):
         to_extremal(Radau(free_flying_robot(), 4, 30).solve(error_threshold=None))
@@ -150,6 +252,11 @@ def test_where_the_chain_stops_it_says_which_arc_and_what_to_do():
 
 
 def test_arc_shooting_refuses_what_it_cannot_pose():
+    l1 = double_integrator(0.5)  # lam |u| + (1 - lam) u^2: an L1 control on a regular arc
+    with pytest.raises(ValueError, match=r"control\(s\) \['u'\] have an L1 cost"):
+        ArcShooting(l1, [(ArcType(("regular",)), 0.0, 3.0)])
+    with pytest.raises(ValueError, match="has free parameters: arc shooting does not take them yet"):
+        ArcShooting(gain_problem(), [(ArcType(("regular",)), 0.0, 1.0)])
     problem = parking()
     with pytest.raises(ValueError, match=r"H is affine in \['u'\] on a regular arc"):
         ArcShooting(

@@ -17,8 +17,11 @@ The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the
      the method for bang-bang and saturated laws, and for free parameters (as states);
 3. a :class:`Certificate` of the result (:func:`certify`).
 
-What the chain does not treat yet stops it with a named error, never a wrong extremal: a solution without costate
-estimates (Radau gives them), an arc or junction whose flow is not derived (named with what to do), a free t0.
+What the chain does not treat yet stops it with a named error: a solution without costate estimates (Radau gives
+them), an arc or junction whose flow is not derived (named with what to do), a free t0, free parameters in the arc
+method. An extremal of a wrong structure (the shooting can converge to one) fails its certificate, by name: no
+extremal is returned uncertified unless ``strict=False``. :func:`follow_extremal` continues an extremal in a problem
+parameter through the birth and death of arcs.
 """
 
 from __future__ import annotations
@@ -165,6 +168,108 @@ def to_extremal(
     return extremal
 
 
+@dataclass
+class ExtremalPath:
+    """The result of :func:`follow_extremal`: the parameter ``values`` solved, the ``extremals`` there (each
+    certified), and the structure ``changes`` met on the way, ``(value, before, after, how)`` with ``how`` the
+    arc that died (``"arc ... shrank to zero"``) or ``"re-detected from a direct solve"``."""
+
+    parameter: str
+    values: list
+    extremals: list
+    changes: list
+
+
+def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 1e-10, shortest: float = 1e-5):
+    """Continue an extremal of the arc method (:func:`to_extremal`) in a problem parameter over ``values``, through
+    changes of its structure (issue 24, item 6).
+
+    Each value is shot from the last solution (``ocpkit.shooting.follow``; a failed step is halved). An arc whose
+    duration falls below ``shortest`` of the horizon has died: it is removed and the shooting problem re-formed
+    from the last extremal. A step that fails, or whose extremal fails its certificate (an arc is born: H is no
+    longer minimal, or an inequality is violated off its boundary arcs), is solved directly at that value (the
+    direct solution's transcription, warm-started) and its structure detected again. Every extremal returned is
+    certified (residual, H minimum, feasibility, H constant, Legendre-Clebsch, multiplier signs)."""
+    from .shooting.arcs import ArcShooting, arc_sequence
+    from .shooting.continuation import Schedule, follow
+
+    if not isinstance(getattr(extremal.shooting, "arcs", None), list):
+        raise ValueError("follow_extremal continues an extremal of the arc method (to_extremal(..., method='arcs'))")
+    statement = extremal.shooting.trajectory.shooting.problem
+    if parameter not in statement.parameters:
+        raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")
+    transcription = (getattr(extremal.direct, "raw", {}) or {}).get("transcription")
+    state = {"shooting": extremal.shooting.trajectory.shooting, "last": extremal, "direct": extremal.direct}
+    changes, solved = [], {}
+
+    def words(arcs) -> str:
+        return " | ".join(ArcShooting._name(a) for a in arcs)
+
+    def shoot(shooting, z, value):
+        result = shooting.solve(z, {parameter: value}, tol=tol)
+        tr = result.trajectory
+        spans = np.diff(tr.breakpoints)
+        return result, tr, spans
+
+    def redetect(value, why):
+        if transcription is None:
+            raise SolverError("continuation", f"structure change at {value:.6g}", 0, f"{why}; no transcription")
+        direct = transcription.solve(state["direct"], parameters={parameter: value}, error_threshold=None)
+        structure = control_structure(direct)
+        shooting = ArcShooting(statement, arc_sequence(structure, statement, direct.t0, direct.tf))
+        result = shooting.solve(shooting.guess(direct, {parameter: value}), {parameter: value}, tol=tol)
+        changes.append((value, words(state["shooting"].kinds), words(shooting.kinds), f"re-detected ({why})"))
+        state["direct"] = direct
+        return shooting, result
+
+    def solve_at(value, z):
+        shooting = state["shooting"]
+        previous = state["last"].trajectory
+        if z.size != shooting.nz:
+            z = shooting.guess(previous, {parameter: value})
+        try:
+            result, tr, spans = shoot(shooting, z, value)
+            dead = int(np.argmin(spans))
+            if spans[dead] < shortest * (tr.tf - tr.t0) and len(spans) > 1:
+                arcs = [(k, a, b) for k, (a, b) in zip(shooting.kinds, zip(tr.breakpoints[:-1], tr.breakpoints[1:]))]
+                del arcs[dead]
+                merged = []
+                for kind, a, b in arcs:
+                    if merged and merged[-1][0] == kind:
+                        merged[-1] = (kind, merged[-1][1], b)
+                    else:
+                        merged.append((kind, a, b))
+                merged[0] = (merged[0][0], tr.t0, merged[0][2])
+                merged[-1] = (merged[-1][0], merged[-1][1], tr.tf)
+                new = ArcShooting(statement, merged)
+                result, tr, spans = shoot(new, new.guess(tr, {parameter: value}), value)
+                changes.append((value, words(shooting.kinds), words(new.kinds), f"arc {dead + 1} shrank to zero"))
+                shooting = new
+            certificate = certify(tr, result, None, None, tol=tol)
+            if not certificate.passed:
+                raise SolverError("certificate", f"failed checks {certificate.failed}", 0, "", result=result)
+        except (SolverError, ValueError) as exc:
+            shooting, result = redetect(value, exc.status if isinstance(exc, SolverError) else str(exc))
+            tr = result.trajectory
+            certificate = certify(tr, result, None, None, tol=tol)
+            if not certificate.passed:
+                raise SolverError(
+                    "certificate",
+                    f"failed checks {certificate.failed}",
+                    0,
+                    f"at {parameter} = {value:.6g}",
+                    result=result,
+                ) from exc
+        state["shooting"] = shooting
+        state["last"] = Extremal(tr, result, control_structure(tr), certificate, {}, direct=state["direct"])
+        solved[value] = state["last"]
+        return result
+
+    start = float(statement.parameters[parameter])
+    follow(solve_at, extremal.shooting.z, start, Schedule(values))
+    return ExtremalPath(parameter, list(solved), list(solved.values()), changes)
+
+
 def _needs_arcs(problem, structure: Structure) -> bool:
     """Whether only the arc method fits: a singular or boundary arc, constraints, or explicit time."""
     if any(a.kind in ("singular", "boundary") for a in structure.arcs):
@@ -213,7 +318,9 @@ def _unknowns(shooting, solution) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
-def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10, samples: int = 401) -> Certificate:
+def certify(
+    trajectory, result, direct=None, structure: Structure | None = None, tol: float = 1e-10, samples: int = 401
+) -> Certificate:
     """The checks of an extremal (every one named; :class:`Certificate`):
 
     * ``shooting_residual``: ``|S|`` at the solution, at most ``tol``;
@@ -221,6 +328,8 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
       six controls; a value that violates a mixed state-control constraint is not admissible), relative to
       ``1 + |H|``: the maximum principle, checked on the set rather than on the law that produced the control;
+    * ``feasibility``: the largest violation of a state bound or a path constraint on the samples, relative to the
+      range of its values along the extremal (at least 1);
     * ``hamiltonian_constant``: the largest change of H along the extremal relative to ``1 + |H|`` (autonomous
       problems only);
     * ``legendre_clebsch``: on singular arcs of order q, how negative ``(-1)^q d/du (d/dt)^(2q) H_u`` gets
@@ -231,7 +340,8 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     * ``objective_gap``: ``|J_indirect - J_direct| / (1 + |J|)``, at most 1e-2, and ``state_gap``: the largest
       difference of the direct solution's states in percent of each one's magnitude, in normalised time, at most
       5 %: another extremal than the one the direct solution approximates, not its discretisation error (a
-      switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch.
+      switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch. Without ``structure``
+      and ``direct`` (a continuation's extremals), those three checks are left out.
     """
     from .structure import inequalities
 
@@ -244,7 +354,12 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     Hmap = Hf.map(samples)
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()
-    mixed = [q.function.map(samples) for q in inequalities(problem) if not q.pure]
+    every = inequalities(problem)
+    mixed = [q.function.map(samples) for q in every if not q.pure]
+    violation = 0.0
+    for q in every:
+        c = np.asarray(q.function.map(samples)(X.T, U.T, t[None, :], Ps)).ravel()
+        violation = max(violation, float(np.max(c)) / max(1.0, float(np.ptp(c))))
     worst = 0.0
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
@@ -274,25 +389,34 @@ def certify(trajectory, result, direct, structure: Structure, tol: float = 1e-10
     autonomous = not ca.depends_on(ca.vertcat(ham.f, ham.L, *ineq), ham.t)
     drift = float(np.max(np.abs(H_star - H_star[0])) / (1.0 + abs(H_star[0])))
     kelley, sign = _arc_conditions(trajectory, t, X, L, P)
-    found = control_structure(trajectory)
-    names = [c.name for c in problem.controls if np.isfinite(c.lower) and np.isfinite(c.upper)]
-    same = all(found.kinds(n) == structure.kinds(n) for n in names)
-    J = float(result.objective)
-    s = np.linspace(0.0, 1.0, 2001)
-    names = direct.problem.state_names  # the shooting's problem may have more (free parameters as states)
-    ours = trajectory.state(trajectory.t0 + s * (trajectory.tf - trajectory.t0))[:, : len(names)]
-    theirs = direct.state(direct.t0 + s * (direct.tf - direct.t0))
-    ranges = np.maximum(np.abs(theirs).max(axis=0), 1e-300)
-    state_gap = float(100 * np.max(np.abs(ours - theirs).max(axis=0) / ranges))
+    compared = []
+    if structure is not None:
+        found = control_structure(trajectory)
+
+        def arcs(s, name):
+            return [(a.kind, a.constraint) for a in s.arcs if a.control == name]
+
+        same = all(arcs(found, n) == arcs(structure, n) for n in dict.fromkeys(a.control for a in structure.arcs))
+        compared.append(Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs, in order"))
+    if direct is not None:
+        J = float(result.objective)
+        s = np.linspace(0.0, 1.0, 2001)
+        names = direct.problem.state_names  # the shooting's problem may have more (free parameters as states)
+        ours = trajectory.state(trajectory.t0 + s * (trajectory.tf - trajectory.t0))[:, : len(names)]
+        theirs = direct.state(direct.t0 + s * (direct.tf - direct.t0))
+        ranges = np.maximum(np.abs(theirs).max(axis=0), 1e-300)
+        state_gap = float(100 * np.max(np.abs(ours - theirs).max(axis=0) / ranges))
+        gap = abs(J - float(direct.objective)) / (1.0 + abs(J))
+        compared.append(Check("objective_gap", gap, 1e-2, "indirect against direct"))
+        compared.append(Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"))
     checks = (
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
         Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
+        Check("feasibility", max(violation, 0.0), 1e-8, "largest violation of the state bounds and path constraints"),
         *((Check("hamiltonian_constant", drift, 1e-6, "change of H along the extremal"),) if autonomous else ()),
         Check("legendre_clebsch", kelley, 1e-8, "generalised Legendre-Clebsch condition on singular arcs"),
         Check("multiplier_sign", sign, 1e-8, "the inequality's multiplier is nonnegative on boundary arcs"),
-        Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs, in order"),
-        Check("objective_gap", abs(J - float(direct.objective)) / (1.0 + abs(J)), 1e-2, "indirect against direct"),
-        Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"),
+        *compared,
     )
     return Certificate(checks)
 
@@ -324,4 +448,4 @@ def _arc_conditions(trajectory, t, X, L, P) -> tuple[float, float]:
     return max(kelley, 0.0), max(sign, 0.0)
 
 
-__all__ = ["METHODS", "Certificate", "Check", "Extremal", "certify", "to_extremal"]
+__all__ = ["METHODS", "Certificate", "Check", "Extremal", "ExtremalPath", "certify", "follow_extremal", "to_extremal"]

@@ -12,8 +12,8 @@ involves, is
 * ``"boundary"``: inside its bounds where an inequality of the problem is active (:func:`inequalities`: a state
   on its bound, a pure state constraint, or a mixed state-control path constraint at its bound); the arc names it.
 
-Runs shorter than ``min_share`` of the horizon, a direct solution's interior runs of an affine control within fewer
-than three mesh intervals (the smearing of a switch by the polynomial control), and its runs on a bound within fewer than three
+Runs shorter than ``min_share`` of the horizon, a direct solution's singular runs within fewer than three mesh
+intervals (the smearing of a switch by the polynomial control), and its runs on a bound within fewer than three
 mesh intervals between two singular runs (the chattering of collocation on a singular arc) are not arcs: each is
 shared between its neighbours at its middle. A junction is first the midpoint of the two samples either side; where
 the solution has costates (Radau) and the Hamiltonian has the form ``H0 + psi u + w |u|`` in the control, it is
@@ -200,19 +200,28 @@ def switching_function(trajectory, control: str, t) -> np.ndarray:
 
 
 def _l1_controls(problem) -> set:
-    """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs."""
+    """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs: H of
+    the form ``H0 + psi u + w |u| + b u^2`` in the control (checked at random points) with ``w`` not zero."""
     from .shooting.hamiltonian import _extract
 
     ham = problem.functions.hamiltonian
-    _, _, w, _ = _extract(ham.H, ham.u, problem.nu)
-    f = ca.Function("w", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*w)])
+    H0, psi, w, b = _extract(ham.H, ham.u, problem.nu)
     rng = np.random.default_rng(3)
     P = np.asarray(problem._P, dtype=float).ravel()
-    W = [
-        np.abs(np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.3, P))).ravel()
-        for _ in range(3)
-    ]
-    return set(np.flatnonzero(np.max(W, axis=0) > 1e-12).tolist())
+    out = set()
+    for i in range(problem.nu):
+        others = ca.vertcat(*[ham.u[j] for j in range(problem.nu) if j != i]) if problem.nu > 1 else ca.SX(0, 1)
+        zero = ca.DM.zeros(others.numel())
+        model = H0 + psi[i] * ham.u[i] + w[i] * ca.fabs(ham.u[i]) + b[i] * ham.u[i] ** 2
+        f = ca.Function("l1", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.substitute(ham.H - model, others, zero), w[i]])
+        values = [
+            f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), rng.uniform(-1, 1, problem.nu), 0.3, P)
+            for _ in range(4)
+        ]
+        form = all(abs(float(r)) <= 1e-9 * (1 + abs(float(h))) for r, h in values)
+        if form and max(abs(float(h)) for _, h in values) > 1e-12:
+            out.add(i)
+    return out
 
 
 def _active(trajectory, t, U, band) -> dict:

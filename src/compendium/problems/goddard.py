@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit.problem import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 
@@ -32,13 +32,24 @@ def goddard_constants() -> dict:
     return c
 
 
-def goddard_rocket(v_max: float | None = None) -> OptimalControlProblem:
+def goddard_rocket(v_max: float | None = None, *, limit_as_parameter: bool = False) -> OptimalControlProblem:
     """The COPS Goddard rocket; with ``v_max``, the speed limited to ``v <= v_max``: the control-toolbox variant
     (OptimalControl.jl's Goddard tutorial, ``v_max = 0.1`` in ``data/problems/goddard.toml``), whose thrust is
-    full, singular, on the speed limit (a boundary arc), then zero."""
+    full, singular, on the speed limit (a boundary arc), then zero. ``limit_as_parameter``: the limit as the path
+    constraint ``speed: v - v_max <= 0`` with ``v_max`` a problem parameter (to vary it in a solve or a
+    continuation) instead of the bound of the state."""
     c = goddard_constants()
     if v_max is not None and not v_max > 0:
         raise ValueError(f"v_max must be positive, got {v_max}")
+    if limit_as_parameter and v_max is None:
+        raise ValueError("limit_as_parameter needs v_max")
+    bound = v_max is not None and not limit_as_parameter
+    extra = {}
+    if limit_as_parameter:
+        extra = {
+            "parameters": {"v_max": float(v_max)},
+            "path_constraints": [Constraint("speed", lambda x, u, t, p: x["v"] - p["v_max"], upper=0.0, scale=0.1)],
+        }
 
     def dynamics(x, u, t):
         h, v, m = x[0], x[1], x[2]
@@ -54,7 +65,7 @@ def goddard_rocket(v_max: float | None = None) -> OptimalControlProblem:
             State(
                 "v",
                 0.0,
-                1.0 if v_max is None else float(v_max),
+                float(v_max) if bound else 1.0,
                 initial=c["v0"],
                 scale=0.1,
                 guess=0.05,
@@ -70,4 +81,5 @@ def goddard_rocket(v_max: float | None = None) -> OptimalControlProblem:
         mayer=lambda x0, xf, t0, tf: -xf[0],
         description="Goddard rocket, maximum altitude (COPS 3.0)"
         + ("" if v_max is None else f", speed limited to {v_max:g} (control-toolbox)"),
+        **extra,
     )

@@ -15,9 +15,13 @@ Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative alo
   arc's entry ``phi, D phi, ..., D^(2q-1) phi`` vanish;
 * **boundary** of an inequality ``c <= 0`` (:func:`ocpkit.structure.inequalities`): for a mixed constraint
   (``c_u != 0``) the control from ``c = 0``, the multiplier ``mu = -H_u / c_u`` and ``dp/dt = -H_x - mu c_x``; at
-  each of its ends ``mu = 0``. For a pure state constraint of order one the control from ``D c = 0``, and, where H
-  is affine in the control, the multiplier that keeps ``H_u = 0`` on the arc, ``mu = D H_u / (H_up . c_x)``; at its
-  entry ``c = 0`` (no jump of the costate).
+  each junction (not at t0 or tf) the control is continuous: ``mu = 0`` where H is regular in it, ``c = 0`` with
+  the neighbouring arc's control where H is affine in it. For a pure state constraint of order one, on a control
+  H is affine in, the control from ``D c = 0`` and the multiplier that keeps ``H_u = 0`` on the arc,
+  ``mu = D H_u / (H_up . c_x)``; the arc is entered from a singular arc only (``c = 0`` there, no jump of the
+  costate; from a bang arc the costate jumps, which is refused by name), and a singular arc after it keeps its own
+  entry conditions (the system is then over-determined and consistent: Gauss-Newton). A state constraint on a
+  control H is regular in, and one of order two, are refused by name.
 
 Junctions between two bang arcs satisfy ``H(u_left) = H(u_right)`` (the switching function crosses its
 threshold); between a regular arc and a bound the control is continuous. Unknowns: the free initial states, the
@@ -32,6 +36,7 @@ derivatives of the shooting function through its forward sensitivities.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -104,6 +109,9 @@ class ArcFlows:
         self.H, self.f = ham.H, ham.f
         self.Hx = ca.gradient(ham.H, ham.x)
         self.ineq = {q.name: q for q in inequalities(problem)}
+        from ..structure import _l1_controls
+
+        self.l1 = _l1_controls(problem)
         self._cache = {}
 
     def depends(self, expr: ca.SX, ui: ca.SX) -> bool:
@@ -201,8 +209,20 @@ class ArcFlows:
         reg = [i for i in free if value[i] is None]
         implicit = []
         if reg:
+            l1 = [names[i] for i in reg if i in self.l1]
+            if l1:
+                raise ValueError(
+                    f"control(s) {l1} have an L1 cost (|u| in H) and are regular on an arc: the law from H_u = 0 with "
+                    "|u| is not derived here; use method='switching' (its saturated laws) or keep the direct solution"
+                )
             value, w, wdot, implicit = self._regular(reg, value, fixed)
         control = ca.vertcat(*value)
+        if ca.depends_on(control, u) or (not isinstance(mu, (int, float)) and ca.depends_on(ca.vertcat(mu), u)):
+            raise ValueError(
+                f"on the arc {ArcShooting._name(kind)} a control depends on another that no condition determines "
+                "(several controls inside their bounds, coupled): this combination is not derived; keep the direct "
+                "solution"
+            )
         entry = [ca.substitute(e, u, control) for e in entry]
         return _Flow(kind, control, w, wdot, mu, entry, boundary_control, implicit, singular)
 
@@ -298,9 +318,11 @@ class ArcFlows:
 
 @dataclass
 class ArcResult:
-    """A multiple-shooting run over arcs: ``z`` the unknowns, ``residual``/``norm`` S and |S|, ``times`` the arcs'
-    bounds (t0, junctions, tf), ``nodes`` (x, p) at each arc's start, ``multipliers`` of the boundary equalities,
-    ``converged``, ``message``, ``n_shooting`` and ``n_jacobian`` the effort, ``objective`` and :attr:`trajectory`."""
+    """A multiple-shooting run over arcs: ``z`` the unknowns (layout :attr:`ArcShooting.layout`),
+    ``residual``/``norm`` S and |S|, ``times`` the arcs' bounds (t0, junctions, tf), ``converged``, ``message``,
+    ``n_shooting`` and ``n_jacobian`` the effort, ``cpu_s`` its process time, ``objective``, ``trajectory`` (an
+    :class:`ArcTrajectory`; None where the last iterate cannot be integrated), ``multipliers`` of the boundary
+    equalities and ``arcs`` the :class:`ArcType` of each arc."""
 
     z: np.ndarray
     residual: np.ndarray
@@ -324,6 +346,12 @@ class ArcShooting:
     def __init__(self, problem, arcs, *, rtol: float = 1e-12, atol: float = 1e-12):
         if problem.free_initial_time:
             raise ValueError(f"{problem.name!r}: arc shooting integrates from a fixed t0")
+        if problem.free_parameters:
+            raise ValueError(
+                f"{problem.name!r} has free parameters: arc shooting does not take them yet (it would hold them at "
+                "their guesses); the switching method takes them as states where the structure has no singular or "
+                "boundary arc"
+            )
         self.problem = problem
         self.kinds = [a[0] for a in arcs]
         self.estimates = np.array([a[1] for a in arcs] + [arcs[-1][2]], dtype=float)
@@ -350,7 +378,7 @@ class ArcShooting:
             tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
             ode = ca.substitute(dt * rhs, self.flows.t, ta + tau * dt)
             dae = {"x": y, "p": ca.vertcat(ta, dt, self.flows.P), "t": tau, "ode": ode}
-            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 100000}
+            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 20000}
             self.integrators.append(ca.integrator(f"arc{k}", "cvodes", dae, 0.0, 1.0, opts))
             self.rhs.append((y, rhs, fl))
         self.rtol, self.atol = rtol, atol
@@ -375,7 +403,7 @@ class ArcShooting:
         z = ca.MX.sym("z", nz)
         parts, offset = {}, 0
         for name, n in sizes:
-            parts[name] = z[offset : offset + n]
+            parts[name] = z[offset : offset + n] if n else ca.MX(0, 1)
             offset += n
         P = ca.MX.sym("P", fl.P.numel())
         t0 = float(problem.t0)
@@ -403,9 +431,10 @@ class ArcShooting:
             # the arc's entry conditions at its start: an implicit regular arc's H_u = 0; a singular arc's (from its
             # start, t0 included); a boundary arc's at a junction (c = 0 for a state constraint, mu = 0 for a mixed)
             entry = list(flow.implicit)
-            if flow.entry and not self._continued(k) and (k > 0 or self.kinds[k].constraint is None):
+            if flow.entry and (k > 0 or self.kinds[k].constraint is None):
                 self._check_entry(k)
-                entry += flow.entry
+                continuous = self._continuous_control(k, k - 1) if k > 0 else None
+                entry += flow.entry if continuous is None else [continuous]
             if entry:
                 E = ca.Function("entry", [*sym_in, flow.w], [ca.vertcat(*entry)])
                 rows.append(E(starts[k][:nx], starts[k][nx:], times[k], P, w))
@@ -469,22 +498,28 @@ class ArcShooting:
                 "singular arc is); keep the direct solution"
             )
 
+    def _continuous_control(self, k: int, neighbour: int):
+        """For the boundary arc ``k`` of a mixed constraint on a control H is affine in, the condition at its junction
+        with arc ``neighbour`` (the control continuous there): ``c(x, u of the neighbour) = 0``, in arc ``k``'s
+        symbols; None where the multiplier's vanishing is the condition (H regular in the control)."""
+        fl, kind = self.flows, self.kinds[k]
+        if kind.constraint is None or fl.ineq[kind.constraint].pure:
+            return None
+        i = fl.flow(kind).boundary_control
+        if fl.depends(ca.jacobian(fl.H, fl.u[i]), fl.u[i]):
+            return None
+        other = fl.flow(self.kinds[neighbour])
+        if other.w.numel():
+            raise ValueError(
+                f"the boundary arc of {kind.constraint!r} meets an arc whose control is implicit: not derived"
+            )
+        c = fl.ineq[kind.constraint].function(fl.x, fl.u, fl.t, fl.P)
+        return ca.substitute(c, fl.u, other.control)
+
     def _leaves_continuously(self, k: int) -> bool:
         """Whether boundary arc ``k``'s multiplier vanishes at its exit: a mixed constraint's (the control is
         continuous there)."""
         return not self.flows.ineq[self.kinds[k].constraint].pure
-
-    def _continued(self, k: int) -> bool:
-        """Whether arc ``k``'s entry conditions already hold from the arc before: a singular arc after a boundary
-        arc of a state constraint, on which ``H_u = 0`` was kept (and the converse)."""
-        if k == 0:
-            return False
-        a, b = self.kinds[k - 1], self.kinds[k]
-        pure = [c for c in (a.constraint, b.constraint) if c is not None and self.flows.ineq[c].pure]
-        if a.constraint is None and b.constraint is None or not pure:
-            return False
-        # the same control inside its bounds on both arcs, singular on one and on the state constraint on the other
-        return any({ka, kb} == {"singular", "boundary"} for ka, kb in zip(a.kinds, b.kinds)) and b.constraint is None
 
     @staticmethod
     def _name(kind: ArcType) -> str:
@@ -501,8 +536,10 @@ class ArcShooting:
         xr, pr = right_start[:nx], right_start[nx:]
         rows = []
         if a.constraint and a.constraint != b.constraint and self._leaves_continuously(k - 1):
-            # the multiplier of a mixed constraint vanishes at the arc's exit (the control is continuous there)
-            M = ca.Function("mu", [*sym_in, la.w], [la.mu])
+            # the multiplier of a mixed constraint vanishes at the arc's exit (the control is continuous there); for
+            # a control H is affine in, the constraint holds with the next arc's control
+            continuous = self._continuous_control(k - 1, k)
+            M = ca.Function("exit", [*sym_in, la.w], [la.mu if continuous is None else continuous])
             rows.append(M(xl, pl, tj, P, wl))
         for i, (ka, kb) in enumerate(zip(a.kinds, b.kinds)):
             if ka == kb or "boundary" in (ka, kb) or (kb == "singular" and ka in BANG):
@@ -575,7 +612,12 @@ class ArcShooting:
         return np.linalg.lstsq(A.T[free], pf[free] - g.ravel()[free], rcond=None)[0]
 
     def _P(self, parameters=None) -> np.ndarray:
-        return np.asarray(self.problem._P if parameters is None else parameters, dtype=float).ravel()
+        """The parameter vector: the problem's, a full vector, or a mapping of some names to values."""
+        if parameters is None:
+            return np.asarray(self.problem._P, dtype=float).ravel()
+        if isinstance(parameters, Mapping):
+            return np.asarray(self.problem.replace(parameters=dict(parameters))._P, dtype=float).ravel()
+        return np.asarray(parameters, dtype=float).ravel()
 
     # -- solve --------------------------------------------------------------------------------------------
     def solve(self, z0, parameters=None, *, tol: float = 1e-10, max_iterations: int = 50) -> ArcResult:
@@ -600,12 +642,21 @@ class ArcShooting:
 
         S = residual(z)
         n_S += 1
+        norms = []
         for _ in range(max_iterations):
             norm = float(np.linalg.norm(S))
+            norms.append(norm)
+            if len(norms) > 6 and norm > 0.5 * norms[-7]:
+                message = "stalled: |S| not halved in six Newton iterations (far from a solution, or another structure)"
+                break
             if not np.isfinite(norm):
                 message = "the arcs' integration failed at the starting point"
                 break
-            Sv, J = self.SJ(z, P)
+            try:
+                Sv, J = self.SJ(z, P)
+            except RuntimeError:
+                message = "the arcs' sensitivities could not be integrated at this iterate"
+                break
             n_J += 1
             step = np.linalg.lstsq(np.asarray(J), -np.asarray(Sv).ravel(), rcond=None)[0]
             a = 1.0
@@ -627,6 +678,8 @@ class ArcShooting:
                 message = "converged"
                 break
         norm = float(np.linalg.norm(S))
+        if norm <= tol:
+            message = "converged"
         times = np.asarray(self.times(z, P)).ravel()
         try:
             objective = np.asarray(self.objective(z, P)).ravel()
@@ -647,8 +700,11 @@ class ArcShooting:
             self._part(z, "nu"),
             list(self.kinds),
         )
-        if np.all(np.diff(times) > 0) and np.isfinite(norm):
-            result.trajectory = ArcTrajectory(self, z, P, times, result.objective)
+        if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
+            problem = self.problem
+            if parameters is not None:  # the trajectory's problem has the parameter values it was solved at
+                problem = problem.replace(parameters=dict(zip(problem.parameters, P[: len(problem.parameters)])))
+            result.trajectory = ArcTrajectory(self, z, P, times, result.objective, problem=problem)
         if not result.converged:
             raise SolverError(
                 "arc shooting", message, n_J, f"|S| = {norm:.3e} > {tol:g}", unit="Newton iterations", result=result
@@ -669,8 +725,8 @@ class ArcTrajectory(Trajectory):
     (CVODES, the shooting's tolerances), cubic Hermite between grid points with the arc's flow as derivative; the
     control the arc's derived control (bang value, singular feedback, boundary control, ``H_u = 0``)."""
 
-    def __init__(self, shooting: ArcShooting, z, P, times, objective: float, per_arc: int = 1000):
-        self.problem = shooting.problem
+    def __init__(self, shooting: ArcShooting, z, P, times, objective: float, per_arc: int = 1000, problem=None):
+        self.problem = shooting.problem if problem is None else problem
         self.shooting = shooting
         self.objective = float(objective)
         self.t0, self.tf = float(times[0]), float(times[-1])
@@ -691,7 +747,7 @@ class ArcTrajectory(Trajectory):
             tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
             ode = ca.substitute(dt * rhs, fl.t, ta + tau * dt)
             dae = {"x": y, "p": ca.vertcat(ta, dt, fl.P), "t": tau, "ode": ode}
-            opts = {"abstol": shooting.atol, "reltol": shooting.rtol, "max_num_steps": 100000}
+            opts = {"abstol": shooting.atol, "reltol": shooting.rtol, "max_num_steps": 20000}
             F = ca.integrator("dense", "cvodes", dae, 0.0, grid[1:].tolist(), opts)
             a, b = times[k], times[k + 1]
             y0 = np.concatenate([starts[k], w, [0.0]])
