@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 from test_shooting import gain_problem
 from test_structure import saturated
 
-from ocpkit import Constraint, Control, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Radau, SolverError, State
 from ocpkit.indirect import _arc_conditions, certify, follow_extremal, to_extremal
 from ocpkit.shooting.arcs import ArcShooting, ArcType, arc_sequence
 from ocpkit.structure import control_structure
@@ -102,6 +102,27 @@ def test_one_unknown_and_explicit_time():
     extremal = to_extremal(Radau(problem, 4, 10).solve(error_threshold=None))
     assert extremal.shooting.z == pytest.approx([-5 / 6], abs=1e-10)
     assert extremal.trajectory.objective == pytest.approx(37 / 45, abs=1e-9) and extremal.certificate.passed
+
+
+def test_two_controls_switching_together():
+    """Two double integrators raced rest to rest in least time, side by side: both controls switch at t = 1, each by
+    its own switching condition (not one condition twice); t_f = 2."""
+    problem = OptimalControlProblem(
+        "twin_race",
+        [
+            State("x", initial=0.0, final=1.0),
+            State("v", initial=0.0, final=0.0),
+            State("y", initial=0.0, final=1.0),
+            State("w", initial=0.0, final=0.0),
+        ],
+        [Control("a", -1.0, 1.0), Control("b", -1.0, 1.0)],
+        lambda x, u, t: [x["v"], u["a"], x["w"], u["b"]],
+        tf=FreeFinalTime(0.5, 5.0, 1.5),
+        mayer=lambda x0, xf, t0, tf: tf,
+    )
+    extremal = to_extremal(Radau(problem, 4, 15).solve(error_threshold=None), method="arcs")
+    assert extremal.trajectory.breakpoints == pytest.approx([0.0, 1.0, 2.0], abs=1e-12)
+    assert extremal.certificate.passed
 
 
 def test_the_generalised_legendre_clebsch_check_can_fail():
@@ -257,6 +278,16 @@ def test_arc_shooting_refuses_what_it_cannot_pose():
         ArcShooting(l1, [(ArcType(("regular",)), 0.0, 3.0)])
     with pytest.raises(ValueError, match="has free parameters: arc shooting does not take them yet"):
         ArcShooting(gain_problem(), [(ArcType(("regular",)), 0.0, 1.0)])
+    steer = OptimalControlProblem(
+        "coast",
+        [State("x", initial=0.0), State("y", initial=0.0)],
+        [Control("T", 0.0, 1.0), Control("theta")],
+        lambda x, u, t: [u["T"] * ca.cos(u["theta"]), u["T"] * ca.sin(u["theta"])],
+        tf=1.0,
+        mayer=lambda x0, xf, t0, tf: -xf["x"] - xf["y"],
+    )
+    with pytest.raises(ValueError, match=r"H does not depend on \['theta'\] on this arc"):
+        ArcShooting(steer, [(ArcType(("lower", "regular")), 0.0, 1.0)])
     problem = parking()
     with pytest.raises(ValueError, match=r"H is affine in \['u'\] on a regular arc"):
         ArcShooting(

@@ -232,8 +232,13 @@ class ArcFlows:
         ur = ca.vertcat(*[u[i] for i in reg])
         Hu = fixed(ca.jacobian(H, ur).T)
         Huu = ca.jacobian(Hu, ur)
+        names = [self.problem.control_names[i] for i in reg]
         if Huu.is_zero():
-            names = [self.problem.control_names[i] for i in reg]
+            if Hu.is_zero():
+                raise ValueError(
+                    f"H does not depend on {names} on this arc (a thrust angle while the thrust is off): the control "
+                    "is undetermined there; keep the direct solution"
+                )
             raise ValueError(
                 f"H is affine in {names} on a regular arc: H_u = 0 does not give the control (a singular arc does)"
             )
@@ -545,11 +550,13 @@ class ArcShooting:
             if ka == kb or "boundary" in (ka, kb) or (kb == "singular" and ka in BANG):
                 continue  # entries of singular and boundary arcs are the arcs' own conditions
             if ka in BANG and kb in BANG:
-                H = fl.H
-                Ha = ca.substitute(H, fl.u, la.control)
-                Hb = ca.substitute(H, fl.u, ra.control)
-                F = ca.Function("switch", [*sym_in, ra.w], [Ha - Hb])
-                rows.append(F(xr, pr, tj, P, w_right))
+                # this control's own switching condition, the others held at their values on the arc before (one
+                # row per control that switches here, also where several switch together)
+                swapped = ca.vertcat(*[ra.control[j] if j == i else la.control[j] for j in range(self.problem.nu)])
+                Ha = ca.substitute(fl.H, fl.u, la.control)
+                Hb = ca.substitute(fl.H, fl.u, swapped)
+                F = ca.Function("switch", [*sym_in, la.w], [Ha - Hb])
+                rows.append(F(xl, pl, tj, P, wl))
             elif ka == "regular" and kb in BANG:
                 F = ca.Function("continuity", [*sym_in, la.w], [la.control[i] - ra.control[i]])
                 rows.append(F(xl, pl, tj, P, wl))
