@@ -354,11 +354,11 @@ def certify(
     Hmap = Hf.map(samples)
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()
-    every = inequalities(problem)
-    mixed = [q.function.map(samples) for q in every if not q.pure]
+    every = [(q, q.function.map(samples)) for q in inequalities(problem)]
+    mixed = [c for q, c in every if not q.pure]
     violation = 0.0
-    for q in every:
-        c = np.asarray(q.function.map(samples)(X.T, U.T, t[None, :], Ps)).ravel()
+    for _, mapped in every:
+        c = np.asarray(mapped(X.T, U.T, t[None, :], Ps)).ravel()
         violation = max(violation, float(np.max(c)) / max(1.0, float(np.ptp(c))))
     worst = 0.0
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners

@@ -182,23 +182,6 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
     return Structure(tuple(arcs))
 
 
-def switching_function(trajectory, control: str, t) -> np.ndarray:
-    """``H_u`` of ``control`` along a trajectory with costates at times ``t``: the switching function of an affine
-    control (zero on its singular arcs; its sign picks the bound on bang arcs)."""
-    problem = trajectory.problem
-    if control not in problem.control_names:
-        raise KeyError(f"unknown control {control!r}; the controls are {problem.control_names}")
-    if not trajectory.has_costates:
-        raise ValueError("the switching function needs costates (a Radau solution or an extremal)")
-    ham = problem.functions.hamiltonian
-    i = problem.control_names.index(control)
-    f = ca.Function("H_u", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.jacobian(ham.H, ham.u[i])])
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    X, L, U = trajectory.state(t), trajectory.costate(t), trajectory.control(t)
-    P = np.repeat(np.asarray(problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
-    return np.asarray(f.map(t.size)(X.T, L.T, U.T, t[None, :], P)).ravel()
-
-
 def _l1_controls(problem) -> set:
     """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs: H of
     the form ``H0 + psi u + w |u| + b u^2`` in the control (checked at random points) with ``w`` not zero."""
@@ -341,4 +324,4 @@ def _junction(t, before, after, switching, i) -> float:
     return float(min(roots, key=lambda r: abs(r - guess)))
 
 
-__all__ = ["ARC_KINDS", "Arc", "Inequality", "Structure", "control_structure", "inequalities", "switching_function"]
+__all__ = ["ARC_KINDS", "Arc", "Inequality", "Structure", "control_structure", "inequalities"]

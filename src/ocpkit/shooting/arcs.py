@@ -134,12 +134,10 @@ class ArcFlows:
                 return True
         return False
 
-    def D(self, F: ca.SX, u: ca.SX | None = None, mu: ca.SX | None = None, c: ca.SX | None = None) -> ca.SX:
-        """``dF/dt`` along the Hamiltonian flow ``(f, -H_x - mu c_x)``, at the control ``u`` (symbolic if None)."""
+    def D(self, F: ca.SX) -> ca.SX:
+        """``dF/dt = F_x f - F_p H_x + F_t`` along the Hamiltonian flow, the control symbolic."""
         x, p, t = self.x, self.p, self.t
-        pdot = -self.Hx if mu is None else -self.Hx - mu * ca.gradient(c, x)
-        out = ca.jtimes(F, x, self.f) + ca.jtimes(F, p, pdot) + ca.jacobian(F, t)
-        return out if u is None else ca.substitute(out, self.u, u)
+        return ca.jtimes(F, x, self.f) + ca.jtimes(F, p, -self.Hx) + ca.jacobian(F, t)
 
     def flow(self, kind: ArcType) -> _Flow:
         if kind not in self._cache:
@@ -217,7 +215,7 @@ class ArcFlows:
                 )
             value, w, wdot, implicit = self._regular(reg, value, fixed)
         control = ca.vertcat(*value)
-        if ca.depends_on(control, u) or (not isinstance(mu, (int, float)) and ca.depends_on(ca.vertcat(mu), u)):
+        if ca.depends_on(ca.vertcat(control, mu), u):
             raise ValueError(
                 f"on the arc {ArcShooting._name(kind)} a control depends on another that no condition determines "
                 "(several controls inside their bounds, coupled): this combination is not derived; keep the direct "
@@ -248,7 +246,7 @@ class ArcFlows:
                 value[i] = sol[k]
             return value, ca.SX(0, 1), ca.SX(0, 1), []
         w = ca.SX.sym("w", len(reg))
-        full = [value[i] if value[i] is not None else None for i in range(len(value))]
+        full = list(value)
         for k, i in enumerate(reg):
             full[i] = w[k]
         ufull = ca.vertcat(*full)
@@ -306,7 +304,7 @@ class ArcFlows:
         return value, mu, [c], i
 
     def rhs(self, kind: ArcType):
-        """``(y, rhs, control, mu)``: ``y = (x, p, w, J)`` and its time derivative on this arc."""
+        """``(y, rhs, flow)``: ``y = (x, p, w, J)``, its time derivative on this arc, and the arc's :class:`_Flow`."""
         fl = self.flow(kind)
         x, p, t, P, u = self.x, self.p, self.t, self.P, self.u
         ineq = self.ineq[kind.constraint].function(x, u, t, P) if kind.constraint else ca.SX(0)
@@ -378,16 +376,21 @@ class ArcShooting:
         self.x0 = np.array([0.0 if s.initial is None else s.fixed_initial for s in problem.states])
         self.integrators = []
         self.rhs = []
+        self.rtol, self.atol = rtol, atol
         for k, kind in enumerate(self.kinds):
             y, rhs, fl = self.flows.rhs(kind)
-            tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
-            ode = ca.substitute(dt * rhs, self.flows.t, ta + tau * dt)
-            dae = {"x": y, "p": ca.vertcat(ta, dt, self.flows.P), "t": tau, "ode": ode}
-            opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 20000}
-            self.integrators.append(ca.integrator(f"arc{k}", "cvodes", dae, 0.0, 1.0, opts))
+            self.integrators.append(self.integrator(f"arc{k}", y, rhs, [1.0]))
             self.rhs.append((y, rhs, fl))
-        self.rtol, self.atol = rtol, atol
         self._build()
+
+    def integrator(self, name: str, y: ca.SX, rhs: ca.SX, grid) -> ca.Function:
+        """CVODES over an arc on the normalised time ``tau`` in [0, 1] (``t = ta + tau dt``, parameters
+        ``(ta, dt, P)``), its outputs at ``grid``; at most 20000 steps, so that a hopeless iterate fails quickly."""
+        tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
+        ode = ca.substitute(dt * rhs, self.flows.t, ta + tau * dt)
+        dae = {"x": y, "p": ca.vertcat(ta, dt, self.flows.P), "t": tau, "ode": ode}
+        opts = {"abstol": self.atol, "reltol": self.rtol, "max_num_steps": 20000}
+        return ca.integrator(name, "cvodes", dae, 0.0, list(grid), opts)
 
     # -- the shooting function, symbolic -----------------------------------------------------------------
     def _build(self):
@@ -751,11 +754,7 @@ class ArcTrajectory(Trajectory):
             y, rhs, flow = shooting.rhs[k]
             w = shooting._part(z, f"w{k}")
             grid = np.linspace(0.0, 1.0, per_arc + 1)
-            tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
-            ode = ca.substitute(dt * rhs, fl.t, ta + tau * dt)
-            dae = {"x": y, "p": ca.vertcat(ta, dt, fl.P), "t": tau, "ode": ode}
-            opts = {"abstol": shooting.atol, "reltol": shooting.rtol, "max_num_steps": 20000}
-            F = ca.integrator("dense", "cvodes", dae, 0.0, grid[1:].tolist(), opts)
+            F = shooting.integrator("dense", y, rhs, grid[1:])
             a, b = times[k], times[k + 1]
             y0 = np.concatenate([starts[k], w, [0.0]])
             Y = np.vstack([y0, np.asarray(F(x0=y0, p=np.concatenate([[a, b - a], P]))["xf"]).T])
