@@ -51,3 +51,82 @@ def test_a_failed_certificate_raises_with_the_extremal(monkeypatch):
         to_extremal(direct)
     assert info.value.result.certificate is failing
     assert to_extremal(direct, strict=False).certificate is failing
+
+
+def planar_transfer(form: str = "ball", x_final: float = 3.0):
+    """Rest to rest from the origin to (3, 4) in t_f = 6 with the thrust |u| <= 1 bounded in norm, fuel int |u| dt.
+    Closed form: full thrust along (0.6, 0.8) to t = 1, coast, full brake from t = 5; fuel 2. Two direct forms (a
+    smooth NLP over the same states): ``"lifted"``, a magnitude G in [0, 1] with ``|u|^2 <= G^2`` and the fuel
+    int G dt (lossless at the optimum); ``"angle"``, a magnitude rho in [0, 1] and an angle."""
+    import casadi as ca
+
+    from ocpkit import Constraint, Control, OptimalControlProblem, State
+
+    states = [State(n, initial=0.0, final=f) for n, f in (("x", x_final), ("y", 4.0), ("vx", 0.0), ("vy", 0.0))]
+    thrust = [Control("u1", -1.0, 1.0), Control("u2", -1.0, 1.0)]
+    if form == "lifted":
+        return OptimalControlProblem(
+            "planar_transfer_lifted",
+            states,
+            [*thrust, Control("G", 0.0, 1.0)],
+            lambda x, u, t: [x[2], x[3], u[0], u[1]],
+            tf=6.0,
+            lagrange=lambda x, u, t: u[2],
+            path_constraints=[Constraint("norm", lambda x, u, t: u[0] ** 2 + u[1] ** 2 - u[2] ** 2, upper=0.0)],
+        )
+    if form == "angle":
+        return OptimalControlProblem(
+            "planar_transfer_angle",
+            states,
+            [Control("rho", 0.0, 1.0, guess=0.5), Control("angle", -2 * np.pi, 2 * np.pi, guess=0.9)],
+            lambda x, u, t: [x[2], x[3], u[0] * ca.cos(u[1]), u[0] * ca.sin(u[1])],
+            tf=6.0,
+            lagrange=lambda x, u, t: u[0],
+        )
+    return OptimalControlProblem(
+        "planar_transfer",
+        states,
+        thrust,
+        lambda x, u, t: [x[2], x[3], u[0], u[1]],
+        tf=6.0,
+        lagrange=lambda x, u, t: ca.norm_2(u),
+    )
+
+
+def test_a_thrust_bounded_in_norm_from_a_restated_direct_solution():
+    """The direct NLP lifts the thrust's norm into a control; the shooting takes the problem as posed, |u| <= 1:
+    the switching method's law over the ball, the certificate sampling the ball; the closed-form switches."""
+    direct = Radau(planar_transfer("lifted"), 4, 30).solve(error_threshold=None)
+    extremal = to_extremal(direct, problem=planar_transfer(), control_set="ball")
+    tr = extremal.trajectory
+    assert extremal.certificate.passed and "structure" not in [c.name for c in extremal.certificate.checks]
+    assert tr.objective == pytest.approx(2.0, abs=1e-10)
+    integration = extremal.shooting.integration
+    assert integration.switchings == 2 and integration.switching_times == pytest.approx([1.0, 5.0], abs=1e-9)
+    assert tr.control(np.array([0.5]))[0] == pytest.approx([0.6, 0.8], abs=1e-9)
+
+
+def test_a_restatement_must_keep_the_states_and_their_conditions():
+    direct = Radau(planar_transfer("lifted"), 4, 10).solve(error_threshold=None)
+    with pytest.raises(ValueError, match="has the states"):
+        to_extremal(direct, problem=race(), control_set="ball")
+    with pytest.raises(ValueError, match="state 'x': the final value is 2.0"):
+        to_extremal(direct, problem=planar_transfer(x_final=2.0), control_set="ball")
+    with pytest.raises(ValueError, match="control_set='ball' has the switching method's law only"):
+        to_extremal(direct, problem=planar_transfer(), control_set="ball", method="arcs")
+    with pytest.raises(ValueError, match="control_set must be one of"):
+        to_extremal(direct, control_set="sphere")
+
+
+def test_an_extremal_better_than_the_direct_local_minimum_is_confirmed_by_the_direct_method():
+    """With thrust angles, the direct solve stops in a worse local minimum (its braking angle sweeps round: fuel
+    2.17); the shooting from its costates finds the closed form (fuel 2), which differs from it. The same
+    transcription, re-solved from the extremal (the angles fitted to its thrust), confirms it: the certificate
+    compares with that solution and checks that the extremal is no worse than the first."""
+    direct = Radau(planar_transfer("angle"), 4, 30).solve(error_threshold=None)
+    assert direct.objective > 2.1  # the worse local minimum
+    extremal = to_extremal(direct, problem=planar_transfer(), control_set="ball")
+    assert extremal.first_direct is direct and extremal.direct is not direct
+    assert extremal.direct.objective == pytest.approx(2.0, abs=1e-3) and "confirm_s" in extremal.timings
+    assert extremal.trajectory.objective == pytest.approx(2.0, abs=1e-10)
+    assert extremal.certificate["first_direct_objective"].value == 0.0 and extremal.certificate.passed

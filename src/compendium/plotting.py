@@ -125,3 +125,26 @@ def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n:
     ax.set_xlabel("t")
     ax.set_ylabel(control if scale == 1.0 else f"{control} / {scale:g}")
     ax.legend(fontsize=7, loc="best")
+
+
+def thrust_against_direct(ax, extremal, magnitude: str, n: int = 4001) -> None:
+    """A thrust bounded in norm: the extremal's ``|u|`` (thick) over the direct solutions' ``magnitude`` control,
+    the first solve (grey) and, where :func:`ocpkit.indirect.to_extremal` re-solved it from the extremal, that
+    solution (thin), with the extremal's switching times dotted."""
+    tr = extremal.trajectory
+    first = extremal.first_direct if extremal.first_direct is not None else extremal.direct
+    for sol, style, label in [
+        (first, dict(color="0.6", lw=0.8), "direct (Radau), first solve"),
+        (extremal.direct if extremal.first_direct is not None else None, dict(lw=0.9), "direct, from the extremal"),
+    ]:
+        if sol is None:
+            continue
+        t = np.linspace(sol.t0, sol.tf, n)
+        ax.plot(t, sol.control(t)[:, sol.problem.control_names.index(magnitude)], label=label, **style)
+    t = np.linspace(tr.t0, tr.tf, n)
+    ax.plot(t, np.linalg.norm(tr.control(t), axis=1), color="k", lw=1.6, label="extremal |u|")
+    for ts in extremal.shooting.integration.switching_times:
+        ax.axvline(ts, color="k", ls=":", lw=0.5)
+    ax.set_xlabel("t")
+    ax.set_ylabel(f"|u| and {magnitude}")
+    ax.legend(fontsize=7, loc="lower left")

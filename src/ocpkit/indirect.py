@@ -89,16 +89,22 @@ class Extremal:
     structure: Structure
     certificate: Certificate
     timings: dict = field(default_factory=dict)
-    #: the direct solution the chain started from
+    #: the direct solution the certificate compares with: the one the chain started from, or, where the extremal
+    #: differs from it, the same transcription re-solved from the extremal (``first_direct`` is then the first)
     direct: object = None
+    first_direct: object = None
 
 
 METHODS = ("auto", "arcs", "switching")
+#: the certificate's comparisons with the direct solution (the others are conditions of the maximum principle)
+COMPARISONS = ("structure", "objective_gap", "state_gap")
 
 
 def to_extremal(
     solution,
     *,
+    problem=None,
+    control_set: str = "box",
     tol: float = 1e-10,
     method: str = "auto",
     switching: str = "correction",
@@ -109,15 +115,28 @@ def to_extremal(
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
 
+    ``problem``: the statement to shoot where the direct one restates the controls so that the NLP is smooth (a
+    thrust bounded in norm, ``|u| <= 1`` with the cost ``|u|``, as a magnitude and two angles): it must have the
+    direct problem's states (names, order, boundary values) and the same free or fixed final time; the states'
+    costates carry over, the controls do not. ``control_set``: ``"box"`` (each control within its bounds) or
+    ``"ball"`` (the Euclidean norm of the controls at most 1, the switching method's law over the ball; the
+    certificate samples the ball). With a restated problem the direct structure is reported, not compared arc by
+    arc (its controls are not the extremal's).
+
     ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``strict``: a certificate that fails
     raises a :class:`~ocpkit.SolverError` naming the failed checks (the result is its ``.result``); False: the
     result carries it. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     """
     from .shooting import Shooting, control_law
     from .shooting.arcs import ArcShooting, arc_sequence
+    from .shooting.hamiltonian import CONTROL_SETS
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if control_set not in CONTROL_SETS:
+        raise ValueError(f"control_set must be one of {CONTROL_SETS}, got {control_set!r}")
+    if control_set == "ball" and method == "arcs":
+        raise ValueError("control_set='ball' has the switching method's law only; use method='switching' or 'auto'")
 
     if not getattr(solution, "has_costates", False):
         raise ValueError(
@@ -127,10 +146,11 @@ def to_extremal(
     start = time.perf_counter()
     structure = control_structure(solution)
     detect_s = time.perf_counter() - start
-    problem = solution.problem
-    statement = _statement(solution)
+    restated = problem is not None
+    statement = _restatement(solution, problem) if restated else _statement(solution)
+    problem = statement
     if method == "auto":
-        method = "arcs" if _needs_arcs(statement, structure) else "switching"
+        method = "switching" if control_set == "ball" else "arcs" if _needs_arcs(statement, structure) else "switching"
     start = time.perf_counter()
     if method == "arcs":
         if statement.free_parameters:
@@ -141,21 +161,31 @@ def to_extremal(
         shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf))
         result = shooting.solve(shooting.guess(solution), tol=tol)
     else:
-        singular = [a for a in structure.arcs if a.kind in ("singular", "boundary")]
+        singular = [] if restated else [a for a in structure.arcs if a.kind in ("singular", "boundary")]
         if singular:
             a = singular[0]
             raise ValueError(
                 f"control {a.control!r} has a {a.kind} arc on [{a.start:.6g}, {a.end:.6g}]: the switching method's "
                 "laws have no such arc; use method='arcs'"
             )
-        law = control_law(statement, "box", regularized=_quadratic(statement))
-        shooting = Shooting(statement, law, switching=switching, jacobian=jacobian)
+        law = control_law(statement, control_set, regularized=_quadratic(statement))
+        accuracy = min(1e-8, max(tol, 1e-13))  # the flow as accurate as the residual asked for
+        shooting = Shooting(statement, law, switching=switching, jacobian=jacobian, rtol=accuracy, atol=accuracy)
         result = shooting.solve(_unknowns(shooting, solution), solver=solver, stol=tol)
     shoot_s = time.perf_counter() - start
     trajectory = result.trajectory
-    certificate = certify(trajectory, result, solution, structure, tol=tol)
+    certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol)
     timings = {"structure_s": detect_s, "shooting_s": shoot_s}
-    extremal = Extremal(trajectory, result, structure, certificate, timings, direct=solution)
+    first = None
+    if certificate.failed and set(certificate.failed) <= set(COMPARISONS):
+        start = time.perf_counter()
+        again = _resolved_from(solution, trajectory, result, restated)
+        timings["confirm_s"] = time.perf_counter() - start
+        if again is not None:
+            first, solution = solution, again
+            structure = control_structure(again)
+            certificate = certify(trajectory, result, again, None if restated else structure, tol=tol, first=first)
+    extremal = Extremal(trajectory, result, structure, certificate, timings, direct=solution, first_direct=first)
     if strict and not certificate.passed:
         raise SolverError(
             "certificate",
@@ -287,6 +317,91 @@ def _statement(solution):
     return transcription.problem if transcription is not None else solution.problem
 
 
+def _resolved_from(solution, trajectory, result, restated: bool, samples: int = 2001):
+    """The direct solution's transcription re-solved from the extremal: its states and t_f, its controls (for a
+    restated problem, the direct problem's controls fitted to them: :func:`_fitted_controls`) and its free
+    parameters; None where the solution has no transcription or the solve fails."""
+    from .problem import Guess
+
+    transcription = (getattr(solution, "raw", {}) or {}).get("transcription")
+    if transcription is None:
+        return None
+    t = trajectory.t0 + np.linspace(0.0, 1.0, samples) * (trajectory.tf - trajectory.t0)
+    problem = transcription.problem
+    X = trajectory.state(t)[:, : problem.nx]  # the shooting's may have more (free parameters as states)
+    V = _fitted_controls(solution, trajectory, t, X) if restated else trajectory.control(t)
+
+    def along(values):
+        return lambda time: np.interp(time, t, values)
+
+    guess = Guess(
+        tf=trajectory.tf,
+        states={n: along(X[:, j]) for j, n in enumerate(problem.state_names)},
+        controls={n: along(V[:, i]) for i, n in enumerate(problem.control_names)},
+        parameters=dict(getattr(result, "free_parameters", None) or {}),
+    )
+    try:
+        return transcription.solve(guess, error_threshold=None)
+    except SolverError:
+        return None
+
+
+def _fitted_controls(solution, trajectory, t, X) -> np.ndarray:
+    """The direct problem's controls (rows: the times ``t``) that give the extremal's dynamics and running cost at
+    its states ``X``: ``min sum |(f_d(x, v) - f(x, u)) / scale|^2 + (L_d(x, v) - L(x, u))^2`` within the controls'
+    bounds, one small least-squares problem per time (block-separable), from the first direct solution's controls
+    at the same fraction of the horizon."""
+    direct, ours = solution.problem, trajectory.problem
+    hd, hs = direct.functions.hamiltonian, ours.functions.hamiltonian
+    n = t.size
+    fs = ca.Function("fs", [hs.x, hs.u, hs.t, hs.P], [ca.vertcat(hs.f, hs.L)]).map(n)
+    P = np.repeat(np.asarray(ours._P, dtype=float).reshape(-1, 1), n, axis=1)
+    target = np.asarray(fs(X.T, trajectory.control(t).T, t[None, :], P))
+    scale = ca.DM([abs(v.scale) for v in direct.states] + [1.0])
+    y = ca.SX.sym("y", direct.nx + 1)
+    misfit = ca.sumsqr((ca.vertcat(hd.f, hd.L) - y) / scale)
+    term = ca.Function("misfit", [hd.u, hd.x, hd.t, y], [ca.substitute(misfit, hd.P, ca.DM(direct._P))]).map(n)
+    V = ca.MX.sym("V", direct.nu, n)
+    fit = ca.nlpsol(
+        "fit",
+        "ipopt",
+        {"x": ca.vec(V), "f": ca.sum2(term(V, X.T, t[None, :], target))},
+        {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12},
+    )
+    s = (t - trajectory.t0) / (trajectory.tf - trajectory.t0)
+    start = solution.control(solution.t0 + s * (solution.tf - solution.t0)).T
+    lo = np.repeat([[c.lower] for c in direct.controls], n, axis=1)
+    hi = np.repeat([[c.upper] for c in direct.controls], n, axis=1)
+    out = fit(x0=np.clip(start, lo, hi).ravel(order="F"), lbx=lo.ravel(order="F"), ubx=hi.ravel(order="F"))
+    return np.asarray(out["x"]).reshape(direct.nu, n, order="F").T
+
+
+def _restatement(solution, problem):
+    """``problem`` checked against the direct solution's: the same states (names, order, initial and final values)
+    and the same free or fixed final time, so that the direct costates are the restatement's."""
+    direct = _statement(solution)
+    if list(problem.state_names) != list(direct.state_names):
+        raise ValueError(
+            f"problem {problem.name!r} has the states {list(problem.state_names)}, the direct solution's "
+            f"{direct.name!r} has {list(direct.state_names)}: a restatement keeps the states (only the controls change)"
+        )
+    for ours, theirs in zip(problem.states, direct.states):
+        for end in ("initial", "final"):
+            a, b = getattr(ours, end), getattr(theirs, end)
+            same = a is b if a is None or b is None else np.shape(a) == np.shape(b) and np.allclose(a, b, 1e-12, 0.0)
+            if not same:
+                raise ValueError(
+                    f"state {ours.name!r}: the {end} value is {a} in {problem.name!r} and {b} in the direct "
+                    f"solution's {direct.name!r}: a restatement keeps the boundary conditions"
+                )
+    if problem.free_final_time != direct.free_final_time:
+        raise ValueError(
+            f"the final time is {'free' if problem.free_final_time else 'fixed'} in {problem.name!r} and "
+            f"{'free' if direct.free_final_time else 'fixed'} in the direct solution's {direct.name!r}"
+        )
+    return problem
+
+
 def _quadratic(problem) -> bool:
     """Whether some control has a quadratic term in H (then the saturated linear law)."""
     from .shooting.hamiltonian import _extract
@@ -319,17 +434,24 @@ def _unknowns(shooting, solution) -> np.ndarray:
 
 
 def certify(
-    trajectory, result, direct=None, structure: Structure | None = None, tol: float = 1e-10, samples: int = 401
+    trajectory,
+    result,
+    direct=None,
+    structure: Structure | None = None,
+    tol: float = 1e-10,
+    samples: int = 401,
+    first=None,
 ) -> Certificate:
     """The checks of an extremal (every one named; :class:`Certificate`):
 
     * ``shooting_residual``: ``|S|`` at the solution, at most ``tol``;
     * ``hamiltonian_minimum``: on ``samples`` times, how much lower H gets than at the extremal's control over a
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
-      six controls; a value that violates a mixed state-control constraint is not admissible), relative to
-      ``1 + |H|``: the maximum principle, checked on the set rather than on the law that produced the control;
+      six controls; a value that violates a mixed state-control constraint is not admissible; for a law over the
+      ball ``|u| <= r``, 801 points of the ball instead), relative to ``1 + |H|``: the maximum principle, checked on
+      the set rather than on the law that produced the control;
     * ``feasibility``: the largest violation of a state bound or a path constraint on the samples, relative to the
-      range of its values along the extremal (at least 1);
+      range of its values along the extremal (at least 1), and for the ball, of ``|u| <= r`` relative to r;
     * ``hamiltonian_constant``: the largest change of H along the extremal relative to ``1 + |H|`` (autonomous
       problems only);
     * ``legendre_clebsch``: on singular arcs of order q, how negative ``(-1)^q d/du (d/dt)^(2q) H_u`` gets
@@ -340,8 +462,14 @@ def certify(
     * ``objective_gap``: ``|J_indirect - J_direct| / (1 + |J|)``, at most 1e-2, and ``state_gap``: the largest
       difference of the direct solution's states in percent of each one's magnitude, in normalised time, at most
       5 %: another extremal than the one the direct solution approximates, not its discretisation error (a
-      switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch. Without ``structure``
-      and ``direct`` (a continuation's extremals), those three checks are left out.
+      switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch. A state's magnitude
+      is at least its declared ``scale`` (a state near zero, such as a small inclination, is not compared with its
+      own tiny values). Without ``structure`` and ``direct`` (a continuation's extremals), those three checks are
+      left out;
+    * ``first_direct_objective`` (where :func:`to_extremal` re-solved the direct problem from the extremal,
+      ``first`` the direct solution it started from): how much worse the extremal's objective is than the first
+      direct solution's, relative to ``1 + |J|``, at most 1e-2 (an extremal the direct method, started from it,
+      confirms, but of a worse local minimum than the one it was asked about, fails here).
     """
     from .structure import inequalities
 
@@ -361,6 +489,14 @@ def certify(
         c = np.asarray(mapped(X.T, U.T, t[None, :], Ps)).ravel()
         violation = max(violation, float(np.max(c)) / max(1.0, float(np.ptp(c))))
     worst = 0.0
+    law = getattr(getattr(trajectory, "system", None), "law", None)
+    radius = getattr(law, "radius", None) if getattr(law, "control_set", None) == "ball" else None
+    if radius is not None:  # |u| <= radius: the ball sampled, and its feasibility
+        norms = np.linalg.norm(U, axis=1)
+        violation = max(violation, float(np.max(norms - radius)) / radius)
+        for V in _ball_points(problem.nu, radius):
+            H_v = np.asarray(Hmap(X.T, L.T, np.repeat(V[:, None], samples, axis=1), t[None, :], Ps)).ravel()
+            worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
     lows, highs = [], []
@@ -373,7 +509,9 @@ def certify(
         highs.append(hi)
     trials = [(i, value) for i in range(problem.nu) for value in np.linspace(lows[i], highs[i], 41)]
     corners = []
-    if 1 < problem.nu <= 6:
+    if radius is not None:  # the box around the ball is not admissible
+        trials = []
+    elif 1 < problem.nu <= 6:
         corners = list(np.array(np.meshgrid(*zip(lows, highs), indexing="ij")).reshape(problem.nu, -1).T)
     for k, trial in enumerate(trials + corners):
         V = U.T.copy()
@@ -404,11 +542,17 @@ def certify(
         names = direct.problem.state_names  # the shooting's problem may have more (free parameters as states)
         ours = trajectory.state(trajectory.t0 + s * (trajectory.tf - trajectory.t0))[:, : len(names)]
         theirs = direct.state(direct.t0 + s * (direct.tf - direct.t0))
-        ranges = np.maximum(np.abs(theirs).max(axis=0), 1e-300)
+        scales = np.array([abs(v.scale) for v in direct.problem.states])
+        ranges = np.maximum(np.maximum(np.abs(theirs).max(axis=0), scales), 1e-300)
         state_gap = float(100 * np.max(np.abs(ours - theirs).max(axis=0) / ranges))
         gap = abs(J - float(direct.objective)) / (1.0 + abs(J))
         compared.append(Check("objective_gap", gap, 1e-2, "indirect against direct"))
         compared.append(Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"))
+    if first is not None:
+        worse = (float(result.objective) - float(first.objective)) / (1.0 + abs(float(result.objective)))
+        compared.append(
+            Check("first_direct_objective", max(worse, 0.0), 1e-2, "no worse than the first direct solution")
+        )
     checks = (
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
         Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
@@ -419,6 +563,15 @@ def certify(
         *compared,
     )
     return Certificate(checks)
+
+
+def _ball_points(n: int, radius: float, directions: int = 200) -> np.ndarray:
+    """Points of the ball ``|u| <= radius`` in ``R^n``: the centre, and on each of ``directions`` directions (the
+    coordinate axes both ways, then a fixed pseudo-random sample of the sphere) the radii 1/4, 1/2, 3/4, 1."""
+    axes = np.vstack([np.eye(n), -np.eye(n)])
+    others = np.random.default_rng(0).normal(size=(max(directions - 2 * n, 0), n))
+    unit = np.vstack([axes, others / np.linalg.norm(others, axis=1, keepdims=True)])
+    return np.vstack([np.zeros((1, n)), *(r * radius * unit for r in (0.25, 0.5, 0.75, 1.0))])
 
 
 def _arc_conditions(trajectory, t, X, L, P) -> tuple[float, float]:

@@ -212,22 +212,27 @@ def orbit_transfer_direct(
     tf: float | None = None,
     revolutions_guess: float = 1.0,
     tf_guess: float = 15.0,
+    *,
+    multiplier: float | None = None,
 ) -> OptimalControlProblem:
     """A form of the transfer for direct transcriptions: the thrust direction as two angles.
 
     ``u = rho (cos(beta) cos(alpha), cos(beta) sin(alpha), sin(beta))`` (radial, orthoradial,
-    normal), so ``|u| <= 1`` needs no path constraint. ``objective="time"``: full thrust
-    (rho = 1), minimise tf. ``objective="energy"``: controls (rho, alpha, beta), rho in [0, 1],
-    minimise the integral of rho^2 over the fixed ``tf``. The state costates are those of
+    normal), so ``|u| <= 1`` needs no path constraint and the cost ``|u| = rho`` is smooth.
+    ``objective="time"``: full thrust (rho = 1), minimise tf. ``objective="energy"``: controls
+    (rho, alpha, beta), rho in [0, 1], minimise the integral of rho^2 over the fixed ``tf``.
+    ``objective="fuel"``: the slides' problem of :func:`orbit_transfer` (the integral of rho, the
+    final longitude ``final_longitude(thrust_N, multiplier)`` fixed, tf free, guessed at 1.2 t_min),
+    started from the straight line between the orbits. The state costates are those of
     :func:`orbit_transfer` (the parameterisation changes only the controls), which lets a
     direct solution start the shooting.
     """
     c = orbit_transfer_constants()
     mu, beta_ = c["mu_Mm3_h2"], c["beta"]
     Tmax = thrust_units(thrust_N)
-    energy = objective == "energy"
-    if objective not in ("time", "energy"):
-        raise ValueError(f"objective must be 'time' or 'energy', got {objective!r}")
+    if objective not in ("time", "energy", "fuel"):
+        raise ValueError(f"objective must be 'time', 'energy' or 'fuel', got {objective!r}")
+    energy = objective in ("energy", "fuel")
 
     def dynamics(x, u, t):
         rho, a, b = (u[0], u[1], u[2]) if energy else (1.0, u[0], u[1])
@@ -237,8 +242,10 @@ def orbit_transfer_direct(
         xdot = [F0[i] + acc * (d[0] * F1[i] + d[1] * F2[i] + d[2] * F3[i]) for i in range(6)]
         return ca.vertcat(*xdot, -beta_ * Tmax * rho)
 
-    ini, fin = c["initial"], c["final"]
+    ini, fin = c["initial"], dict(c["final"])
     L_end = ini["L"] + 2 * math.pi * revolutions_guess
+    if objective == "fuel":
+        L_end = fin["L"] = final_longitude(thrust_N, multiplier)
     scales = {"P": 10.0, "ex": 1.0, "ey": 1.0, "hx": 0.1, "hy": 0.1, "L": max(math.pi, L_end), "m": 100.0}
     shifts = {"m": 1400.0}
     states = [
@@ -249,7 +256,7 @@ def orbit_transfer_direct(
             scale=scales[n],
             shift=shifts.get(n, 0.0),
             lower=0.5 if n == "P" else -math.inf,
-            guess=(ini[n], L_end) if n == "L" else None,
+            guess=(ini[n], L_end) if n == "L" else ((ini[n], fin[n]) if objective == "fuel" and n in fin else None),
         )
         for n in STATE_NAMES
     ]
@@ -257,6 +264,19 @@ def orbit_transfer_direct(
         Control("alpha", -2 * math.pi, 2 * math.pi, guess=math.pi / 2),
         Control("beta", -math.pi / 2, math.pi / 2),
     ]
+    if objective == "fuel":
+        g = 1.2 * minimum_time_estimate(thrust_N)
+        alpha = Control("alpha", -2 * math.pi, 2 * math.pi, guess=math.pi / 2, period=2 * math.pi)
+        return OptimalControlProblem(
+            "orbit_transfer_fuel_direct",
+            states,
+            [Control("rho", 0.0, 1.0, guess=0.5), alpha, angles[1]],
+            dynamics,
+            tf=FreeFinalTime(0.3 * g, 3 * g, g, scale=g),
+            lagrange=lambda x, u, t: u[0],
+            objective_scale=g,
+            description=f"GTO-GEO minimum fuel (direct form), {thrust_N} N, L(tf) = {L_end:.6g} rad",
+        )
     if energy:
         if tf is None:
             raise ValueError("the energy problem needs a fixed final time tf (hours)")

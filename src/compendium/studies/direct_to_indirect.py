@@ -1,8 +1,10 @@
 """From a direct solution to a certified extremal in one call (notebook 10; issue 24).
 
 Each case is a published problem, a direct solve (Radau) and the reference it is compared with: closed-form
-junction times, a published junction table (``data/paper/goddard_control_toolbox.csv``) or a published optimum
-(``data/paper/beyond_the_seeds.csv``, ``goddard_cops.csv``). :func:`run_case` solves it directly, calls
+junction times, a published junction table (``data/paper/goddard_control_toolbox.csv``), a published optimum
+(``data/paper/beyond_the_seeds.csv``, ``goddard_cops.csv``) or the slides' transfer (``switching_detection.csv``:
+its direct form states the thrust as a magnitude and two angles, and the extremal is shot on the problem as posed,
+``|u| <= 1``). :func:`run_case` solves it directly, calls
 :func:`ocpkit.indirect.to_extremal` and reports the structure found, the extremal's numbers against the reference,
 |S|, the drift of H, the certificate and the gap to the direct solution, or, where the chain stops, its named error.
 No user-written Hamiltonian, control law or shooting function appears anywhere.
@@ -29,10 +31,13 @@ from ..problems import (
     goddard_rocket,
     miser3_state_constraint,
     orbit_raising,
+    orbit_transfer,
+    orbit_transfer_constants,
     rayleigh_mixed,
     tumour,
 )
 from ..problems.entry_landing import entry_landing
+from ..problems.orbit_transfer import orbit_transfer_direct
 
 
 def _published(table: str, problem: str | None, quantity: str) -> float:
@@ -59,6 +64,9 @@ class Case:
     solve_options: dict
     reference: Callable[[], dict] = field(default=lambda: {})
     measure: Callable[[object], dict] = field(default=lambda e: {})
+    #: the problem as posed, to shoot, where the direct one restates its controls (``to_extremal(problem=...)``)
+    shoot: Callable | None = None
+    control_set: str = "box"
 
 
 def _di_reference() -> dict:
@@ -69,6 +77,23 @@ def _di_reference() -> dict:
 def _goddard_ct_reference() -> dict:
     table = paper_table("goddard_control_toolbox").set_index("quantity")
     return {q: float(table.loc[q, "value"]) for q in ("t1", "t2", "t3", "tf")}
+
+
+def _transfer_thrust() -> float:
+    return float(orbit_transfer_constants()["thrusts_N"][0])
+
+
+def _slides_reference() -> dict:
+    """The slides' 5 N transfer: the fuel and the number of switchings (slide 12, switching detection)."""
+    table = paper_table("switching_detection")
+    row = table[(table.thrust_N == _transfer_thrust()) & (table.detection == "detection") & (table.jacobian == "fd")]
+    return {"fuel_kg": float(row.objective_kg.iloc[0]), "switchings": float(row.switchings.iloc[0])}
+
+
+def _transfer_measure(e) -> dict:
+    tr = e.trajectory
+    m0 = orbit_transfer_constants()["initial"]["m"]
+    return {"fuel_kg": m0 - float(tr.state(tr.tf)[6]), "switchings": float(e.shooting.integration.switchings)}
 
 
 def _goddard_ct_measure(e) -> dict:
@@ -140,6 +165,18 @@ CASES = {
             lambda e: {"objective": e.trajectory.objective},
         ),
         Case(
+            "gto_geo_5N",
+            "GTO-GEO at 5 N (the slides' transfer): thrust bounded in norm, bang-off-bang over 10 revolutions",
+            lambda: orbit_transfer_direct(_transfer_thrust(), "fuel"),
+            4,
+            160,
+            {"error_threshold": None, "ipopt_options": {"max_iter": 3000}},
+            _slides_reference,
+            _transfer_measure,
+            shoot=lambda: orbit_transfer(_transfer_thrust()),
+            control_set="ball",
+        ),
+        Case(
             "entry_landing",
             "the seeds' entry landing (Radau, refined)",
             entry_landing,
@@ -184,7 +221,8 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     base = {"problem": case.name, "what": case.what}
     timings = {"problem": case.name, "direct_s": direct_s}
     try:
-        extremal = to_extremal(direct, tol=tol)
+        shoot = case.shoot() if case.shoot is not None else None
+        extremal = to_extremal(direct, problem=shoot, control_set=case.control_set, tol=tol)
     except (ValueError, SolverError) as exc:
         timings["chain_s"] = time.perf_counter() - start - direct_s
         return [{**base, "verdict": "stopped", "reason": str(exc).split(";")[0]}], timings, None

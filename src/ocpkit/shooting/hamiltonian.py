@@ -75,6 +75,8 @@ class ControlLaw:
     description: str = ""
     hamiltonian: Hamiltonian | None = field(default=None, repr=False)
     """The problem's Hamiltonian; the law's expressions are in its symbols ``x, p, P``."""
+    radius: float | None = None
+    """The ball's radius (``control_set="ball"``), else None."""
 
     @property
     def group_sizes(self) -> list[int]:
@@ -230,7 +232,7 @@ def control_law(
             branches = [ca.DM.zeros(nu), radius * direction]
         groups.append(SwitchingGroup(q, thresholds, [ca.SX(br) for br in branches], tuple(range(nu))))
         description = f"ball |u| <= {radius}, {'saturated linear' if regularized else 'bang-off-bang'}"
-    return ControlLaw(groups, nu, regularized, control_set, description, ham)
+    return ControlLaw(groups, nu, regularized, control_set, description, ham, radius if control_set == "ball" else None)
 
 
 def _require_autonomous(ham: Hamiltonian) -> None:
