@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from ocpkit import Radau, SolverError
 from ocpkit.indirect import to_extremal
@@ -212,6 +213,76 @@ CASES = {
 }
 
 
+def slides_norm_S(thrust_N: float) -> float:
+    """The slides' |S| of the L1 transfer at ``thrust_N``, switchings corrected, variational Jacobian (slide 18)."""
+    table = paper_table("switching_detection")
+    row = table[
+        np.isclose(table.thrust_N, thrust_N) & (table.detection == "correction") & (table.jacobian == "variational")
+    ]
+    return float(row.norm_S.iloc[0])
+
+
+def low_thrust_by_multiple_shooting(
+    thrust_N: float, *, segments: int, tol: float, slides_tol: float = 1e-8
+) -> tuple[pd.DataFrame, dict]:
+    """The slides' L1 transfer at a low thrust, from the energy-homotopy solution (notebook 05's published costates,
+    ``data/derived/orbit_transfer_energy.csv``): single shooting (damped Newton, the variational Jacobian) with the
+    integrator at the slides' tolerance and at ``tol``, then multiple shooting
+    (:class:`ocpkit.shooting.multiple.MultipleShooting`, ``segments`` equal shares of the horizon, at ``tol``) from
+    the second. One row per run: its conditions ``norm_S`` (the slides' |S|: final state and H(tf)), for multiple
+    shooting the relative continuity defect and ``norm_R`` (both together), the level below which the residual is
+    chance (``noise``: what the exact Jacobian does not explain of a change of relative size 1e-12), switchings,
+    fuel and tf. Returns ``(table, {"single": ..., "multiple": ...})``."""
+    from ocpkit.shooting.multiple import MultipleShooting
+
+    from .orbit_transfer import TransferSystems, energy_start_vector, fuel_kg, read_cache, residual_noise
+
+    energy = read_cache("orbit_transfer_energy")
+    if energy is None:
+        raise FileNotFoundError("the energy solutions of notebook 05 (data/derived/orbit_transfer_energy.csv)")
+    start = energy_start_vector(energy, "longitude", thrust_N)
+    systems, rows, runs = TransferSystems(), [], {}
+    for integrator_tol in (slides_tol, tol):
+        shooting = systems.shooting("fuel", thrust_N, tol=integrator_tol)
+        r = shooting.solve(start, solver="newton", maxfev=300, raise_on_failure=False)
+        runs[("single", integrator_tol)] = r
+        rows.append(
+            {
+                "shooting": "single",
+                "segments": 1,
+                "integrator_tol": integrator_tol,
+                "norm_S": r.norm,
+                "continuity": np.nan,
+                "norm_R": r.norm,
+                "noise": residual_noise(shooting, r.z),
+                "switchings": r.integration.switchings,
+                "fuel_kg": fuel_kg(r),
+                "tf_h": r.tf,
+            }
+        )
+    multiple = MultipleShooting(shooting, segments)
+    m = multiple.solve(r.z, stol=1e-10, raise_on_failure=False)
+    runs[("multiple", tol)] = m
+    rows.append(
+        {
+            "shooting": "multiple",
+            "segments": segments,
+            "integrator_tol": tol,
+            "norm_S": m.terminal,
+            "continuity": m.continuity,
+            "norm_R": m.norm,
+            "noise": multiple.noise(np.concatenate([m.z, m.nodes.ravel()])),
+            "switchings": m.switchings,
+            "fuel_kg": float(orbit_transfer_constants()["initial"]["m"]) - float(m.integrations[-1].y[6]),
+            "tf_h": m.tf,
+        }
+    )
+    table = pd.DataFrame(rows)
+    table.insert(0, "thrust_N", thrust_N)
+    table["slides_norm_S"] = slides_norm_S(thrust_N)
+    return table, runs
+
+
 def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     """The case's rows (one per compared quantity, or one saying where the chain stopped), its timings and its
     extremal (None where the chain stopped)."""
@@ -255,4 +326,4 @@ def _has(certificate, name: str) -> bool:
     return any(c.name == name for c in certificate.checks)
 
 
-__all__ = ["CASES", "Case", "run_case"]
+__all__ = ["CASES", "Case", "low_thrust_by_multiple_shooting", "run_case", "slides_norm_S"]

@@ -1,9 +1,10 @@
 """Indirect shooting: Hamiltonian flows, a compiled Dormand-Prince integrator with switching
-detection and correction, variational Jacobians, shooting solvers and continuation."""
+detection and correction, variational Jacobians, single and multiple shooting, solvers and continuation."""
 
 from .compiled import CompiledSystem, Integration
 from .continuation import GeometricSteps, Schedule, arclength, follow, homotopy
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
+from .multiple import MultipleShooting, MultipleShootingResult
 from .shooting import Shooting, ShootingResult
 from .strategies import (
     JACOBIANS,
@@ -28,6 +29,8 @@ __all__ = [
     "HamiltonianSystem",
     "Integration",
     "MinpackHybrid",
+    "MultipleShooting",
+    "MultipleShootingResult",
     "Schedule",
     "Shooting",
     "ShootingResult",

@@ -1,0 +1,299 @@
+"""Multiple shooting of the switching engine's boundary-value problem (Bock & Plitt 1984; Stoer & Bulirsch,
+*Introduction to Numerical Analysis*, section 7.3.5).
+
+Single shooting over a long horizon answers a change of its unknowns with the flow's sensitivity over the whole
+horizon, so the integrator's rounding and step decisions set a floor under ``|S|`` (Martinon & Gergaud's 0.1 N
+transfer, 1201 switchings: about 1e-7). Cut into ``K`` segments, each node is only as sensitive as one segment's flow.
+
+For a :class:`~ocpkit.shooting.Shooting` with unknowns ``z`` (per state its initial costate, or its initial value
+where free, then ``tf`` where free) and conditions ``S(y(tf), tf)``, the nodes are ``t_k = t0 + s_k (tf - t0)``
+at fixed fractions ``s_k`` (a free ``tf`` moves them with it), and
+
+    Z = (z, y_1, ..., y_{K-1}),   R(Z) = (S(y(t_K^-), tf), W_1 (y(t_1^-) - y_1), ..., W_{K-1} (y(t_{K-1}^-) - y_{K-1}))
+
+with ``y = (x, p, J)`` (J the running cost so far), ``y(t_{k+1}^-)`` the flow of segment k from its node and
+``W_k = diag(1 / (1 + |y_k|))`` at the solve's start (relative defects: the transfer's costates of 1e4 and its
+states of order one weigh alike). R is square. Its Jacobian comes from each segment's variational equations (``2 nx`` columns with respect to the node's
+x and p; the cost does not enter the flow) and, for a free ``tf``, each segment end's velocity times the segment's
+share of the horizon (the flows are autonomous). :meth:`MultipleShooting.solve` drives ``R`` to zero with the
+shooting's root solvers (damped Newton by default).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SolverError
+from .compiled import CompiledSystem, Integration
+from .hamiltonian import HamiltonianSystem
+from .shooting import Shooting
+from .strategies import solver_strategy
+
+
+@dataclass
+class MultipleShootingResult:
+    """A multiple-shooting run: ``z`` the single shooting's unknowns at the solution, ``nodes`` the interior nodes'
+    ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``residual`` R and ``norm`` |R|;
+    ``terminal`` the norm of the single shooting's conditions S at tf (the slides' |S|) and ``continuity`` the
+    largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether ``norm <= stol``; the solver's
+    ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the ``objective``, the ``switchings``
+    and integration ``steps`` summed over the segments, and the segments' recorded ``integrations``."""
+
+    z: np.ndarray
+    nodes: np.ndarray
+    times: np.ndarray
+    residual: np.ndarray
+    norm: float
+    terminal: float
+    continuity: float
+    converged: bool
+    message: str
+    n_shooting: int
+    n_jacobian: int
+    cpu_s: float
+    objective: float
+    switchings: int
+    steps: int
+    integrations: list = field(repr=False, default_factory=list)
+
+    @property
+    def tf(self) -> float:
+        return float(self.times[-1])
+
+
+class MultipleShooting:
+    """Multiple shooting of ``shooting``'s problem and law over ``segments`` equal shares of the horizon (module
+    docstring). The segments are integrated as the shooting integrates (its switching treatment, tolerances and
+    interior check), by a system compiled with ``2 nx`` variational columns."""
+
+    def __init__(self, shooting: Shooting, segments: int = 10):
+        if not (isinstance(segments, (int, np.integer)) and segments >= 2):
+            raise ValueError(f"segments must be an integer of at least 2, got {segments!r}")
+        self.shooting = shooting
+        self.segments = int(segments)
+        self.fractions = np.linspace(0.0, 1.0, self.segments + 1)
+        problem = shooting.problem
+        self.nx, self.n = problem.nx, 2 * problem.nx + 1
+        self.compiled = CompiledSystem(HamiltonianSystem(problem, shooting.law, n_variational=2 * problem.nx))
+        self.nz = shooting.nz + (self.segments - 1) * self.n
+        #: the continuity rows' weights, 1 / (1 + |y_k|) at the start of :meth:`solve` (relative defects: costates
+        #: of thousands and states of order one weigh alike), fixed during a solve
+        self.weights = np.ones((self.segments - 1, self.n))
+
+    # -- the multiple shooting function ----------------------------------------------------------------
+    def _times(self, tf: float) -> np.ndarray:
+        t0 = float(self.shooting.problem.t0)
+        return t0 + self.fractions * (tf - t0)
+
+    def _integrate(self, y0, ta: float, tb: float, P, Psi0=None, record: bool = False) -> Integration:
+        s = self.shooting
+        res = self.compiled.integrate(
+            y0,
+            ta,
+            tb,
+            P,
+            switching=s.switching,
+            rtol=s.rtol,
+            atol=s.atol,
+            Psi0=Psi0,
+            record=record,
+            max_steps=s.max_steps,
+            interior_check=s.interior_check,
+        )
+        if res.status != "ok":
+            raise SolverError(
+                "Dormand-Prince integrator", res.status, res.accepted + res.rejected, f"on [{ta:.6g}, {tb:.6g}]"
+            )
+        return res
+
+    def _start(self, z) -> tuple[np.ndarray, float]:
+        unknowns, tf = self.shooting._split(z)
+        x0, p0 = self.shooting._initial(unknowns)
+        return np.concatenate([x0, p0, [0.0]]), tf
+
+    def nodes(self, z, parameters=None) -> np.ndarray:
+        """The multiple-shooting unknowns ``Z`` continuing a single shooting's ``z``: each node where the flow
+        from the previous one arrives."""
+        P = self.shooting._params(parameters)
+        z = np.asarray(z, dtype=float).ravel()
+        y, tf = self._start(z)
+        times, out = self._times(tf), [z]
+        for k in range(self.segments - 1):
+            y = self._integrate(y, times[k], times[k + 1], P).y
+            out.append(y)
+        return np.concatenate(out)
+
+    def _split(self, Z):
+        Z = np.asarray(Z, dtype=float).ravel()
+        if Z.size != self.nz:
+            raise ValueError(
+                f"Z must have {self.nz} entries (z, then {self.segments - 1} nodes of {self.n}), got {Z.size}"
+            )
+        m = self.shooting.nz
+        return Z[:m], Z[m:].reshape(self.segments - 1, self.n)
+
+    def evaluate(self, Z, parameters=None, *, jacobian: bool = True, record: bool = False):
+        """``(R, dR/dZ, integrations)`` at ``Z`` (``dR/dZ`` None without ``jacobian``)."""
+        s, sysm = self.shooting, self.compiled.system
+        P = s._params(parameters)
+        z, Y = self._split(Z)
+        y0, tf = self._start(z)
+        times, nx, n, m, K = self._times(tf), self.nx, self.n, s.nz, self.segments
+        R = np.empty(self.nz)
+        D = np.zeros((self.nz, self.nz)) if jacobian else None
+        first = np.zeros((n, 2 * nx))  # the first segment's columns: z's unknowns (an initial costate or state)
+        first[np.where(s.free_initial, np.arange(nx), nx + np.arange(nx)), np.arange(nx)] = 1.0
+        node = np.eye(n)[:, : 2 * nx]
+        runs = []
+        for k in range(K):
+            start = y0 if k == 0 else Y[k - 1]
+            res = self._integrate(
+                start, times[k], times[k + 1], P, (first if k == 0 else node) if jacobian else None, record
+            )
+            runs.append(res)
+            yb = res.y
+            share = self.fractions[k + 1] - self.fractions[k]
+            if k < K - 1:
+                rows = slice(m + k * n, m + (k + 1) * n)
+                R[rows] = (yb - Y[k]) * self.weights[k]
+            else:
+                mode = sysm.mode_at(yb, P)
+                S, dSdy, dSdtf = (np.asarray(v) for v in s._S(yb, tf, mode, P))
+                rows = slice(0, m)
+                R[rows] = S.ravel()
+            if not jacobian:
+                continue
+            # d(segment end)/d(its start): the variational columns for x and p; the cost J only adds itself
+            dend = np.zeros((n, n))
+            dend[:, : 2 * nx] = res.Psi
+            dend[2 * nx, 2 * nx] = 1.0
+            velocity = np.asarray(sysm.flow(yb, sysm.mode_at(yb, P), P)).ravel() * share
+            outer = dSdy if k == K - 1 else np.diag(self.weights[k])
+            if k == 0:
+                D[rows, :nx] = outer @ res.Psi[:, :nx]
+            else:
+                cols = slice(m + (k - 1) * n, m + k * n)
+                D[rows, cols] = outer @ dend
+            if k < K - 1:
+                D[rows, m + k * n : m + (k + 1) * n] -= np.diag(self.weights[k])
+            if s.free_tf:
+                D[rows, m - 1] += outer @ velocity + (dSdtf.ravel() if k == K - 1 else 0.0)
+        return R, D, runs
+
+    def noise(self, Z, parameters=None, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
+        """The level below which ``|R|`` is chance at ``Z``: the median of ``|R(Z + dZ) - R(Z) - R'(Z) dZ|`` over
+        random ``dZ`` of relative size ``relative`` (what the exact Jacobian does not explain: step decisions,
+        switchings crossing step ends)."""
+        Z = np.asarray(Z, dtype=float).ravel()
+        R0, D, _ = self.evaluate(Z, parameters)
+        rng = np.random.default_rng(seed)
+        out = []
+        for _ in range(samples):
+            dZ = relative * np.abs(Z) * rng.standard_normal(Z.size)
+            out.append(np.linalg.norm(self.evaluate(Z + dZ, parameters, jacobian=False)[0] - R0 - D @ dZ))
+        return float(np.median(out))
+
+    # -- solve -----------------------------------------------------------------------------------------
+    def solve(
+        self,
+        Z0,
+        parameters=None,
+        *,
+        solver="newton",
+        stol: float = 1e-10,
+        maxfev: int = 50,
+        raise_on_failure: bool = True,
+    ) -> MultipleShootingResult:
+        """Solve ``R(Z) = 0`` from ``Z0``: the multiple-shooting unknowns, or a single shooting's ``z`` (the nodes
+        then continue its flow, :meth:`nodes`). ``solver``: a root solver of :mod:`ocpkit.shooting.strategies`
+        (``"newton"``, ``"hybr"`` or an object). A run that ends with ``|R| > stol`` raises a
+        :class:`~ocpkit.SolverError` carrying the result (``raise_on_failure=False``: returns it)."""
+        if not stol > 0:
+            raise ValueError(f"stol must be positive, got {stol}")
+        method = solver_strategy(solver)
+        Z0 = np.asarray(Z0, dtype=float).ravel()
+        if Z0.size == self.shooting.nz:
+            Z0 = self.nodes(Z0, parameters)
+        self.weights = 1.0 / (1.0 + np.abs(self._split(Z0)[1]))
+        counts = {"S": 0, "jac": 0}
+        cache = {}
+
+        def evaluate(Z, jacobian):
+            key = Z.tobytes()
+            if key not in cache or (jacobian and cache[key][1] is None):
+                try:
+                    R, D, _ = self.evaluate(Z, parameters, jacobian=jacobian)
+                except (SolverError, ValueError):
+                    return np.full(self.nz, 1e10), None
+                cache.clear()
+                cache[key] = (R, D)
+            return cache[key]
+
+        def fun(Z):
+            counts["S"] += 1
+            R = evaluate(Z, False)[0]
+            return R if np.all(np.isfinite(R)) else np.full(self.nz, 1e10)
+
+        def jac(Z):
+            counts["jac"] += 1
+            D = evaluate(Z, True)[1]
+            if D is None or not np.all(np.isfinite(D)):
+                raise SolverError(
+                    "multiple shooting", "the Jacobian failed at an iterate", counts["S"], unit="evaluations"
+                )
+            return D
+
+        start = time.process_time()
+        try:
+            Z, message = method(fun, jac, Z0, stol=stol, maxfev=maxfev)
+        except SolverError as exc:
+            if raise_on_failure:
+                raise
+            Z, message = Z0, str(exc)
+        cpu = time.process_time() - start
+        R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
+        z, Y = self._split(Z)
+        m, norm = self.shooting.nz, float(np.linalg.norm(R))
+        defects = R[m:].reshape(-1, self.n) / self.weights
+        continuity = float(np.max(np.abs(defects) / (1.0 + np.abs(Y)))) if defects.size else 0.0
+        P = self.shooting._params(parameters)
+        objective = float(runs[-1].y[2 * self.nx])
+        if self.shooting.problem.phi is not None:
+            tf = self._start(z)[1]
+            objective += float(
+                self.shooting.problem.phi(self.shooting.x0, runs[-1].y[: self.nx], self.shooting.problem.t0, tf, P)
+            )
+        result = MultipleShootingResult(
+            z=z,
+            nodes=Y,
+            times=self._times(self._start(z)[1]),
+            residual=R,
+            norm=norm,
+            terminal=float(np.linalg.norm(R[:m])),
+            continuity=continuity,
+            converged=bool(np.isfinite(norm) and norm <= stol),
+            message=message,
+            n_shooting=counts["S"],
+            n_jacobian=counts["jac"],
+            cpu_s=cpu,
+            objective=objective,
+            switchings=int(sum(r.switchings for r in runs)),
+            steps=int(sum(r.accepted + r.rejected for r in runs)),
+            integrations=runs,
+        )
+        if not result.converged and raise_on_failure:
+            raise SolverError(
+                "multiple shooting",
+                message,
+                counts["S"],
+                f"|R| = {norm:.3e} > stol = {stol:g}; the last iterate is the error's .result",
+                unit="evaluations",
+                result=result,
+            )
+        return result
+
+
+__all__ = ["MultipleShooting", "MultipleShootingResult"]
