@@ -89,25 +89,7 @@ class MultipleShooting:
         return t0 + self.fractions * (tf - t0)
 
     def _integrate(self, y0, ta: float, tb: float, P, Psi0=None, record: bool = False) -> Integration:
-        s = self.shooting
-        res = self.compiled.integrate(
-            y0,
-            ta,
-            tb,
-            P,
-            switching=s.switching,
-            rtol=s.rtol,
-            atol=s.atol,
-            Psi0=Psi0,
-            record=record,
-            max_steps=s.max_steps,
-            interior_check=s.interior_check,
-        )
-        if res.status != "ok":
-            raise SolverError(
-                "Dormand-Prince integrator", res.status, res.accepted + res.rejected, f"on [{ta:.6g}, {tb:.6g}]"
-            )
-        return res
+        return self.shooting.flow(y0, ta, tb, P, Psi0=Psi0, record=record, system=self.compiled)
 
     def _start(self, z) -> tuple[np.ndarray, float]:
         unknowns, tf = self.shooting._split(z)

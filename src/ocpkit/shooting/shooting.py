@@ -282,9 +282,17 @@ class Shooting:
             rows = np.where(self.free_initial, np.arange(nx), nx + np.arange(nx))
             Psi0[rows, np.arange(nx)] = 1.0
         self.counts["integrations"] += 1
-        res = self.compiled.integrate(
+        where = f"at z = {np.array2string(np.asarray(z), precision=6)}"
+        return self.flow(y0, self.problem.t0, tf, P, Psi0=Psi0, record=record, where=where)
+
+    def flow(self, y0, t0: float, tf: float, P, *, Psi0=None, record: bool = False, system=None, where: str = ""):
+        """The integration of ``y = (x, p, J)`` from ``y0`` at ``t0`` to ``tf`` as this shooting integrates (its
+        switching treatment, tolerances, step cap and interior check), by ``system`` (default its compiled system;
+        :class:`~ocpkit.shooting.multiple.MultipleShooting` passes one with more variational columns). A failed
+        integration raises a :class:`~ocpkit.SolverError` naming its status and ``where``."""
+        res = (self.compiled if system is None else system).integrate(
             y0,
-            self.problem.t0,
+            t0,
             tf,
             P,
             switching=self.switching,
@@ -300,7 +308,7 @@ class Shooting:
                 "Dormand-Prince integrator",
                 res.status,
                 res.accepted + res.rejected,
-                f"at z = {np.array2string(np.asarray(z), precision=6)}",
+                where or f"on [{t0:.6g}, {tf:.6g}]",
                 unit="steps",
             )
         return res
