@@ -3,9 +3,10 @@
     python benchmarks/bench_direct_to_indirect.py [--repeat 5]
 
 For every case of notebook 10 that ends certified (``compendium.studies.direct_to_indirect``): the direct solve
-(Radau, its case's mesh), then ``ocpkit.indirect.to_extremal`` split into the structure detection, the shooting
-(build of the arc flows and CVODES integrators, Newton's iterations), the re-solve of the direct problem from the
-extremal where the two differ (the GTO-GEO transfer) and the rest (the dense trajectory and the certificate); the median of ``--repeat`` runs in one process, and the chain's time as a multiple of the direct
+(Radau or HLGL, its case's mesh), then ``ocpkit.indirect.to_extremal`` split into the structure detection, the
+shooting (build of the arc flows and CVODES integrators, Newton's iterations), the re-solve of the direct problem
+from the extremal where the two differ (the GTO-GEO transfer) and the rest (the dense trajectory and the
+certificate); the median of ``--repeat`` runs in one process, and the chain's time as a multiple of the direct
 solve's. Issue 24's goal: the Goddard rocket with a speed limit, from ``Radau(...).solve(mesh_tolerance=...)`` to the
 certified extremal, in under 2 s end to end on the 2-core reference machine (printed as met or not). Writes
 ``build/bench/direct_to_indirect.csv``.
@@ -18,7 +19,6 @@ import time
 import numpy as np
 from _harness import parser, report
 
-from ocpkit import Radau
 from ocpkit.indirect import to_extremal
 
 from compendium.paths import build_dir
@@ -29,6 +29,7 @@ CERTIFIED = [
     "double_integrator",
     "goddard_speed_limit",
     "goddard_cops",
+    "goddard_cops_hlgl",
     "catalyst_mixing",
     "orbit_raising",
     "rayleigh_mixed",
@@ -45,7 +46,7 @@ def main() -> None:
         runs = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()
-            direct = Radau(case.problem(), case.nodes, case.intervals).solve(**case.solve_options)
+            direct = case.transcription().solve(**case.solve_options)
             t1 = time.perf_counter()
             shoot = case.shoot() if case.shoot is not None else None
             extremal = to_extremal(direct, problem=shoot, control_set=case.control_set)

@@ -36,8 +36,39 @@ def test_an_extremal_with_a_free_parameter():
 
 
 def test_a_solution_without_costates_is_named():
-    with pytest.raises(ValueError, match="needs the direct solution's costate estimates: solve with Radau"):
-        to_extremal(HLGL(race(), 10).solve(error_threshold=None))
+    import dataclasses
+
+    blind = dataclasses.replace(HLGL(race(), 10).solve(error_threshold=None), costate_values=None)
+    with pytest.raises(ValueError, match="needs the direct solution's costate estimates, which .* does not give"):
+        to_extremal(blind)
+
+
+def test_hlgl_costates_from_its_defect_multipliers():
+    """Each HLGL defect is the collocation defect at an interior Lobatto point weighted by its quadrature weight, so
+    its multiplier is the costate there: minimum time, lambda = (-1, t - 1) in closed form (H = -1 at the optimum),
+    to the mesh's resolution of the switch; then one call to the extremal, t_f = 2 and the switch at 1."""
+    direct = HLGL(race(), 20).solve(error_threshold=None)
+    t = direct.costate_times
+    assert t.size == 2 * 20 + 2 and t[0] == direct.t0 and t[-1] == direct.tf
+    exact = np.column_stack([-np.ones_like(t), t - 1.0])
+    assert np.abs(direct.costate_values - exact)[1:-1].max() <= 1e-3
+    extremal = to_extremal(direct)
+    assert extremal.trajectory.tf == pytest.approx(2.0, abs=1e-12) and extremal.certificate.passed
+    assert control_structure(extremal.trajectory).junctions("u") == pytest.approx([1.0], abs=1e-10)
+
+
+def test_hlgl_costates_converge_with_the_mesh_on_a_smooth_problem():
+    """Minimum energy with |u| <= 0.5 (regular and saturated arcs): HLGL's estimates against Radau's converged ones
+    fall with the mesh, and the extremal from HLGL is the closed form J = 3/8 - sqrt(3)/12."""
+    reference = Radau(saturated(), 8, 40).solve(error_threshold=None)
+    errors = []
+    for n in (8, 32):
+        direct = HLGL(saturated(), n).solve(error_threshold=None)
+        inner = direct.costate_times[1:-1]
+        errors.append(np.abs(direct.costate_values[1:-1] - reference.costate(inner)).max())
+    assert errors[1] < errors[0] / 4
+    extremal = to_extremal(HLGL(saturated(), 16).solve(error_threshold=None))
+    assert extremal.trajectory.objective == pytest.approx(3 / 8 - np.sqrt(3) / 12, abs=1e-12)
 
 
 def test_a_failed_certificate_raises_with_the_extremal(monkeypatch):
@@ -53,7 +84,7 @@ def test_a_failed_certificate_raises_with_the_extremal(monkeypatch):
     assert to_extremal(direct, strict=False).certificate is failing
 
 
-def planar_transfer(form: str = "ball", x_final: float = 3.0):
+def planar_transfer(form: str = "ball", x_final: float = 3.0, tf: float = 6.0, u2_bound: float = 1.0):
     """Rest to rest from the origin to (3, 4) in t_f = 6 with the thrust |u| <= 1 bounded in norm, fuel int |u| dt.
     Closed form: full thrust along (0.6, 0.8) to t = 1, coast, full brake from t = 5; fuel 2. Two direct forms (a
     smooth NLP over the same states): ``"lifted"``, a magnitude G in [0, 1] with ``|u|^2 <= G^2`` and the fuel
@@ -63,7 +94,7 @@ def planar_transfer(form: str = "ball", x_final: float = 3.0):
     from ocpkit import Constraint, Control, OptimalControlProblem, State
 
     states = [State(n, initial=0.0, final=f) for n, f in (("x", x_final), ("y", 4.0), ("vx", 0.0), ("vy", 0.0))]
-    thrust = [Control("u1", -1.0, 1.0), Control("u2", -1.0, 1.0)]
+    thrust = [Control("u1", -1.0, 1.0), Control("u2", -u2_bound, u2_bound)]
     if form == "lifted":
         return OptimalControlProblem(
             "planar_transfer_lifted",
@@ -88,7 +119,7 @@ def planar_transfer(form: str = "ball", x_final: float = 3.0):
         states,
         thrust,
         lambda x, u, t: [x[2], x[3], u[0], u[1]],
-        tf=6.0,
+        tf=tf,
         lagrange=lambda x, u, t: ca.norm_2(u),
     )
 
@@ -112,6 +143,12 @@ def test_a_restatement_must_keep_the_states_and_their_conditions():
         to_extremal(direct, problem=race(), control_set="ball")
     with pytest.raises(ValueError, match="state 'x': the final value is 2.0"):
         to_extremal(direct, problem=planar_transfer(x_final=2.0), control_set="ball")
+    with pytest.raises(ValueError, match="the final time is 6.05 in 'planar_transfer' and 6.0"):
+        to_extremal(direct, problem=planar_transfer(tf=6.05), control_set="ball")
+    with pytest.raises(
+        ValueError, match=r"needs one radius: the controls of 'planar_transfer' are bounded by \[0.5, 1.0\]"
+    ):
+        to_extremal(direct, problem=planar_transfer(u2_bound=0.5), control_set="ball")
     with pytest.raises(ValueError, match="control_set='ball' has the switching method's law only"):
         to_extremal(direct, problem=planar_transfer(), control_set="ball", method="arcs")
     with pytest.raises(ValueError, match="control_set must be one of"):
@@ -130,3 +167,23 @@ def test_an_extremal_better_than_the_direct_local_minimum_is_confirmed_by_the_di
     assert extremal.direct.objective == pytest.approx(2.0, abs=1e-3) and "confirm_s" in extremal.timings
     assert extremal.trajectory.objective == pytest.approx(2.0, abs=1e-10)
     assert extremal.certificate["first_direct_objective"].value == 0.0 and extremal.certificate.passed
+
+
+def test_the_parameters_a_solution_was_solved_with_are_the_extremal_s():
+    """Minimum time over a unit distance with |x''| <= a, solved at a = 2 instead of the default 1: t_f = 2 /
+    sqrt(a) = sqrt(2), the switch at 1 / sqrt(2); the shooting takes the solution's a, not the problem's default."""
+    from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
+
+    pr = OptimalControlProblem(
+        "race_a",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t, p: [x["v"], p["a"] * u["u"]],
+        tf=FreeFinalTime(0.2, 5.0, 1.5),
+        mayer=lambda x0, xf, t0, tf: tf,
+        parameters={"a": 1.0},
+    )
+    direct = Radau(pr, 4, 15).solve(parameters={"a": 2.0}, error_threshold=None)
+    extremal = to_extremal(direct)
+    assert extremal.trajectory.tf == pytest.approx(np.sqrt(2.0), abs=1e-10) and extremal.certificate.passed
+    assert extremal.first_direct is None  # the gaps held: no re-solve

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ocpkit import Radau, SolverError
+from ocpkit import HLGL, Radau, SolverError
 from ocpkit.indirect import to_extremal
 
 from ..paper import paper_table
@@ -39,6 +39,7 @@ from ..problems import (
 )
 from ..problems.entry_landing import entry_landing
 from ..problems.orbit_transfer import orbit_transfer_direct
+from .orbit_transfer import propellant_kg
 
 
 def _published(table: str, problem: str | None, quantity: str) -> float:
@@ -68,6 +69,14 @@ class Case:
     #: the problem as posed, to shoot, where the direct one restates its controls (``to_extremal(problem=...)``)
     shoot: Callable | None = None
     control_set: str = "box"
+    #: the direct scheme: ``"radau"`` (``nodes`` x ``intervals``) or ``"hlgl"`` (``intervals`` segments)
+    scheme: str = "radau"
+
+    def transcription(self):
+        """The case's direct transcription of its problem."""
+        if self.scheme == "hlgl":
+            return HLGL(self.problem(), self.intervals)
+        return Radau(self.problem(), self.nodes, self.intervals)
 
 
 def _di_reference() -> dict:
@@ -93,8 +102,7 @@ def _slides_reference() -> dict:
 
 def _transfer_measure(e) -> dict:
     tr = e.trajectory
-    m0 = orbit_transfer_constants()["initial"]["m"]
-    return {"fuel_kg": m0 - float(tr.state(tr.tf)[6]), "switchings": float(e.shooting.integration.switchings)}
+    return {"fuel_kg": propellant_kg(tr.state(tr.tf)[6]), "switchings": float(e.shooting.integration.switchings)}
 
 
 def _goddard_ct_measure(e) -> dict:
@@ -134,6 +142,17 @@ CASES = {
             {"mesh_tolerance": 1e-6},
             lambda: {"final_altitude": _published("goddard_cops", None, "final_altitude")},
             lambda e: {"final_altitude": float(e.trajectory.state(e.trajectory.tf)[0])},
+        ),
+        Case(
+            "goddard_cops_hlgl",
+            "Goddard (COPS 3.0) from HLGL: costates from its defect multipliers",
+            goddard_rocket,
+            0,
+            40,
+            {"error_threshold": None},
+            lambda: {"final_altitude": _published("goddard_cops", None, "final_altitude")},
+            lambda e: {"final_altitude": float(e.trajectory.state(e.trajectory.tf)[0])},
+            scheme="hlgl",
         ),
         Case(
             "catalyst_mixing",
@@ -245,6 +264,10 @@ def low_thrust_by_multiple_shooting(
     for integrator_tol in (slides_tol, tol):
         shooting = systems.shooting("fuel", thrust_N, tol=integrator_tol)
         r = shooting.solve(start, solver="newton", maxfev=300, raise_on_failure=False)
+        if r.integration is None:
+            raise SolverError(
+                "shooting", r.message, r.n_shooting, f"{thrust_N} N, integrator tolerance {integrator_tol}"
+            )
         runs[("single", integrator_tol)] = r
         rows.append(
             {
@@ -273,7 +296,7 @@ def low_thrust_by_multiple_shooting(
             "norm_R": m.norm,
             "noise": multiple.noise(np.concatenate([m.z, m.nodes.ravel()])),
             "switchings": m.switchings,
-            "fuel_kg": float(orbit_transfer_constants()["initial"]["m"]) - float(m.integrations[-1].y[6]),
+            "fuel_kg": propellant_kg(m.integrations[-1].y[6]),
             "tf_h": m.tf,
         }
     )
@@ -287,7 +310,7 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     """The case's rows (one per compared quantity, or one saying where the chain stopped), its timings and its
     extremal (None where the chain stopped)."""
     start = time.perf_counter()
-    direct = Radau(case.problem(), case.nodes, case.intervals).solve(**case.solve_options)
+    direct = case.transcription().solve(**case.solve_options)
     direct_s = time.perf_counter() - start
     base = {"problem": case.name, "what": case.what}
     timings = {"problem": case.name, "direct_s": direct_s}
@@ -317,7 +340,15 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
 
 def _in_words(extremal) -> str:
     """The arcs of every control, without times; a control with no arcs (unbounded, no active inequality) is
-    regular throughout."""
+    regular throughout. For a thrust bounded in norm (a restated direct problem: its controls are not the
+    extremal's), the extremal's own: the norm on or off, alternating at each switching (the direct solution's
+    reading depends on which local minimum its solve stopped in)."""
+    law = getattr(getattr(extremal.shooting, "system", None), "law", None)  # the switching method's
+    if law is not None and law.control_set == "ball":
+        tr = extremal.trajectory
+        on = bool(np.linalg.norm(tr.control(np.array([tr.t0]))[0]) > 0.5 * law.radius)
+        kinds = ["on" if (k % 2 == 0) == on else "off" for k in range(extremal.shooting.integration.switchings + 1)]
+        return f"|u|: {', '.join(kinds)}"
     lines = dict(line.split(": ", 1) for line in extremal.structure.describe(times=False).splitlines())
     return "; ".join(f"{c}: {lines.get(c, 'regular')}" for c in extremal.direct.problem.control_names)
 

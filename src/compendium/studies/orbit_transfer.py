@@ -488,7 +488,12 @@ def calibrate_multiplier(
 
 def fuel_kg(result) -> float:
     """Propellant used (kg) by a transfer: initial minus final mass."""
-    return orbit_transfer_constants()["initial"]["m"] - float(result.integration.y[6])
+    return propellant_kg(result.integration.y[6])
+
+
+def propellant_kg(final_mass) -> float:
+    """Propellant used (kg) by a transfer that ends with ``final_mass``."""
+    return orbit_transfer_constants()["initial"]["m"] - float(final_mass)
 
 
 # -- 4. the L1 experiment ------------------------------------------------------------------------
@@ -650,22 +655,9 @@ def best_known_fuel(branches: pd.DataFrame, grid) -> pd.DataFrame:
 
 
 def residual_noise(shooting: Shooting, z, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
-    """How noisy the shooting function is at ``z``: the level below which |S| is chance.
-
-    Median of ``|S(z + dz) - S(z) - J dz|`` over random ``dz`` of relative size
-    ``relative``, with J the variational (exact) Jacobian: what is left once the
-    smooth response is removed is the discontinuity of S (step-size decisions,
-    switchings crossing step ends, arcs located or missed). A root-finder cannot
-    push |S| below it but by luck.
-    """
-    z = np.asarray(z, dtype=float)
-    rng = np.random.default_rng(seed)
-    S0, J = shooting.jacobian_matrix(z, method="variational")
-    diffs = []
-    for _ in range(samples):
-        dz = relative * np.abs(z) * rng.standard_normal(z.size)
-        diffs.append(np.linalg.norm(shooting.residual(z + dz) - S0 - J @ dz))
-    return float(np.median(diffs))
+    """How noisy the shooting function is at ``z``: the level below which |S| is chance
+    (:meth:`ocpkit.shooting.Shooting.noise`: what the exact Jacobian does not explain of S(z + dz) - S(z))."""
+    return shooting.noise(z, samples=samples, relative=relative, seed=seed)
 
 
 def goal_met(converged: bool, norm_S: float, slide, cpu_s: float | None = None) -> bool:

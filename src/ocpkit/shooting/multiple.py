@@ -13,9 +13,10 @@ at fixed fractions ``s_k`` (a free ``tf`` moves them with it), and
 
 with ``y = (x, p, J)`` (J the running cost so far), ``y(t_{k+1}^-)`` the flow of segment k from its node and
 ``W_k = diag(1 / (1 + |y_k|))`` at the solve's start (relative defects: the transfer's costates of 1e4 and its
-states of order one weigh alike). R is square. Its Jacobian comes from each segment's variational equations (``2 nx`` columns with respect to the node's
-x and p; the cost does not enter the flow) and, for a free ``tf``, each segment end's velocity times the segment's
-share of the horizon (the flows are autonomous). :meth:`MultipleShooting.solve` drives ``R`` to zero with the
+states of order one weigh alike). R is square. Its Jacobian comes from each segment's variational equations
+(``2 nx`` columns with respect to the node's x and p; the cost does not enter the flow) and, for a free ``tf``,
+each segment end's velocity times the segment's share of the horizon (the flows are autonomous).
+:meth:`MultipleShooting.solve` drives ``R`` to zero with the
 shooting's root solvers (damped Newton by default).
 """
 
@@ -29,7 +30,7 @@ import numpy as np
 from ..errors import SolverError
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import HamiltonianSystem
-from .shooting import Shooting
+from .shooting import Shooting, residual_noise
 from .strategies import solver_strategy
 
 
@@ -38,9 +39,10 @@ class MultipleShootingResult:
     """A multiple-shooting run: ``z`` the single shooting's unknowns at the solution, ``nodes`` the interior nodes'
     ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``residual`` R and ``norm`` |R|;
     ``terminal`` the norm of the single shooting's conditions S at tf (the slides' |S|) and ``continuity`` the
-    largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether ``norm <= stol``; the solver's
-    ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the ``objective``, the ``switchings``
-    and integration ``steps`` summed over the segments, and the segments' recorded ``integrations``."""
+    largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether
+    ``norm <= stol``; the solver's ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the
+    ``objective``, the ``switchings`` and integration ``steps`` summed over the segments, and the segments'
+    recorded ``integrations``."""
 
     z: np.ndarray
     nodes: np.ndarray
@@ -79,8 +81,9 @@ class MultipleShooting:
         self.nx, self.n = problem.nx, 2 * problem.nx + 1
         self.compiled = CompiledSystem(HamiltonianSystem(problem, shooting.law, n_variational=2 * problem.nx))
         self.nz = shooting.nz + (self.segments - 1) * self.n
-        #: the continuity rows' weights, 1 / (1 + |y_k|) at the start of :meth:`solve` (relative defects: costates
-        #: of thousands and states of order one weigh alike), fixed during a solve
+        #: the continuity rows' weights, 1 / (1 + |y_k|) at the start of the last :meth:`solve` (relative defects:
+        #: costates of thousands and states of order one weigh alike), fixed during a solve and kept after it, so
+        #: that :meth:`evaluate` and :meth:`noise` measure the solved function
         self.weights = np.ones((self.segments - 1, self.n))
 
     # -- the multiple shooting function ----------------------------------------------------------------
@@ -165,18 +168,15 @@ class MultipleShooting:
                 D[rows, m - 1] += outer @ velocity + (dSdtf.ravel() if k == K - 1 else 0.0)
         return R, D, runs
 
-    def noise(self, Z, parameters=None, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
-        """The level below which ``|R|`` is chance at ``Z``: the median of ``|R(Z + dZ) - R(Z) - R'(Z) dZ|`` over
-        random ``dZ`` of relative size ``relative`` (what the exact Jacobian does not explain: step decisions,
-        switchings crossing step ends)."""
-        Z = np.asarray(Z, dtype=float).ravel()
-        R0, D, _ = self.evaluate(Z, parameters)
-        rng = np.random.default_rng(seed)
-        out = []
-        for _ in range(samples):
-            dZ = relative * np.abs(Z) * rng.standard_normal(Z.size)
-            out.append(np.linalg.norm(self.evaluate(Z + dZ, parameters, jacobian=False)[0] - R0 - D @ dZ))
-        return float(np.median(out))
+    def noise(self, Z, parameters=None, **options) -> float:
+        """The level below which ``|R(Z)|`` is chance (:func:`~ocpkit.shooting.shooting.residual_noise`, with the
+        continuity weights of the last :meth:`solve`; ``options``: its ``samples``, ``relative``, ``seed``)."""
+        return residual_noise(
+            lambda Y: self.evaluate(Y, parameters, jacobian=False)[0],
+            lambda Y: self.evaluate(Y, parameters)[:2],
+            np.asarray(Z, dtype=float).ravel(),
+            **options,
+        )
 
     # -- solve -----------------------------------------------------------------------------------------
     def solve(
@@ -236,7 +236,14 @@ class MultipleShooting:
                 raise
             Z, message = Z0, str(exc)
         cpu = time.process_time() - start
-        R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
+        try:
+            R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
+        except (SolverError, ValueError) as exc:
+            if raise_on_failure:
+                raise
+            message = f"{message}; the integration at the last iterate failed: {exc}"
+            Z = Z0
+            R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
         z, Y = self._split(Z)
         m, norm = self.shooting.nz, float(np.linalg.norm(R))
         defects = R[m:].reshape(-1, self.n) / self.weights

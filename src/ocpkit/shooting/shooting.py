@@ -127,6 +127,24 @@ class ShootingResult:
         }
 
 
+def residual_noise(residual, jacobian, z, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
+    """How noisy a shooting function is at ``z``: the level below which its norm is chance.
+
+    The median of ``|S(z + dz) - S(z) - J dz|`` over random ``dz`` of relative size ``relative``, with ``(S(z), J)
+    = jacobian(z)`` exact (variational): what is left once the smooth response is removed is the discontinuity of
+    S (step-size decisions, switchings crossing step ends, arcs located or missed). A root-finder cannot push |S|
+    below it but by luck. ``residual(z)`` evaluates S alone.
+    """
+    z = np.asarray(z, dtype=float)
+    rng = np.random.default_rng(seed)
+    S0, J = jacobian(z)
+    diffs = []
+    for _ in range(samples):
+        dz = relative * np.abs(z) * rng.standard_normal(z.size)
+        diffs.append(np.linalg.norm(residual(z + dz) - S0 - J @ dz))
+    return float(np.median(diffs))
+
+
 class Shooting:
     """Shooting for ``problem`` with a control law (see :func:`ocpkit.shooting.control_law`).
 
@@ -354,6 +372,14 @@ class Shooting:
         P = self._params(parameters)
         z = np.asarray(z, dtype=float).ravel()
         return strategy(self, z, P, S0)
+
+    def noise(self, z, parameters=None, **options) -> float:
+        """The level below which ``|S(z)|`` is chance (:func:`residual_noise`; ``options``: its ``samples``,
+        ``relative``, ``seed``)."""
+        P = self._params(parameters)
+        return residual_noise(
+            lambda y: self.residual(y, P), lambda y: self.jacobian_matrix(y, P, method="variational"), z, **options
+        )
 
     # -- solve ------------------------------------------------------------------------------------
     def solve(

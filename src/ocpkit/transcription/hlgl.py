@@ -247,6 +247,7 @@ class HLGL(Transcription):
         Useg = unwrap_periodic(segment_points(U, self.intervals), pr.controls, axis=0)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
+        costate_times, costate_values = self.costates(result.lam_g, breaks)
         return dict(
             t0=t0,
             tf=tf,
@@ -257,4 +258,32 @@ class HLGL(Transcription):
             breakpoints=breaks,
             state_interpolant=states,
             control_interpolant=controls,
+            costate_times=costate_times,
+            costate_values=costate_values,
         )
+
+    def costates(self, lam_g: np.ndarray, breaks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Costate estimates from the defect multipliers: ``(times, values)`` at the two collocation points
+        ``t_a, t_b`` of every segment, and at t0 and tf by linear extrapolation from the first and the last
+        segment's two.
+
+        Each defect of Eqs. (6)-(7) is the collocation defect at an interior Lobatto point weighted by that point's
+        quadrature weight, ``C1 = w_a h (f_a - x_H'(t_a))`` (``w_a = 49/180``; ``x_H`` the quintic Hermite
+        interpolant; likewise ``C2`` at ``t_b``), so that near ``t_a`` the NLP's Lagrangian reads
+        ``w_a h (L_a + nu' f_a) - w_a h nu' x_H'(t_a)``: the multiplier *is* the costate of ``H = L + lambda' f``
+        there, the KKT argument of Garg et al. (2010) for Gauss and Radau collocation, whose defects are unweighted
+        and whose multipliers are divided by the weight. In the scaled NLP, ``lambda = nu objective_scale /
+        state_scale``. The nodes ``t_i, t_c`` collocate nothing and get no estimate (Lobatto nodes' costate
+        estimates are the ones reported to oscillate)."""
+        pr = self.problem
+        n, nx = self.intervals, pr.nx
+        nu = np.asarray(lam_g, dtype=float).ravel()[: 2 * nx * n].reshape(n, 2, nx)
+        nu = nu * pr.objective_scale / pr.state_scale
+        h = np.diff(breaks)
+        ta = breaks[:-1] + h * nodes.HLGL_COLLOCATION[0]
+        tb = breaks[:-1] + h * nodes.HLGL_COLLOCATION[1]
+        times = np.column_stack([ta, tb]).ravel()
+        values = nu.reshape(2 * n, nx)
+        first = values[0] + (values[0] - values[1]) * (ta[0] - breaks[0]) / (tb[0] - ta[0])
+        last = values[-1] + (values[-1] - values[-2]) * (breaks[-1] - tb[-1]) / (tb[-1] - ta[-1])
+        return np.concatenate([[breaks[0]], times, [breaks[-1]]]), np.vstack([first, values, last])
