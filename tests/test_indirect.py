@@ -6,7 +6,7 @@ from test_shooting import gain_optimum, gain_problem
 from test_structure import race, saturated  # closed forms: switch at 1, t_f = 2; J = 3/8 - sqrt(3)/12
 
 from ocpkit import HLGL, Radau, SolverError
-from ocpkit.indirect import Certificate, Check, to_extremal
+from ocpkit.indirect import Certificate, Check, certify, to_extremal
 from ocpkit.structure import control_structure
 
 
@@ -187,3 +187,40 @@ def test_the_parameters_a_solution_was_solved_with_are_the_extremal_s():
     extremal = to_extremal(direct)
     assert extremal.trajectory.tf == pytest.approx(np.sqrt(2.0), abs=1e-10) and extremal.certificate.passed
     assert extremal.first_direct is None  # the gaps held: no re-solve
+
+
+def test_a_phase_cut_from_its_links_is_not_confirmed_by_its_own_transcription():
+    """The second leg of a linked two-phase solution, alone: its transcription, warm-started from the phase's
+    solution, does not give it back (the links are gone), so no re-solve stands in for the direct solution and the
+    certificate's gaps fail by name."""
+    from test_phases import leg
+
+    from ocpkit import MultiPhase
+
+    linked = MultiPhase([Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)])
+    phase = linked.solve().phases[1]
+    with pytest.raises(SolverError, match=r"failed checks \['objective_gap', 'state_gap'\]") as info:
+        to_extremal(phase)
+    assert info.value.result.first_direct is None
+
+
+def test_the_ball_certificate_catches_a_thrust_turned_off_its_minimiser():
+    """The extremal's thrust turned by 0.03 rad: between the ball's sample points, but H drops under a small turn
+    back, so hamiltonian_minimum fails; the extremal itself passes."""
+    direct = Radau(planar_transfer("lifted"), 4, 30).solve(error_threshold=None)
+    extremal = to_extremal(direct, problem=planar_transfer(), control_set="ball")
+    tr = extremal.trajectory
+
+    class Turned:
+        def __init__(self, theta):
+            self.theta = theta
+
+        def __getattr__(self, name):
+            return getattr(tr, name)
+
+        def control(self, t):
+            c, s = np.cos(self.theta), np.sin(self.theta)
+            return tr.control(t) @ np.array([[c, s], [-s, c]])
+
+    assert certify(tr, extremal.shooting)["hamiltonian_minimum"].passed
+    assert not certify(Turned(0.03), extremal.shooting)["hamiltonian_minimum"].passed

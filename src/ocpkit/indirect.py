@@ -524,8 +524,9 @@ def certify(
     * ``hamiltonian_minimum``: on ``samples`` times, how much lower H gets than at the extremal's control over a
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
       six controls; a value that violates a mixed state-control constraint is not admissible; for a law over the
-      ball ``|u| <= r``, 801 points of the ball instead), relative to ``1 + |H|``: the maximum principle, checked on
-      the set rather than on the law that produced the control;
+      ball ``|u| <= r``, 801 points of the ball instead, and the extremal's control turned by +-1e-3 rad towards
+      each axis), relative to ``1 + |H|``: the maximum principle, checked on the set rather than on the law that
+      produced the control;
     * ``feasibility``: the largest violation of a state bound or a path constraint on the samples, relative to the
       range of its values along the extremal (at least 1), of a control's bounds (relative to their span, at least
       1), and for the ball, of ``|u| <= r`` relative to r;
@@ -576,8 +577,10 @@ def certify(
     if radius is not None:  # |u| <= radius: the ball sampled, and its feasibility
         norms = np.linalg.norm(U, axis=1)
         violation = max(violation, float(np.max(norms - radius)) / radius)
-        for V in _ball_points(problem.nu, radius):
-            H_v = np.asarray(Hmap(X.T, L.T, np.repeat(V[:, None], samples, axis=1), t[None, :], Ps)).ravel()
+        candidates = [np.repeat(V[:, None], samples, axis=1) for V in _ball_points(problem.nu, radius)]
+        candidates += _rotations(U, radius)  # and the extremal's own control turned slightly: a first-order test
+        for V in candidates:
+            H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
             worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
@@ -656,6 +659,28 @@ def _ball_points(n: int, radius: float, directions: int = 200) -> np.ndarray:
     others = np.random.default_rng(0).normal(size=(max(directions - 2 * n, 0), n))
     unit = np.vstack([axes, others / np.linalg.norm(others, axis=1, keepdims=True)])
     return np.vstack([np.zeros((1, n)), *(r * radius * unit for r in (0.25, 0.5, 0.75, 1.0))])
+
+
+def _rotations(U, radius: float, angle: float = 1e-3) -> list:
+    """The controls ``U`` (rows: samples) on the sphere ``|u| = radius`` turned by +-``angle`` towards each axis
+    (projected on the sphere's tangent plane), as columns for the H map; zero controls stay. A thrust direction off
+    the minimiser by ``theta`` lowers H to first order under one of these turns, which the ball's fixed sample
+    points (about 0.3 rad apart) would miss."""
+    n = U.shape[1]
+    norms = np.linalg.norm(U, axis=1)
+    on = norms > 0.5 * radius
+    unit = np.where(on[:, None], U / np.maximum(norms, 1e-300)[:, None], 0.0)
+    out = []
+    for k in range(n):
+        e = np.zeros(n)
+        e[k] = 1.0
+        tangent = e[None, :] - (unit @ e)[:, None] * unit
+        size = np.linalg.norm(tangent, axis=1)
+        tangent = np.where((size > 1e-8)[:, None], tangent / np.maximum(size, 1e-300)[:, None], 0.0)
+        for sign in (1.0, -1.0):
+            turned = np.cos(angle) * U + sign * np.sin(angle) * norms[:, None] * tangent
+            out.append(np.where(on[:, None], turned, U).T)
+    return out
 
 
 def _arc_conditions(trajectory, t, X, L, P) -> tuple[float, float]:
