@@ -181,3 +181,27 @@ def test_infeasible_problem_raises_with_ipopt_status():
 def test_iteration_limit_is_a_failure_not_a_result():
     with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded"):
         HLGL(lunar_ascent(), 10).solve(ipopt_options={"max_iter": 2})
+
+
+def test_each_defect_is_a_quadrature_weighted_collocation_defect():
+    """C1 = w_a h (f_a - x_H'(t_a)) and C2 = w_b h (f_b - x_H'(t_b)), w = 49/180, x_H the quintic Hermite
+    interpolant of the segment: why HLGL's defect multipliers are its costates (HLGL.costates)."""
+    from ocpkit import nodes
+    from ocpkit.transcription.hlgl import hlgl_defects
+
+    rng = np.random.default_rng(0)
+    h = 0.7
+    xi, xc, xe, fi, fc, fe, fa, fb = rng.normal(size=8)
+    rows, rhs = [], []
+    for t, x, f in zip((0.0, h / 2, h), (xi, xc, xe), (fi, fc, fe)):
+        rows += [[t**k for k in range(6)], [k * t ** (k - 1) if k else 0.0 for k in range(6)]]
+        rhs += [x, f]
+    c = np.linalg.solve(np.array(rows), np.array(rhs))
+
+    def slope(t):
+        return sum(k * c[k] * t ** (k - 1) for k in range(1, 6))
+
+    ta, tb = h * nodes.HLGL_COLLOCATION
+    c1, c2 = hlgl_defects(xi, xc, xe, fi, fa, fc, fb, fe, h)
+    assert c1 == pytest.approx(49 / 180 * h * (fa - slope(ta)), abs=1e-13)
+    assert c2 == pytest.approx(49 / 180 * h * (fb - slope(tb)), abs=1e-13)

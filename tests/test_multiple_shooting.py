@@ -63,3 +63,9 @@ def test_bad_segments_are_named():
     pr = double_integrator(lam=1.0)
     with pytest.raises(ValueError, match="segments must be an integer of at least 2"):
         MultipleShooting(Shooting(pr, control_law(pr, "box")), segments=1)
+
+
+def test_too_many_unknowns_for_the_dense_jacobian_are_refused_by_name():
+    pr = double_integrator(lam=1.0)
+    with pytest.raises(ValueError, match="more than the 4000 whose dense Jacobian"):
+        MultipleShooting(Shooting(pr, control_law(pr, "box")), segments=1000)

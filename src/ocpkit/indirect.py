@@ -254,7 +254,7 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
     statement = extremal.shooting.trajectory.shooting.problem
     if parameter not in statement.parameters:
         raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")
-    transcription = (getattr(extremal.direct, "raw", {}) or {}).get("transcription")
+    transcription = _transcription(extremal.direct)
     state = {"shooting": extremal.shooting.trajectory.shooting, "last": extremal, "direct": extremal.direct}
     changes, solved = [], {}
 
@@ -438,8 +438,10 @@ def _fitted_controls(solution, trajectory, t, X) -> np.ndarray:
 
 
 def _restatement(solution, problem):
-    """``problem`` checked against the direct solution's: the same states (names, order, initial and final values)
-    and the same free or fixed final time, so that the direct costates are the restatement's."""
+    """``problem`` checked against the direct solution's, each difference named: the same states (names, order,
+    initial and final values), a fixed t0 and the same one, the same free or fixed final time (fixed: the same
+    value), the same values of the parameters both name, and no free parameters; so that the direct costates are
+    the restatement's."""
     direct = _statement(solution)
     if list(problem.state_names) != list(direct.state_names):
         raise ValueError(
@@ -543,8 +545,8 @@ def certify(
       switch inside a mesh interval costs a coarse mesh about 2 %), is what these two catch. A state's magnitude
       counts as at least its ``scale`` (default 1), the unit the direct NLP measures it in and the direct
       solution's accuracy with it: a state near zero, such as a small eccentricity component, is not compared with
-      its own tiny values. Without
-      ``structure`` and ``direct`` (a continuation's extremals), those three checks are left out;
+      its own tiny values. Without ``structure`` and ``direct`` (a continuation's extremals), those three checks
+      are left out;
     * ``first_direct_objective`` (where :func:`to_extremal` re-solved the direct problem from the extremal,
       ``first`` the direct solution it started from): how much worse the extremal's objective is than the first
       direct solution's, relative to ``1 + |J|``, at most 1e-2 (an extremal the direct method, started from it,

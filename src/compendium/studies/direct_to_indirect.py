@@ -96,7 +96,9 @@ def _transfer_thrust() -> float:
 def _slides_reference() -> dict:
     """The slides' 5 N transfer: the fuel and the number of switchings (slide 12, switching detection)."""
     table = paper_table("switching_detection")
-    row = table[(table.thrust_N == _transfer_thrust()) & (table.detection == "detection") & (table.jacobian == "fd")]
+    row = table[
+        np.isclose(table.thrust_N, _transfer_thrust()) & (table.detection == "detection") & (table.jacobian == "fd")
+    ]
     return {"fuel_kg": float(row.objective_kg.iloc[0]), "switchings": float(row.switchings.iloc[0])}
 
 
@@ -251,7 +253,7 @@ def low_thrust_by_multiple_shooting(
     the second. One row per run: its conditions ``norm_S`` (the slides' |S|: final state and H(tf)), for multiple
     shooting the relative continuity defect and ``norm_R`` (both together), the level below which the residual is
     chance (``noise``: what the exact Jacobian does not explain of a change of relative size 1e-12), switchings,
-    fuel and tf. Returns ``(table, {"single": ..., "multiple": ...})``."""
+    fuel and tf. Returns ``(table, runs)``, ``runs`` keyed by ``("single" | "multiple", integrator tolerance)``."""
     from ocpkit.shooting.multiple import MultipleShooting
 
     from .orbit_transfer import TransferSystems, energy_start_vector, fuel_kg, read_cache, residual_noise

@@ -66,6 +66,10 @@ class MultipleShootingResult:
         return float(self.times[-1])
 
 
+#: the most unknowns :class:`MultipleShooting` takes: its Jacobian is dense (4000^2 doubles: 128 MB)
+MAX_UNKNOWNS = 4000
+
+
 class MultipleShooting:
     """Multiple shooting of ``shooting``'s problem and law over ``segments`` equal shares of the horizon (module
     docstring). The segments are integrated as the shooting integrates (its switching treatment, tolerances and
@@ -81,6 +85,11 @@ class MultipleShooting:
         self.nx, self.n = problem.nx, 2 * problem.nx + 1
         self.compiled = CompiledSystem(HamiltonianSystem(problem, shooting.law, n_variational=2 * problem.nx))
         self.nz = shooting.nz + (self.segments - 1) * self.n
+        if self.nz > MAX_UNKNOWNS:
+            raise ValueError(
+                f"{self.segments} segments of {self.n} unknowns each make {self.nz} unknowns, more than the "
+                f"{MAX_UNKNOWNS} whose dense Jacobian this Newton iteration factorises; use fewer segments"
+            )
         #: the continuity rows' weights, 1 / (1 + |y_k|) at the start of the last :meth:`solve` (relative defects:
         #: costates of thousands and states of order one weigh alike), fixed during a solve and kept after it, so
         #: that :meth:`evaluate` and :meth:`noise` measure the solved function
@@ -140,12 +149,12 @@ class MultipleShooting:
             )
             runs.append(res)
             yb = res.y
+            mode = sysm.mode_at(yb, P)
             share = self.fractions[k + 1] - self.fractions[k]
             if k < K - 1:
                 rows = slice(m + k * n, m + (k + 1) * n)
                 R[rows] = (yb - Y[k]) * self.weights[k]
             else:
-                mode = sysm.mode_at(yb, P)
                 S, dSdy, dSdtf = (np.asarray(v) for v in s._S(yb, tf, mode, P))
                 rows = slice(0, m)
                 R[rows] = S.ravel()
@@ -155,7 +164,7 @@ class MultipleShooting:
             dend = np.zeros((n, n))
             dend[:, : 2 * nx] = res.Psi
             dend[2 * nx, 2 * nx] = 1.0
-            velocity = np.asarray(sysm.flow(yb, sysm.mode_at(yb, P), P)).ravel() * share
+            velocity = np.asarray(sysm.flow(yb, mode, P)).ravel() * share
             outer = dSdy if k == K - 1 else np.diag(self.weights[k])
             if k == 0:
                 D[rows, :nx] = outer @ res.Psi[:, :nx]
@@ -248,17 +257,12 @@ class MultipleShooting:
         m, norm = self.shooting.nz, float(np.linalg.norm(R))
         defects = R[m:].reshape(-1, self.n) / self.weights
         continuity = float(np.max(np.abs(defects) / (1.0 + np.abs(Y)))) if defects.size else 0.0
-        P = self.shooting._params(parameters)
-        objective = float(runs[-1].y[2 * self.nx])
-        if self.shooting.problem.phi is not None:
-            tf = self._start(z)[1]
-            objective += float(
-                self.shooting.problem.phi(self.shooting.x0, runs[-1].y[: self.nx], self.shooting.problem.t0, tf, P)
-            )
+        tf = self._start(z)[1]
+        objective = self.shooting._objective(runs[-1], tf, self.shooting._params(parameters))
         result = MultipleShootingResult(
             z=z,
             nodes=Y,
-            times=self._times(self._start(z)[1]),
+            times=self._times(tf),
             residual=R,
             norm=norm,
             terminal=float(np.linalg.norm(R[:m])),
