@@ -224,3 +224,82 @@ def test_the_ball_certificate_catches_a_thrust_turned_off_its_minimiser():
 
     assert certify(tr, extremal.shooting)["hamiltonian_minimum"].passed
     assert not certify(Turned(0.03), extremal.shooting)["hamiltonian_minimum"].passed
+
+
+def rayleigh(bounded: bool = False):
+    """Maurer & Augustin's Rayleigh problem: min int u^2 + x1^2 over [0, 4.5] from (-5, -5), the final state free;
+    its Hamiltonian flow blows up from costates a little off (p2 and x2 feed each other)."""
+    import casadi as ca
+
+    from ocpkit import Control, OptimalControlProblem, State
+
+    return OptimalControlProblem(
+        "rayleigh",
+        [State("x1", initial=-5.0), State("x2", initial=-5.0)],
+        [Control("u", -1.0, 1.0) if bounded else Control("u")],
+        lambda x, u, t: ca.vertcat(x[1], -x[0] + x[1] * (1.4 - 0.14 * x[1] ** 2) + 4 * u[0]),
+        tf=4.5,
+        lagrange=lambda x, u, t: u[0] ** 2 + x[0] ** 2,
+    )
+
+
+def test_where_the_flow_blows_up_from_the_direct_costates_multiple_shooting_from_its_nodes():
+    """Single shooting from Radau 4 x 20's costates stops (the flow's step falls to nothing); multiple shooting from
+    the direct solution's states and costates at its nodes converges, and single shooting from its solution gives
+    the extremal, which is the refined direct optimum."""
+    direct = Radau(rayleigh(), 4, 20).solve(error_threshold=None)
+    with pytest.raises(SolverError):
+        from ocpkit.indirect import _unknowns
+        from ocpkit.shooting import Shooting, control_law
+
+        shooting = Shooting(direct.problem, control_law(direct.problem, regularized=True), rtol=1e-10, atol=1e-10)
+        shooting.solve(_unknowns(shooting, direct), stol=1e-10)
+    extremal = to_extremal(direct)
+    assert extremal.route.startswith("multiple shooting") and extremal.certificate.passed
+    refined = Radau(rayleigh(), 4, 20).solve(mesh_tolerance=1e-9)
+    assert extremal.trajectory.objective == pytest.approx(refined.objective, abs=1e-8)
+    assert abs(direct.objective - refined.objective) > 1e-4  # the extremal is the refined optimum, not the first
+
+
+def test_when_every_route_fails_the_error_names_them(monkeypatch):
+    import ocpkit.indirect as indirect
+
+    monkeypatch.setattr(indirect, "SEGMENTS", (2,))  # two segments: each still long enough to blow up
+    with pytest.raises(SolverError, match="multiple shooting from the direct solution's nodes failed too"):
+        to_extremal(Radau(rayleigh(), 4, 20).solve(error_threshold=None))
+
+
+def test_the_extremals_dense_output_keeps_h_constant_between_steps():
+    """The integrator's steps are long on bang arcs; between them the trajectory interpolates y with its first and
+    second derivatives (quintic Hermite). H along 4001 samples stays at the integration's accuracy (with a cubic
+    interpolant: 1.1e-5, which failed the certificate)."""
+    extremal = to_extremal(Radau(rayleigh(bounded=True), 4, 20).solve(error_threshold=None), method="switching")
+    assert extremal.route == "single shooting"
+    assert extremal.certificate["hamiltonian_constant"].value < 1e-7
+    tr = extremal.trajectory
+    t = np.linspace(tr.t0, tr.tf, 4001)
+    H = tr.problem.functions.hamiltonian
+    import casadi as ca
+
+    Hf = ca.Function("H", [H.x, H.p, H.u, H.t, H.P], [H.H]).map(t.size)
+    P = np.repeat(np.asarray(tr.problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
+    values = np.asarray(Hf(tr.state(t).T, tr.costate(t).T, tr.control(t).T, t[None, :], P)).ravel()
+    assert np.ptp(values) < 1e-7 * (1 + abs(values[0]))
+
+
+def test_a_re_solve_from_the_extremal_keeps_the_first_solves_ipopt_options(monkeypatch):
+    from ocpkit.indirect import _resolved_from, _statement
+
+    direct = Radau(race(), 4, 15).solve(error_threshold=None, ipopt_options={"max_iter": 321})
+    assert direct.raw["solve_options"] == {"ipopt_options": {"max_iter": 321}, "allow_acceptable": False}
+    extremal = to_extremal(direct)
+    transcription = direct.raw["transcription"]
+    seen, solve = [], transcription.solve
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("ipopt_options"))
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(transcription, "solve", spy)
+    again = _resolved_from(direct, _statement(direct), extremal.trajectory, extremal.shooting, restated=False)
+    assert again is not None and seen == [{"max_iter": 321}] * 2

@@ -53,3 +53,19 @@ def test_lagrange_and_differentiation_matrices_exact_for_polynomials():
         assert np.allclose(D @ x**k, k * x ** max(k - 1, 0) if k else 0 * x, atol=1e-11)
     assert not np.allclose(P @ x**5, pts**5, atol=1e-6)
     assert np.allclose(nodes.lagrange_matrix(x, x), np.eye(5))
+
+
+def test_the_step_quintic_hermite_is_exact_on_quintics_and_sixth_order():
+    rng = np.random.default_rng(3)
+    c = rng.normal(size=6)
+    p = np.polynomial.Polynomial(c)
+    dp, ddp = p.deriv(), p.deriv(2)
+    t0, h = 0.3, 0.7
+    s = np.linspace(0.0, 1.0, 11)
+    y = nodes.quintic_hermite(p(t0), dp(t0), ddp(t0), p(t0 + h), dp(t0 + h), ddp(t0 + h), h, s)
+    assert y == pytest.approx(p(t0 + s * h), abs=1e-13)
+    errors = []
+    for h in (0.1, 0.05):  # exp: the error falls by 2^6 when the step halves
+        y = nodes.quintic_hermite(1.0, 1.0, 1.0, np.exp(h), np.exp(h), np.exp(h), h, 0.5)
+        errors.append(abs(y - np.exp(h / 2)))
+    assert errors[0] / errors[1] == pytest.approx(64, rel=0.05)

@@ -95,6 +95,9 @@ class Extremal:
     #: differs from it, the same transcription re-solved from the extremal (``first_direct`` is then the first)
     direct: object = None
     first_direct: object = None
+    #: how the shooting was solved: ``"arc shooting (K arcs)"``, ``"single shooting"``, or ``"multiple shooting
+    #: (K segments), then single shooting"`` where single shooting from the direct costates failed (:func:`_shoot`)
+    route: str = ""
 
 
 METHODS = ("auto", "arcs", "switching")
@@ -174,6 +177,7 @@ def to_extremal(
             )
         shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf))
         result = shooting.solve(shooting.guess(solution), tol=tol)
+        route = f"arc shooting ({len(shooting.kinds)} arcs)"
     else:
         singular = [] if restated else [a for a in structure.arcs if a.kind in ("singular", "boundary")]
         if singular:
@@ -197,7 +201,7 @@ def to_extremal(
             ) from exc
         accuracy = min(1e-8, max(tol, 1e-13))  # the flow as accurate as the residual asked for
         shooting = Shooting(statement, law, switching=switching, jacobian=jacobian, rtol=accuracy, atol=accuracy)
-        result = shooting.solve(_unknowns(shooting, solution), solver=solver, stol=tol)
+        result, route = _shoot(shooting, solution, solver=solver, tol=tol)
     shoot_s = time.perf_counter() - start
     trajectory = result.trajectory
     certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol)
@@ -211,7 +215,9 @@ def to_extremal(
             first, solution = solution, again
             structure = control_structure(again)
             certificate = certify(trajectory, result, again, None if restated else structure, tol=tol, first=first)
-    extremal = Extremal(trajectory, result, structure, certificate, timings, direct=solution, first_direct=first)
+    extremal = Extremal(
+        trajectory, result, structure, certificate, timings, direct=solution, first_direct=first, route=route
+    )
     if strict and not certificate.passed:
         raise SolverError(
             "certificate",
@@ -372,7 +378,7 @@ def _ball_radius(problem) -> float:
 def _resolved_from(solution, statement, trajectory, result, restated: bool, samples: int = 2001):
     """The direct solution's transcription re-solved from the extremal: its states and t_f, its controls (for a
     restated problem, the direct problem's controls fitted to them: :func:`_fitted_controls`) and its free
-    parameters, at the parameter values of ``statement``. None where the solution has no transcription, where
+    parameters, at the parameter values of ``statement``, with the first solve's IPOPT options. None where the solution has no transcription, where
     that transcription warm-started from the solution does not give it back (not the NLP it solved: a phase cut
     from its links), or where a solve fails."""
     from .problem import Guess
@@ -382,10 +388,11 @@ def _resolved_from(solution, statement, trajectory, result, restated: bool, samp
         return None
     values = {n: statement.parameters[n] for n in transcription.problem.parameters if n in statement.parameters}
     J = float(solution.objective)
+    options = (getattr(solution, "raw", {}) or {}).get("solve_options", {})  # the first solve's IPOPT options
     try:
         # the same NLP gives its solution back, to IPOPT's drift from a loosely converged point (seen: 7e-5 of J on
         # the 5 N transfer); a phase cut from its links, or other parameters, does not (seen: J = 3 against 0)
-        same = transcription.solve(solution, parameters=values, error_threshold=None)
+        same = transcription.solve(solution, parameters=values, error_threshold=None, **options)
         if abs(float(same.objective) - J) > 1e-3 * (1.0 + abs(J)):
             return None
         t = trajectory.t0 + np.linspace(0.0, 1.0, samples) * (trajectory.tf - trajectory.t0)
@@ -402,7 +409,7 @@ def _resolved_from(solution, statement, trajectory, result, restated: bool, samp
             controls={n: along(V[:, i]) for i, n in enumerate(problem.control_names)},
             parameters=dict(getattr(result, "free_parameters", None) or {}),
         )
-        return transcription.solve(guess, parameters=values, error_threshold=None)
+        return transcription.solve(guess, parameters=values, error_threshold=None, **options)
     except (SolverError, ValueError, KeyError, RuntimeError):
         return None
 
@@ -491,6 +498,66 @@ def _quadratic(problem) -> bool:
     P = problem._P  # the problem's parameter values (free ones at their guesses): b may depend on them
     values = [np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.0, P)) for _ in range(3)]
     return bool(np.max(np.abs(values)) > 1e-12)
+
+
+#: the segment counts :func:`_shoot` tries, in turn, when single shooting from the direct costates fails
+SEGMENTS = (10, 20, 40, 80)
+
+
+def _shoot(shooting, solution, *, solver, tol: float):
+    """``(result, route)``: the switching method's shooting solved from the direct solution.
+
+    Single shooting from the direct costates at t0 first. Where it fails (the flow from the estimated costates
+    blows up before tf, or Newton stalls: an unstable Hamiltonian flow amplifies the estimates' error over the
+    horizon), multiple shooting (:class:`~ocpkit.shooting.multiple.MultipleShooting`, Bulirsch's remedy) started
+    from the direct solution's states and costates at every node, with :data:`SEGMENTS` segments in turn until one
+    converges: each segment's flow lives only as long as its share of the horizon. Its solution's ``z`` then
+    starts single shooting once more, which gives the extremal as one trajectory. Where every route fails, the
+    single shooting's error is raised, with what the multiple shooting met."""
+    from .shooting.multiple import MAX_UNKNOWNS, MultipleShooting
+
+    z0 = _unknowns(shooting, solution)
+    try:
+        return shooting.solve(z0, solver=solver, stol=tol), "single shooting"
+    except SolverError as exc:
+        failure, tried = exc, []
+    for segments in SEGMENTS:
+        multiple = MultipleShooting(shooting, segments)
+        if multiple.nz > MAX_UNKNOWNS:
+            break
+        try:
+            found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", stol=tol)
+            result = shooting.solve(found.z, solver=solver, stol=tol)
+        except SolverError as exc:
+            tried.append(f"{segments} segments: {exc.status}")
+            continue
+        return result, f"multiple shooting ({segments} segments), then single shooting"
+    raise SolverError(
+        failure.solver,
+        failure.status,
+        failure.iterations,
+        f"{failure.detail}; multiple shooting from the direct solution's nodes failed too "
+        f"({'; '.join(tried) or 'too many unknowns'})",
+        result=failure.result,
+    ) from failure
+
+
+def _nodes(multiple, solution, z0) -> np.ndarray:
+    """Multiple shooting's unknowns from the direct solution: the single shooting's ``z0``, then at each interior
+    node ``y = (x, p, J)``, the direct solution's states and costates there (a free parameter, a state of the
+    shooting's problem: its solved value, costate 0) and J = 0 (the running cost enters no flow: its continuity is
+    linear, and Newton's first step settles it)."""
+    shooting = multiple.shooting
+    tf = shooting._split(z0)[1]
+    times = multiple._times(tf)[1:-1]
+    s = (times - multiple._times(tf)[0]) / (tf - multiple._times(tf)[0])
+    t = solution.t0 + s * (solution.tf - solution.t0)
+    nx, n = solution.problem.nx, shooting.problem.nx
+    X, L = np.zeros((t.size, n)), np.zeros((t.size, n))
+    X[:, :nx], L[:, :nx] = solution.state(t), solution.costate(t)
+    for j, name in enumerate(shooting.problem.state_names[nx:], start=nx):
+        X[:, j] = solution.parameters[name]
+    return np.concatenate([z0, np.hstack([X, L, np.zeros((t.size, 1))]).ravel()])
 
 
 def _unknowns(shooting, solution) -> np.ndarray:

@@ -232,3 +232,19 @@ def cubic_hermite(y0, d0, y1, d1, h, s):
     h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
     h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
     return h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
+
+
+def quintic_hermite(y0, d0, a0, y1, d1, a1, h, s):
+    """The quintic Hermite interpolant between ``(y0, dy/dt = d0, d2y/dt2 = a0)`` and ``(y1, d1, a1)`` a step ``h``
+    apart (two points with second derivatives; :func:`hermite_quintic_matrix` is HLGL's, three points with slopes), at the fraction ``s`` of the step (sixth-order accurate in ``h``; exact on polynomials of degree five):
+    ``H0 y0 + H1 h d0 + H2 h^2 a0 + H3 h^2 a1 + H4 h d1 + H5 y1`` with ``H0 = 1 - 10s^3 + 15s^4 - 6s^5``,
+    ``H1 = s - 6s^3 + 8s^4 - 3s^5``, ``H2 = (s^2 - 3s^3 + 3s^4 - s^5) / 2``, ``H3 = (s^3 - 2s^4 + s^5) / 2``,
+    ``H4 = -4s^3 + 7s^4 - 3s^5``, ``H5 = 10s^3 - 15s^4 + 6s^5``. Arrays broadcast as in :func:`cubic_hermite`."""
+    s2, s3 = s * s, s * s * s
+    s4, s5 = s3 * s, s3 * s2
+    h5 = 10 * s3 - 15 * s4 + 6 * s5
+    h1 = s - 6 * s3 + 8 * s4 - 3 * s5
+    h2 = 0.5 * (s2 - 3 * s3 + 3 * s4 - s5)
+    h3 = 0.5 * (s3 - 2 * s4 + s5)
+    h4 = -4 * s3 + 7 * s4 - 3 * s5
+    return (1 - h5) * y0 + h1 * h * d0 + h2 * h * h * a0 + h3 * h * h * a1 + h4 * h * d1 + h5 * y1

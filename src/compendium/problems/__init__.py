@@ -7,6 +7,7 @@ from .beyond_the_seeds import (
     free_flying_robot,
     miser3_state_constraint,
     orbit_raising,
+    rayleigh,
     rayleigh_mixed,
     tumour,
 )
@@ -40,6 +41,7 @@ __all__ = [
     "free_flying_robot",
     "miser3_state_constraint",
     "orbit_raising",
+    "rayleigh",
     "rayleigh_mixed",
     "shuttle_heating",
     "shuttle_reentry",

@@ -10,6 +10,7 @@
   on an interior arc (a path constraint that collocation holds at its points only);
 * :func:`orbit_raising`: Bryson & Ho's maximum-radius orbit transfer, the thrust angle as the control (an angle:
   declared periodic), and a terminal condition that couples two states (a boundary constraint);
+* :func:`rayleigh`: the Rayleigh problem, whose Hamiltonian flow blows up from costates a little off;
 * :func:`rayleigh_mixed`: the Rayleigh problem under the mixed state-control constraint ``u + x1 / 6 <= 0``
   (Maurer & Augustin 2001; Betts 2010, Sec. 4.14), whose boundary arc is that of a mixed constraint.
 
@@ -154,18 +155,37 @@ def orbit_raising(periodic: bool = True) -> OptimalControlProblem:
     )
 
 
+def rayleigh() -> OptimalControlProblem:
+    """The Rayleigh problem with no constraint (Maurer & Augustin 2001): ``x1' = x2``,
+    ``x2' = -x1 + x2 (1.4 - 0.14 x2^2) + 4 u``, minimise ``int u^2 + x1^2`` over ``[0, 4.5]`` from ``(-5, -5)``, the
+    final state free. Its Hamiltonian flow is unstable: from costates a little off, ``p2`` and ``x2`` feed each
+    other (``p2' ~ 0.42 x2^2 p2``, ``x2' ~ -8 p2``), and the flow from Radau 4 x 20's costates blows up before
+    ``t = 0.3`` (the integrator's step falls to 1e-17)."""
+    return _rayleigh("rayleigh", (), "Rayleigh problem (Maurer & Augustin 2001)")
+
+
 def rayleigh_mixed() -> OptimalControlProblem:
+    """:func:`rayleigh` under the mixed state-control constraint ``u + x1 / 6 <= 0`` (Betts 2010, Sec. 4.14)."""
+    ratio = load_problem_data("beyond_the_seeds")["rayleigh"]["ratio"]
+    return _rayleigh(
+        "rayleigh_mixed",
+        [Constraint("mixed", lambda x, u, t: u[0] + x[0] / ratio, upper=0.0)],
+        "Rayleigh problem with a mixed state-control constraint (Maurer & Augustin 2001; Betts 2010)",
+    )
+
+
+def _rayleigh(name: str, path_constraints, description: str) -> OptimalControlProblem:
     c = load_problem_data("beyond_the_seeds")["rayleigh"]
     a, b = c["damping"]
     return OptimalControlProblem(
-        "rayleigh_mixed",
+        name,
         states=[State("x1", initial=c["x0"][0], guess=0.0), State("x2", initial=c["x0"][1], guess=0.0)],
         controls=[Control("u", guess=0.0)],
         dynamics=lambda x, u, t: ca.vertcat(x[1], -x[0] + x[1] * (a - b * x[1] ** 2) + c["gain"] * u[0]),
         tf=c["tf"],
         lagrange=lambda x, u, t: u[0] ** 2 + x[0] ** 2,
-        path_constraints=[Constraint("mixed", lambda x, u, t: u[0] + x[0] / c["ratio"], upper=0.0)],
-        description="Rayleigh problem with a mixed state-control constraint (Maurer & Augustin 2001; Betts 2010)",
+        path_constraints=path_constraints,
+        description=description,
     )
 
 
@@ -174,6 +194,7 @@ __all__ = [
     "free_flying_robot",
     "miser3_state_constraint",
     "orbit_raising",
+    "rayleigh",
     "rayleigh_mixed",
     "tumour",
 ]

@@ -4,8 +4,9 @@ Each case is a published problem, a direct solve (Radau) and the reference it is
 junction times, a published junction table (``data/paper/goddard_control_toolbox.csv``), a published optimum
 (``data/paper/beyond_the_seeds.csv``, ``goddard_cops.csv``) or the slides' transfer (``switching_detection.csv``:
 its direct form states the thrust as a magnitude and two angles, and the extremal is shot on the problem as posed,
-``|u| <= 1``). :func:`run_case` solves it directly, calls
-:func:`ocpkit.indirect.to_extremal` and reports the structure found, the extremal's numbers against the reference,
+``|u| <= 1``); the unconstrained Rayleigh problem, for which no published optimum was found, is compared with the
+direct method refined. :func:`run_case` solves it directly, calls :func:`ocpkit.indirect.to_extremal` and reports
+the structure found, how the shooting was solved (its ``route``), the extremal's numbers against the reference,
 |S|, the drift of H, the certificate and the gap to the direct solution, or, where the chain stops, its named error.
 No user-written Hamiltonian, control law or shooting function appears anywhere.
 """
@@ -34,6 +35,7 @@ from ..problems import (
     orbit_raising,
     orbit_transfer,
     orbit_transfer_constants,
+    rayleigh,
     rayleigh_mixed,
     tumour,
 )
@@ -105,6 +107,12 @@ def _slides_reference() -> dict:
 def _transfer_measure(e) -> dict:
     tr = e.trajectory
     return {"fuel_kg": propellant_kg(tr.state(tr.tf)[6]), "switchings": float(e.shooting.integration.switchings)}
+
+
+def _rayleigh_reference() -> dict:
+    """No published optimum of the unconstrained Rayleigh problem was found: its reference is the direct method's
+    own, Radau refined to a mesh tolerance of 1e-9 (a smooth optimum: the estimate is the error)."""
+    return {"objective": Radau(rayleigh(), 4, 20).solve(mesh_tolerance=1e-9).objective}
 
 
 def _goddard_ct_measure(e) -> dict:
@@ -184,6 +192,16 @@ CASES = {
             30,
             {"mesh_tolerance": 1e-6},
             lambda: {"objective": _published("beyond_the_seeds", "rayleigh_mixed", "objective")},
+            lambda e: {"objective": e.trajectory.objective},
+        ),
+        Case(
+            "rayleigh",
+            "Rayleigh, no constraint: its flow blows up from the direct costates (multiple shooting)",
+            rayleigh,
+            4,
+            20,
+            {"error_threshold": None},
+            _rayleigh_reference,
             lambda e: {"objective": e.trajectory.objective},
         ),
         Case(
@@ -329,6 +347,7 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
         "verdict": "certified",
         "reason": "",
         "structure": _in_words(extremal),
+        "route": extremal.route,
         "norm_S": extremal.shooting.norm,
         "hamiltonian_drift": cert["hamiltonian_constant"].value if _has(cert, "hamiltonian_constant") else np.nan,
         "objective_gap": cert["objective_gap"].value,

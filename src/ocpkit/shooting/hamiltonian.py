@@ -34,6 +34,7 @@ one mode, no switching function, so the integrator's switching options do nothin
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -343,7 +344,8 @@ class HamiltonianSystem:
       radix index, the same for every mode through a switch;
     * ``switching(y, P) -> g`` and ``dswitch(y, P) -> dg/dy``;
     * ``hamiltonian(y, mode, P) -> H``, ``control(y, mode, P) -> u``;
-    * ``varflow(y, Psi, mode, P) -> (dy/dt, dPsi/dt)`` with ``dPsi/dt = (d phi_mode / dy) Psi``.
+    * ``varflow(y, Psi, mode, P) -> (dy/dt, dPsi/dt)`` with ``dPsi/dt = (d phi_mode / dy) Psi``;
+    * ``acceleration(y, mode, P) -> d2y/dt2``.
     """
 
     def __init__(self, problem: OptimalControlProblem, law: ControlLaw, n_variational: int | None = None):
@@ -387,6 +389,16 @@ class HamiltonianSystem:
             ["ydot", "Psidot"],
         )
         self._branches = (y, Psi, P, flows, varflows, hams)
+        self._mode = mode
+
+    @functools.cached_property
+    def acceleration(self) -> ca.Function:
+        """``acceleration(y, mode, P) -> d2y/dt2 = (d phi_mode / dy) phi_mode`` (the dense output's second
+        derivative; built when first asked for)."""
+        y, _, P, flows, _, _ = self._branches
+        second = [ca.jtimes(phi, y, phi) for phi in flows]
+        out = ca.conditional(self._mode, second, ca.SX.zeros(self.n))
+        return ca.Function("ocp_acceleration", [y, self._mode, P], [out], ["y", "mode", "P"], ["yddot"])
 
     def compiled_functions(self) -> list[ca.Function]:
         """The functions the C integrator calls: flow, varflow, switching, dswitch, hamiltonian.

@@ -2,17 +2,20 @@
 
 The compiled integrator records ``y = (x, p, J)`` at the end of every accepted step
 and at every switching, so each interval between two records lies in one mode of the
-control law. Between records the state and costate are the cubic Hermite
-interpolant of ``y`` and of the mode's flow ``dy/dt`` at both ends (fourth-order
-accurate in the step); the control is the law's branch of that mode, evaluated on
-the interpolated state and costate.
+control law. Between records the state and costate are the quintic Hermite
+interpolant of ``y`` and of the mode's flow ``dy/dt`` and its derivative
+``d2y/dt2 = (d phi / dy) phi`` at both ends (sixth-order accurate in the step: the
+integrator's steps are as long as its fifth-order local error allows, and a cubic
+interpolant's error, fourth order, exceeded its tolerance by orders of magnitude
+between steps on smooth arcs); the control is the law's branch of that mode,
+evaluated on the interpolated state and costate.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..nodes import cubic_hermite
+from ..nodes import quintic_hermite
 from ..trajectory import Trajectory
 from .compiled import Integration
 from .hamiltonian import HamiltonianSystem
@@ -43,15 +46,15 @@ class ShootingTrajectory(Trajectory):
         # the mode of each interval, from the switching functions at its midpoint
         mid = 0.5 * (Y[1:] + Y[:-1])
         self._modes = self._modes_at(mid)
-        flow = system.flow
-        d0 = np.empty_like(Y[:-1])
-        d1 = np.empty_like(Y[:-1])
+        d0, d1, a0, a1 = (np.empty_like(Y[:-1]) for _ in range(4))
         for m in np.unique(self._modes):
             sel = np.flatnonzero(self._modes == m)
-            f = flow.map(sel.size)
+            f, a = system.flow.map(sel.size), system.acceleration.map(sel.size)
             d0[sel] = np.asarray(f(Y[sel].T, m, P)).T
             d1[sel] = np.asarray(f(Y[sel + 1].T, m, P)).T
-        self._Y, self._D0, self._D1 = Y, d0, d1
+            a0[sel] = np.asarray(a(Y[sel].T, m, P)).T
+            a1[sel] = np.asarray(a(Y[sel + 1].T, m, P)).T
+        self._Y, self._D0, self._D1, self._A0, self._A1 = Y, d0, d1, a0, a1
         self._n = n
         self.breakpoints = np.concatenate(
             [
@@ -84,7 +87,9 @@ class ShootingTrajectory(Trajectory):
 
     def _y(self, t) -> np.ndarray:
         shape, i, s, h = self._locate(t)
-        y = cubic_hermite(self._Y[i], self._D0[i], self._Y[i + 1], self._D1[i], h[:, None], s[:, None])
+        y = quintic_hermite(
+            self._Y[i], self._D0[i], self._A0[i], self._Y[i + 1], self._D1[i], self._A1[i], h[:, None], s[:, None]
+        )
         return y.reshape(shape + (y.shape[-1],)), i
 
     def _state(self, t):

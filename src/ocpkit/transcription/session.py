@@ -9,7 +9,8 @@ warnings. What it asks of a mesh object: ``label``, ``build_s``, ``n_collocation
 estimate interval of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cuts``, and ``_refinement_hint``; of a
 solution:
 ``interval_errors``, ``accuracy``, ``converged``, ``status``, ``iterations``, ``decision_variables``, ``solve_s``,
-``raw["transcription"]``.
+``raw["transcription"]``. It records on every solution it returns ``raw["solve_options"]`` (the IPOPT options and
+``allow_acceptable`` it was solved with), so that the same NLP can be solved again as it was.
 """
 
 from __future__ import annotations
@@ -147,7 +148,7 @@ def solve(
     if parameters is not None:
         meshed._check_parameters(parameters)  # names checked before anything is built
     if mesh_tolerance is not None:
-        return solve_refined(
+        solution = solve_refined(
             meshed,
             guess,
             mesh_tolerance,
@@ -159,9 +160,16 @@ def solve(
                 parameters=parameters,
             ),
         )
-    solution = meshed._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
-    if error_threshold is not None and solution.converged:
-        meshed._warn_if_inaccurate(solution, error_threshold)
+    else:
+        solution = meshed._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
+        if error_threshold is not None and solution.converged:
+            meshed._warn_if_inaccurate(solution, error_threshold)
+    # how it was solved, for a re-solve of the same NLP (ocpkit.indirect re-solves from an extremal)
+    if isinstance(getattr(solution, "raw", None), dict):
+        solution.raw["solve_options"] = {
+            "ipopt_options": dict(ipopt_options or {}),
+            "allow_acceptable": allow_acceptable,
+        }
     return solution
 
 
