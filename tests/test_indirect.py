@@ -226,7 +226,7 @@ def test_the_ball_certificate_catches_a_thrust_turned_off_its_minimiser():
     assert not certify(Turned(0.03), extremal.shooting)["hamiltonian_minimum"].passed
 
 
-def rayleigh(bounded: bool = False):
+def rayleigh(bounded: bool = False, tf: float = 4.5):
     """Maurer & Augustin's Rayleigh problem: min int u^2 + x1^2 over [0, 4.5] from (-5, -5), the final state free;
     its Hamiltonian flow blows up from costates a little off (p2 and x2 feed each other)."""
     import casadi as ca
@@ -238,7 +238,7 @@ def rayleigh(bounded: bool = False):
         [State("x1", initial=-5.0), State("x2", initial=-5.0)],
         [Control("u", -1.0, 1.0) if bounded else Control("u")],
         lambda x, u, t: ca.vertcat(x[1], -x[0] + x[1] * (1.4 - 0.14 * x[1] ** 2) + 4 * u[0]),
-        tf=4.5,
+        tf=tf,
         lagrange=lambda x, u, t: u[0] ** 2 + x[0] ** 2,
     )
 
@@ -264,9 +264,28 @@ def test_where_the_flow_blows_up_from_the_direct_costates_multiple_shooting_from
 def test_when_every_route_fails_the_error_names_them(monkeypatch):
     import ocpkit.indirect as indirect
 
+    direct = Radau(rayleigh(), 4, 20).solve(error_threshold=None)
     monkeypatch.setattr(indirect, "SEGMENTS", (2,))  # two segments: each still long enough to blow up
-    with pytest.raises(SolverError, match="multiple shooting from the direct solution's nodes failed too"):
-        to_extremal(Radau(rayleigh(), 4, 20).solve(error_threshold=None))
+    with pytest.raises(SolverError, match="multiple shooting from the direct solution's nodes failed too") as info:
+        to_extremal(direct)
+    assert "2 segments" in str(info.value) and "after 2000000 steps" in str(info.value)  # the single's own unit
+    monkeypatch.setattr(indirect, "SEGMENTS", (10,))
+    monkeypatch.setattr("ocpkit.shooting.multiple.MAX_UNKNOWNS", 40)  # 2 + 9 nodes x 5 = 47 unknowns: too many
+    with pytest.raises(SolverError, match="10 segments: more than 40 unknowns"):
+        to_extremal(direct)
+
+
+def test_on_a_horizon_too_unstable_for_one_integration_the_multiple_shooting_solution_is_the_extremal():
+    """Over t_f = 8 single shooting from the multiple-shooting solution cannot hold |S| (the flow amplifies its own
+    rounding); the extremal is the multiple-shooting result, its trajectory the segments' flows joined, certified
+    like any other, and it is the refined direct optimum."""
+    direct = Radau(rayleigh(tf=8.0), 4, 35).solve(error_threshold=None)
+    extremal = to_extremal(direct)
+    assert extremal.route == "multiple shooting (10 segments)" and extremal.certificate.passed
+    tr = extremal.trajectory
+    assert tr.t0 == 0.0 and tr.tf == 8.0 and extremal.shooting.norm <= 1e-10
+    refined = Radau(rayleigh(tf=8.0), 4, 35).solve(mesh_tolerance=1e-9)
+    assert extremal.trajectory.objective == pytest.approx(refined.objective, abs=1e-7)
 
 
 def test_the_extremals_dense_output_keeps_h_constant_between_steps():

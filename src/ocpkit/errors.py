@@ -31,6 +31,7 @@ class SolverError(RuntimeError):
         self.result = result
         self.best = best
         self.detail = detail
+        self.unit = unit
         self.mesh_history = []  # a refinement's meshes before the failure (set by refinement; empty otherwise)
         msg = f"{solver} failed with status {status!r}"
         if iterations is not None:

@@ -80,8 +80,9 @@ class Certificate:
 @dataclass
 class Extremal:
     """The result of :func:`to_extremal`: the extremal as a :class:`~ocpkit.Trajectory` (``trajectory``), the
-    shooting run (``shooting``: an :class:`~ocpkit.shooting.arcs.ArcResult` or a
-    :class:`~ocpkit.shooting.ShootingResult`), the structure read from the direct solution it is compared with
+    shooting run (``shooting``: an :class:`~ocpkit.shooting.arcs.ArcResult`, a
+    :class:`~ocpkit.shooting.ShootingResult` or a :class:`~ocpkit.shooting.MultipleShootingResult`; ``route`` says
+    which), the structure read from the direct solution it is compared with
     (``structure``), its ``certificate``, the wall times of the structure detection, the shooting and any re-solve
     (``timings``: ``structure_s``, ``shooting_s``, ``confirm_s``), the ``direct`` solution the certificate compares
     with and, where that is a re-solve from the extremal, the ``first_direct`` one."""
@@ -95,8 +96,9 @@ class Extremal:
     #: differs from it, the same transcription re-solved from the extremal (``first_direct`` is then the first)
     direct: object = None
     first_direct: object = None
-    #: how the shooting was solved: ``"arc shooting (K arcs)"``, ``"single shooting"``, or ``"multiple shooting
-    #: (K segments), then single shooting"`` where single shooting from the direct costates failed (:func:`_shoot`)
+    #: how the shooting was solved: ``"arc shooting (K arcs)"``, ``"single shooting"``, or, where single shooting
+    #: from the direct costates failed, ``"multiple shooting (K segments), then single shooting"`` or ``"multiple
+    #: shooting (K segments)"`` (``shooting`` is then a :class:`~ocpkit.shooting.MultipleShootingResult`; :func:`_shoot`)
     route: str = ""
 
 
@@ -509,11 +511,13 @@ def _shoot(shooting, solution, *, solver, tol: float):
 
     Single shooting from the direct costates at t0 first. Where it fails (the flow from the estimated costates
     blows up before tf, or Newton stalls: an unstable Hamiltonian flow amplifies the estimates' error over the
-    horizon), multiple shooting (:class:`~ocpkit.shooting.multiple.MultipleShooting`, Bulirsch's remedy) started
-    from the direct solution's states and costates at every node, with :data:`SEGMENTS` segments in turn until one
-    converges: each segment's flow lives only as long as its share of the horizon. Its solution's ``z`` then
-    starts single shooting once more, which gives the extremal as one trajectory. Where every route fails, the
-    single shooting's error is raised, with what the multiple shooting met."""
+    horizon), multiple shooting (:class:`~ocpkit.shooting.multiple.MultipleShooting`, Bulirsch's remedy, with its
+    damped Newton) started from the direct solution's states and costates at every node, with :data:`SEGMENTS`
+    segments in turn until one converges: each segment's flow lives only as long as its share of the horizon. Its
+    solution's ``z`` then starts single shooting once more, which gives the extremal as one integration where the
+    whole horizon can still be integrated from it; where it cannot (the flow is too unstable for one integration
+    to hold its residual), the multiple-shooting result is the extremal (its trajectory joins the segments'
+    flows). Where every route fails, the single shooting's error is raised, with what the multiple shooting met."""
     from .shooting.multiple import MAX_UNKNOWNS, MultipleShooting
 
     z0 = _unknowns(shooting, solution)
@@ -521,23 +525,29 @@ def _shoot(shooting, solution, *, solver, tol: float):
         return shooting.solve(z0, solver=solver, stol=tol), "single shooting"
     except SolverError as exc:
         failure, tried = exc, []
+    per_node = 2 * shooting.problem.nx + 1
     for segments in SEGMENTS:
-        multiple = MultipleShooting(shooting, segments)
-        if multiple.nz > MAX_UNKNOWNS:
+        if shooting.nz + (segments - 1) * per_node > MAX_UNKNOWNS:
+            tried.append(f"{segments} segments: more than {MAX_UNKNOWNS} unknowns")
             break
+        multiple = MultipleShooting(shooting, segments)
         try:
             found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", stol=tol)
-            result = shooting.solve(found.z, solver=solver, stol=tol)
         except SolverError as exc:
             tried.append(f"{segments} segments: {exc.status}")
             continue
-        return result, f"multiple shooting ({segments} segments), then single shooting"
+        try:
+            return shooting.solve(
+                found.z, solver=solver, stol=tol
+            ), f"multiple shooting ({segments} segments), then single shooting"
+        except SolverError:
+            return found, f"multiple shooting ({segments} segments)"
     raise SolverError(
         failure.solver,
         failure.status,
         failure.iterations,
-        f"{failure.detail}; multiple shooting from the direct solution's nodes failed too "
-        f"({'; '.join(tried) or 'too many unknowns'})",
+        f"{failure.detail}; multiple shooting from the direct solution's nodes failed too ({'; '.join(tried)})",
+        unit=failure.unit,
         result=failure.result,
     ) from failure
 
@@ -545,8 +555,8 @@ def _shoot(shooting, solution, *, solver, tol: float):
 def _nodes(multiple, solution, z0) -> np.ndarray:
     """Multiple shooting's unknowns from the direct solution: the single shooting's ``z0``, then at each interior
     node ``y = (x, p, J)``, the direct solution's states and costates there (a free parameter, a state of the
-    shooting's problem: its solved value, costate 0) and J = 0 (the running cost enters no flow: its continuity is
-    linear, and Newton's first step settles it)."""
+    shooting's problem: its solved value, and costate 0 as a start: it enters no flow, so its continuity is linear
+    and Newton settles it) and J = 0 (likewise)."""
     shooting = multiple.shooting
     tf = shooting._split(z0)[1]
     times = multiple._times(tf)[1:-1]

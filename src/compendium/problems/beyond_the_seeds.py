@@ -159,8 +159,9 @@ def rayleigh() -> OptimalControlProblem:
     """The Rayleigh problem with no constraint (Maurer & Augustin 2001): ``x1' = x2``,
     ``x2' = -x1 + x2 (1.4 - 0.14 x2^2) + 4 u``, minimise ``int u^2 + x1^2`` over ``[0, 4.5]`` from ``(-5, -5)``, the
     final state free. Its Hamiltonian flow is unstable: from costates a little off, ``p2`` and ``x2`` feed each
-    other (``p2' ~ 0.42 x2^2 p2``, ``x2' ~ -8 p2``), and the flow from Radau 4 x 20's costates blows up before
-    ``t = 0.3`` (the integrator's step falls to 1e-17)."""
+    other (``p2' ~ 0.42 x2^2 p2``, ``x2' ~ -8 p2``), and the flow from Radau 4 x 20's costates at t0 blows up near
+    ``t = 1.2``, a quarter of the horizon (``x2 = 24``, ``p2 = -447`` at ``t = 1.19``; no step completes past
+    1.1965)."""
     return _rayleigh("rayleigh", (), "Rayleigh problem (Maurer & Augustin 2001)")
 
 

@@ -32,6 +32,7 @@ from .compiled import CompiledSystem, Integration
 from .hamiltonian import HamiltonianSystem
 from .shooting import Shooting, residual_noise
 from .strategies import solver_strategy
+from .trajectory import ShootingTrajectory
 
 
 @dataclass
@@ -42,7 +43,8 @@ class MultipleShootingResult:
     largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether
     ``norm <= stol``; the solver's ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the
     ``objective``, the ``switchings`` and integration ``steps`` summed over the segments, and the segments'
-    recorded ``integrations``."""
+    recorded ``integrations``; ``free_parameters`` the solved free parameters by name, and :attr:`trajectory` the
+    extremal as functions of time (the segments' recorded flows, one after the other)."""
 
     z: np.ndarray
     nodes: np.ndarray
@@ -60,10 +62,52 @@ class MultipleShootingResult:
     switchings: int
     steps: int
     integrations: list = field(repr=False, default_factory=list)
+    system: HamiltonianSystem = field(repr=False, default=None)
+    free_parameters: dict = field(default_factory=dict)
 
     @property
     def tf(self) -> float:
         return float(self.times[-1])
+
+    @property
+    def integration(self) -> Integration:
+        """The segments' recorded integrations joined into one record from t0 to tf (each node's defect, below the
+        solve's tolerance, is where one segment's record ends and the next one's begins)."""
+        runs = self.integrations
+        if not runs or any(r.states.shape[0] < 2 for r in runs):
+            raise ValueError("this run has no recorded integrations: its last evaluation was not recorded")
+
+        def joined(name):
+            return np.concatenate([getattr(r, name) for r in runs])
+
+        return Integration(
+            y=runs[-1].y,
+            Psi=None,
+            status=runs[-1].status,
+            accepted=sum(r.accepted for r in runs),
+            rejected=sum(r.rejected for r in runs),
+            rhs_evaluations=sum(r.rhs_evaluations for r in runs),
+            switchings=sum(r.switchings for r in runs),
+            interior_switchings=sum(r.interior_switchings for r in runs),
+            step_times=joined("step_times"),
+            step_sizes=joined("step_sizes"),
+            hamiltonian=joined("hamiltonian"),
+            rejected_times=joined("rejected_times"),
+            rejected_sizes=joined("rejected_sizes"),
+            switching_times=joined("switching_times"),
+            switching_index=joined("switching_index"),
+            states=np.vstack([r.states for r in runs]),
+            truncated=any(r.truncated for r in runs),
+            parameters=runs[-1].parameters,
+        )
+
+    @property
+    def trajectory(self) -> ShootingTrajectory:
+        """The extremal as functions of time (:class:`~ocpkit.shooting.trajectory.ShootingTrajectory` of
+        :attr:`integration`)."""
+        if "_trajectory" not in self.__dict__:
+            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system, self.objective)
+        return self.__dict__["_trajectory"]
 
 
 #: the most unknowns :class:`MultipleShooting` takes: its Jacobian is dense (4000^2 doubles: 128 MB)
@@ -276,6 +320,8 @@ class MultipleShooting:
             switchings=int(sum(r.switchings for r in runs)),
             steps=int(sum(r.accepted + r.rejected for r in runs)),
             integrations=runs,
+            system=self.compiled.system,
+            free_parameters=self.shooting._free_parameters(self._start(z)[0][: self.nx]),
         )
         if not result.converged and raise_on_failure:
             raise SolverError(

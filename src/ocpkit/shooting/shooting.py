@@ -340,6 +340,10 @@ class Shooting:
     def _params(self, parameters):
         return self.problem.parameter_vector(parameters)
 
+    def _free_parameters(self, x0) -> dict:
+        """The free parameters by name in the initial state ``x0`` of the shooting's problem (they are states)."""
+        return {v.name: float(x0[self.problem.state_index(v.name)]) for v in self.statement.free_parameters}
+
     def residual(self, z, parameters=None, integration: Integration | None = None) -> np.ndarray:
         """S(z)."""
         P = self._params(parameters)
@@ -518,9 +522,7 @@ class Shooting:
             parameters=P,
             integration=final,
             system=self.compiled.system,
-            free_parameters={
-                v.name: float(x0[self.problem.state_index(v.name)]) for v in self.statement.free_parameters
-            },
+            free_parameters=self._free_parameters(x0),
         )
         if not ok and raise_on_failure:
             name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(
