@@ -258,11 +258,30 @@ def test_a_continuation_through_the_death_of_a_boundary_arc():
         follow_extremal(extremal, "speed", [0.13])
 
 
+def test_the_tumours_drug_budget_is_the_terminal_condition_it_amounts_to():
+    """y' = u >= 0 and y <= A: the budget binds only at tf (ocpkit.monotone). Full dose until it is spent, then none;
+    the final tumour volume is GPOPS-II's to 2.4e-8 (relative; theirs a direct method's at its mesh tolerance)."""
+    extremal = to_extremal(Radau(tumour(), 4, 60).solve(error_threshold=None))
+    assert extremal.structure.kinds("u") == ["upper", "lower"] and extremal.certificate.passed
+    published = paper_table("beyond_the_seeds").set_index(["problem", "quantity"]).value
+    final = extremal.trajectory.state(extremal.trajectory.tf)[0]
+    assert final == pytest.approx(published["tumour_anti_angiogenesis", "final_tumour_volume"], rel=1e-7)
+    assert extremal.shooting.multipliers[-1] > 0  # the budget binds
+
+
 def test_where_the_chain_stops_it_says_which_arc_and_what_to_do():
     with pytest.raises(ValueError, match=r"H is not affine in .u. on the boundary arc of the state constraint"):
         to_extremal(Radau(miser3_state_constraint(), 4, 30).solve(mesh_tolerance=1e-6))
-    with pytest.raises(ValueError, match=r"constraint 'y.upper' is entered from a 'lower' arc of 'u': the costate"):
-        to_extremal(Radau(tumour(), 4, 30).solve(error_threshold=None))
+    limited = OptimalControlProblem(  # the race with a speed limit: the limit reached at full thrust
+        "race",
+        [State("x", initial=0.0, final=1.0), State("v", -1.0, 0.6, initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t: [x["v"], u["u"]],
+        tf=FreeFinalTime(0.5, 5.0, 1.5),
+        mayer=lambda x0, xf, t0, tf: tf,
+    )
+    with pytest.raises(ValueError, match=r"constraint 'v.upper' is entered from a 'upper' arc of 'u': the costate"):
+        to_extremal(Radau(limited, 4, 20).solve(error_threshold=None))
     with pytest.raises(ValueError, match=r"has 2 controls inside their bounds: one constraint determines one"):
         to_extremal(Radau(free_flying_robot(), 4, 30).solve(error_threshold=None))
     goddard = Radau(goddard_rocket(), 4, 20).solve(error_threshold=None)

@@ -2,7 +2,9 @@
 
 The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the indirect one's precision):
 
-1. the switching structure of the direct solution (:func:`ocpkit.structure.control_structure`);
+1. the switching structure of the direct solution (:func:`ocpkit.structure.control_structure`); a state constraint
+   that never decreases (a budget, ``y' = u >= 0``, ``y <= A``) and that the direct solution ends on is read as the
+   terminal condition it amounts to, its boundary arcs as bang arcs (:func:`ocpkit.monotone.as_terminal`);
 2. the shooting problem, derived with no line of the user's, by one of two methods (``method="auto"`` picks):
 
    * ``"arcs"``: multiple shooting over the detected arcs with the junction times unknowns
@@ -33,6 +35,7 @@ import casadi as ca
 import numpy as np
 
 from .errors import SolverError
+from .monotone import as_terminal
 from .structure import Structure, control_structure
 
 
@@ -166,6 +169,9 @@ def to_extremal(
     detect_s = time.perf_counter() - start
     restated = problem is not None
     statement = _restatement(solution, problem) if restated else _statement(solution)
+    budgets = []
+    if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
+        statement, structure, budgets = as_terminal(statement, structure, solution)
     problem = statement
     radius = _ball_radius(statement) if control_set == "ball" else 1.0
     if method == "auto":
@@ -206,7 +212,8 @@ def to_extremal(
         result, route = _shoot(shooting, solution, solver=solver, tol=tol)
     shoot_s = time.perf_counter() - start
     trajectory = result.trajectory
-    certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol)
+    terminal = dict(zip(budgets, np.ravel(getattr(result, "multipliers", []))[len(budgets) and -len(budgets) :]))
+    certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol, terminal=terminal)
     timings = {"structure_s": detect_s, "shooting_s": shoot_s}
     first = None
     if certificate.failed and set(certificate.failed) <= set(COMPARISONS):
@@ -216,7 +223,9 @@ def to_extremal(
         if again is not None:
             first, solution = solution, again
             structure = control_structure(again)
-            certificate = certify(trajectory, result, again, None if restated else structure, tol=tol, first=first)
+            certificate = certify(
+                trajectory, result, again, None if restated else structure, tol=tol, first=first, terminal=terminal
+            )
     extremal = Extremal(
         trajectory, result, structure, certificate, timings, direct=solution, first_direct=first, route=route
     )
@@ -596,6 +605,7 @@ def certify(
     tol: float = 1e-10,
     samples: int = 401,
     first=None,
+    terminal: dict | None = None,
 ) -> Certificate:
     """The checks of an extremal (every one named; :class:`Certificate`):
 
@@ -604,12 +614,14 @@ def certify(
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
       six controls; a value that violates a mixed state-control constraint is not admissible; for a law over the
       ball ``|u| <= r``, 801 points of the ball instead, and the extremal's control turned by +-1e-3 rad towards
-      each axis), relative to ``1 + |H|``: the maximum principle, checked on the set rather than on the law that
+      each axis), relative to ``1 + |L| + sum |p_i f_i|`` (the magnitude of H's terms, which its rounding is
+      relative to: H itself is 0 with a free final time): the maximum principle, checked on the set rather than on the law that
       produced the control;
     * ``feasibility``: the largest violation of a state bound or a path constraint on the samples, relative to the
       range of its values along the extremal (at least 1), of a control's bounds (relative to their span, at least
       1), and for the ball, of ``|u| <= r`` relative to r;
-    * ``hamiltonian_constant``: the largest change of H along the extremal relative to ``1 + |H|`` (autonomous
+    * ``hamiltonian_constant``: the largest change of H along the extremal relative to 1 + the largest magnitude of
+      its terms (autonomous
       problems only);
     * ``legendre_clebsch``: on singular arcs of order q, how negative ``(-1)^q d/du (d/dt)^(2q) H_u`` gets
       (relative to its largest magnitude), the generalised Legendre-Clebsch (Kelley) condition; with
@@ -627,7 +639,11 @@ def certify(
     * ``first_direct_objective`` (where :func:`to_extremal` re-solved the direct problem from the extremal,
       ``first`` the direct solution it started from): how much worse the extremal's objective is than the first
       direct solution's, relative to ``1 + |J|``, at most 1e-2 (an extremal the direct method, started from it,
-      confirms, but of a worse local minimum than the one it was asked about, fails here).
+      confirms, but of a worse local minimum than the one it was asked about, fails here);
+    * ``terminal_multiplier_sign`` (where :func:`to_extremal` read a state constraint only the final state can
+      reach as its terminal condition, :mod:`ocpkit.monotone`; ``terminal`` maps each such equality's name to its
+      multiplier): how negative the multiplier of ``c(x(tf)) <= 0`` gets, relative to ``1 + |nu|`` (a negative
+      one would gain from spending less than the budget: not an extremal of the inequality).
     """
     from .structure import inequalities
 
@@ -640,6 +656,12 @@ def certify(
     Hmap = Hf.map(samples)
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()
+    # the magnitude of H's terms, |L| + sum |p_i f_i|: what its rounding is relative to (H itself may be 0, as with
+    # a free final time, while its terms are 1e4: the tumour's)
+    terms = ca.Function(
+        "terms", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.fabs(ham.L) + ca.sum1(ca.fabs(ham.p * ham.f))]
+    )
+    scale = 1.0 + np.asarray(terms.map(samples)(X.T, L.T, U.T, t[None, :], Ps)).ravel()
     every = [(q, q.function.map(samples)) for q in inequalities(problem)]
     mixed = [c for q, c in every if not q.pure]
     violation = 0.0
@@ -660,7 +682,7 @@ def certify(
         candidates += _rotations(U, radius)  # and the extremal's own control turned slightly: a first-order test
         for V in candidates:
             H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
-            worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
+            worst = max(worst, float(np.max((H_star - H_v) / scale)))
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
     lows, highs = [], []
@@ -686,10 +708,10 @@ def certify(
         H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
         for c in mixed:
             H_v[np.asarray(c(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = np.inf
-        worst = max(worst, float(np.max((H_star - H_v) / (1.0 + np.abs(H_star)))))
+        worst = max(worst, float(np.max((H_star - H_v) / scale)))
     ineq = [q.function(ham.x, ham.u, ham.t, ham.P) for q in inequalities(problem)]
     autonomous = not ca.depends_on(ca.vertcat(ham.f, ham.L, *ineq), ham.t)
-    drift = float(np.max(np.abs(H_star - H_star[0])) / (1.0 + abs(H_star[0])))
+    drift = float(np.max(np.abs(H_star - H_star[0])) / np.max(scale))
     kelley, sign = _arc_conditions(trajectory, t, X, L, P)
     compared = []
     if structure is not None:
@@ -714,6 +736,11 @@ def certify(
         gap = abs(J - float(direct.objective)) / (1.0 + abs(J))
         compared.append(Check("objective_gap", gap, 1e-2, "indirect against direct"))
         compared.append(Check("state_gap", state_gap, 5.0, "largest state difference, % of its range"))
+    if terminal:
+        worst_nu = max(max(0.0, -float(nu)) / (1.0 + abs(float(nu))) for nu in terminal.values())
+        compared.append(
+            Check("terminal_multiplier_sign", worst_nu, 1e-8, "the budget's terminal multiplier is nonnegative")
+        )
     if first is not None:
         worse = (float(result.objective) - float(first.objective)) / (1.0 + abs(float(result.objective)))
         compared.append(

@@ -234,11 +234,15 @@ CASES = {
         ),
         Case(
             "tumour_anti_angiogenesis",
-            "tumour anti-angiogenesis: a state constraint entered from a bang arc",
+            "tumour anti-angiogenesis: a drug budget only the final state can reach (its terminal condition)",
             tumour,
             4,
-            30,
+            60,
             {"error_threshold": None},
+            lambda: {
+                "final_tumour_volume": _published("beyond_the_seeds", "tumour_anti_angiogenesis", "final_tumour_volume")
+            },
+            lambda e: {"final_tumour_volume": float(e.trajectory.state(e.trajectory.tf)[0])},
         ),
         Case(
             "free_flying_robot",

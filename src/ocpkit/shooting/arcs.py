@@ -19,7 +19,8 @@ Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative alo
   the neighbouring arc's control where H is affine in it. For a pure state constraint of order one, on a control
   H is affine in, the control from ``D c = 0`` and the multiplier that keeps ``H_u = 0`` on the arc,
   ``mu = D H_u / (H_up . c_x)``; the arc is entered from a singular arc only (``c = 0`` there, no jump of the
-  costate; from a bang arc the costate jumps, which is refused by name), and a singular arc after it keeps its own
+  costate; from a bang arc the costate jumps, which is refused by name, except for a constraint that never
+  decreases, a budget, which :mod:`ocpkit.monotone` restates as its terminal condition before the arcs are posed), and a singular arc after it keeps its own
   entry conditions (the system is then over-determined and consistent: Gauss-Newton). A state constraint on a
   control H is regular in, and one of order two, are refused by name.
 
