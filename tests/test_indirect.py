@@ -322,3 +322,35 @@ def test_a_re_solve_from_the_extremal_keeps_the_first_solves_ipopt_options(monke
     monkeypatch.setattr(transcription, "solve", spy)
     again = _resolved_from(direct, _statement(direct), extremal.trajectory, extremal.shooting, restated=False)
     assert again is not None and seen == [{"max_iter": 321}] * 2
+
+
+def test_the_h_minimum_is_relative_to_what_a_control_changes_not_to_terms_it_leaves():
+    """The race with a state z' = K v added to the cost: the extremal is the race's, but H gains terms of order K
+    the control does not touch. A thrust 1e-5 short of its bound on [0.5, 1.5] still fails the H-minimum check."""
+    import casadi as ca
+
+    from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
+
+    K = 1e4
+    problem = OptimalControlProblem(
+        "race",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0), State("z", initial=0.0, scale=K)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t: ca.vertcat(x[1], u[0], K * x[1]),
+        tf=FreeFinalTime(0.5, 5.0, 1.5),
+        mayer=lambda x0, xf, t0, tf: tf + xf[2] - K,
+    )
+    extremal = to_extremal(Radau(problem, 4, 15).solve(error_threshold=None))
+    assert extremal.certificate.passed and abs(extremal.trajectory.costate(0.0)[0]) > K / 2
+
+    class Short:  # the extremal with its thrust 1e-5 short of the bound on [0.5, 1.5]
+        def __getattr__(self, name):
+            return getattr(extremal.trajectory, name)
+
+        def control(self, t):
+            t = np.asarray(t, dtype=float)
+            U = np.array(extremal.trajectory.control(t), dtype=float)
+            U[(t > 0.5) & (t < 1.5)] *= 1 - 1e-5
+            return U
+
+    assert certify(Short(), extremal.shooting)["hamiltonian_minimum"].value > 1e-7

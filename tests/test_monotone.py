@@ -50,3 +50,39 @@ def test_a_budget_not_spent_changes_nothing():
     assert (problem, same, added) == (direct.problem, structure, [])
     extremal = to_extremal(direct)
     assert extremal.trajectory.objective == pytest.approx(-4.5, abs=1e-10) and extremal.certificate.passed
+
+
+def test_a_budget_only_just_reached_or_reached_at_the_last_instant_is_no_terminal_condition():
+    """Full thrust throughout spends T: with A = T + 1e-7 or A = T the budget is reached at tf at most, no stretch
+    of the horizon lies on it, and the extremal is the unconstrained one (an equality there would be degenerate)."""
+    for A in (3.0 + 1e-7, 3.0):
+        direct = Radau(budget(A=A), 4, 10).solve(error_threshold=None)
+        extremal = to_extremal(direct)
+        assert extremal.budgets == [] and extremal.certificate.passed
+        assert extremal.trajectory.objective == pytest.approx(-4.5, abs=1e-9)
+
+
+def test_a_continuation_through_a_budget_that_stops_binding_checks_its_multiplier():
+    """Fuel now costs w per unit: the budget binds while nu = T - A - w >= 0, i.e. up to w = 2; beyond, the
+    extremal with the budget's equality has nu < 0 and fails its certificate, and the structure is read again: at
+    w = 2.5 the optimum spends T - w = 0.5 of the budget, J = -(0.5 T - 0.125) + 2.5 * 0.5 = -0.125."""
+    from ocpkit.indirect import follow_extremal
+
+    def priced(w):
+        return OptimalControlProblem(
+            "budget",
+            [State("x1", initial=0.0), State("x2", initial=0.0), State("y", 0.0, 1.0, initial=0.0)],
+            [Control("u", 0.0, 1.0)],
+            lambda x, u, t: [x["x2"], u["u"], u["u"]],
+            tf=3.0,
+            mayer=lambda x0, xf, t0, tf, p: -xf["x1"] + p["w"] * xf["y"],
+            parameters={"w": w},
+        )
+
+    extremal = to_extremal(Radau(priced(0.5), 4, 10).solve(error_threshold=None))
+    assert extremal.budgets == ["y_upper_at_tf"] and extremal.shooting.multipliers[-1] == pytest.approx(1.5)
+    path = follow_extremal(extremal, "w", [1.0, 2.5])
+    last = path.extremals[-1]
+    assert path.values[-1] == 2.5 and last.budgets == [] and last.certificate.passed
+    assert last.trajectory.objective == pytest.approx(-0.125, abs=1e-9)
+    assert any("re-detected" in how for *_, how in path.changes)

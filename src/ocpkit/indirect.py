@@ -103,6 +103,9 @@ class Extremal:
     #: from the direct costates failed, ``"multiple shooting (K segments), then single shooting"`` or ``"multiple
     #: shooting (K segments)"`` (``shooting`` is then a :class:`~ocpkit.shooting.MultipleShootingResult`; :func:`_shoot`)
     route: str = ""
+    #: the terminal equalities :func:`ocpkit.monotone.as_terminal` added for budgets (their multipliers' signs are
+    #: certified)
+    budgets: list = field(default_factory=list)
 
 
 METHODS = ("auto", "arcs", "switching")
@@ -169,7 +172,7 @@ def to_extremal(
     detect_s = time.perf_counter() - start
     restated = problem is not None
     statement = _restatement(solution, problem) if restated else _statement(solution)
-    budgets = []
+    base, budgets = statement, []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
         statement, structure, budgets = as_terminal(statement, structure, solution)
     problem = statement
@@ -212,7 +215,7 @@ def to_extremal(
         result, route = _shoot(shooting, solution, solver=solver, tol=tol)
     shoot_s = time.perf_counter() - start
     trajectory = result.trajectory
-    terminal = dict(zip(budgets, np.ravel(getattr(result, "multipliers", []))[len(budgets) and -len(budgets) :]))
+    terminal = _terminal_multipliers(result, budgets)
     certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol, terminal=terminal)
     timings = {"structure_s": detect_s, "shooting_s": shoot_s}
     first = None
@@ -223,11 +226,21 @@ def to_extremal(
         if again is not None:
             first, solution = solution, again
             structure = control_structure(again)
+            if budgets:  # read as the first one was
+                structure = as_terminal(base, structure, again)[1]
             certificate = certify(
                 trajectory, result, again, None if restated else structure, tol=tol, first=first, terminal=terminal
             )
     extremal = Extremal(
-        trajectory, result, structure, certificate, timings, direct=solution, first_direct=first, route=route
+        trajectory,
+        result,
+        structure,
+        certificate,
+        timings,
+        direct=solution,
+        first_direct=first,
+        route=route,
+        budgets=budgets,
     )
     if strict and not certificate.passed:
         raise SolverError(
@@ -272,7 +285,17 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
     if parameter not in statement.parameters:
         raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")
     transcription = _transcription(extremal.direct)
-    state = {"shooting": extremal.shooting.trajectory.shooting, "last": extremal, "direct": extremal.direct}
+    # the statement before its budgets were read as terminal conditions (ocpkit.monotone): read again at each
+    # re-detection, where a budget may have stopped binding
+    base = statement.replace(
+        boundary_constraints=[c for c in statement.boundary_constraints if c.name not in extremal.budgets]
+    )
+    state = {
+        "shooting": extremal.shooting.trajectory.shooting,
+        "last": extremal,
+        "direct": extremal.direct,
+        "budgets": list(extremal.budgets),
+    }
     changes, solved = [], {}
 
     def words(arcs) -> str:
@@ -288,11 +311,12 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
         if transcription is None:
             raise SolverError("continuation", f"structure change at {value:.6g}", 0, f"{why}; no transcription")
         direct = transcription.solve(state["direct"], parameters={parameter: value}, error_threshold=None)
-        structure = control_structure(direct)
-        shooting = ArcShooting(statement, arc_sequence(structure, statement, direct.t0, direct.tf))
+        here = base.replace(parameters={parameter: value})
+        restated, structure, budgets = as_terminal(here, control_structure(direct), direct)
+        shooting = ArcShooting(restated, arc_sequence(structure, restated, direct.t0, direct.tf))
         result = shooting.solve(shooting.guess(direct, {parameter: value}), {parameter: value}, tol=tol)
         changes.append((value, words(state["shooting"].kinds), words(shooting.kinds), f"re-detected ({why})"))
-        state["direct"] = direct
+        state["direct"], state["budgets"] = direct, budgets
         return shooting, result
 
     def solve_at(value, z):
@@ -314,17 +338,20 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
                         merged.append((kind, a, b))
                 merged[0] = (merged[0][0], tr.t0, merged[0][2])
                 merged[-1] = (merged[-1][0], merged[-1][1], tr.tf)
-                new = ArcShooting(statement, merged)
+                new = ArcShooting(shooting.problem, merged)
                 result, tr, spans = shoot(new, new.guess(tr, {parameter: value}), value)
                 changes.append((value, words(shooting.kinds), words(new.kinds), f"arc {dead + 1} shrank to zero"))
                 shooting = new
-            certificate = certify(tr, result, None, None, tol=tol)
+            terminal = _terminal_multipliers(result, state["budgets"])
+            certificate = certify(tr, result, None, None, tol=tol, terminal=terminal)
             if not certificate.passed:
                 raise SolverError("certificate", f"failed checks {certificate.failed}", 0, "", result=result)
         except (SolverError, ValueError) as exc:
             shooting, result = redetect(value, exc.status if isinstance(exc, SolverError) else str(exc))
             tr = result.trajectory
-            certificate = certify(tr, result, None, None, tol=tol)
+            certificate = certify(
+                tr, result, None, None, tol=tol, terminal=_terminal_multipliers(result, state["budgets"])
+            )
             if not certificate.passed:
                 raise SolverError(
                     "certificate",
@@ -334,13 +361,22 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
                     result=result,
                 ) from exc
         state["shooting"] = shooting
-        state["last"] = Extremal(tr, result, control_structure(tr), certificate, {}, direct=state["direct"])
+        state["last"] = Extremal(
+            tr, result, control_structure(tr), certificate, {}, direct=state["direct"], budgets=list(state["budgets"])
+        )
         solved[value] = state["last"]
         return result
 
     start = float(statement.parameters[parameter])
     follow(solve_at, extremal.shooting.z, start, Schedule(values))
     return ExtremalPath(parameter, list(solved), list(solved.values()), changes)
+
+
+def _terminal_multipliers(result, budgets) -> dict:
+    """The multipliers of the budgets' terminal equalities, by name: the last of the arc shooting's."""
+    if not budgets:
+        return {}
+    return dict(zip(budgets, np.ravel(getattr(result, "multipliers", []))[-len(budgets) :]))
 
 
 def _needs_arcs(problem, structure: Structure) -> bool:
@@ -567,9 +603,8 @@ def _nodes(multiple, solution, z0) -> np.ndarray:
     shooting's problem: its solved value, and costate 0 as a start: it enters no flow, so its continuity is linear
     and Newton settles it) and J = 0 (likewise)."""
     shooting = multiple.shooting
-    tf = shooting._split(z0)[1]
-    times = multiple._times(tf)[1:-1]
-    s = (times - multiple._times(tf)[0]) / (tf - multiple._times(tf)[0])
+    times = multiple._times(shooting._split(z0)[1])
+    s = (times[1:-1] - times[0]) / (times[-1] - times[0])  # the interior nodes' fractions of the horizon
     t = solution.t0 + s * (solution.tf - solution.t0)
     nx, n = solution.problem.nx, shooting.problem.nx
     X, L = np.zeros((t.size, n)), np.zeros((t.size, n))
@@ -614,15 +649,15 @@ def certify(
       sampled admissible set (41 values per control, the others held at the extremal's, and the box's corners up to
       six controls; a value that violates a mixed state-control constraint is not admissible; for a law over the
       ball ``|u| <= r``, 801 points of the ball instead, and the extremal's control turned by +-1e-3 rad towards
-      each axis), relative to ``1 + |L| + sum |p_i f_i|`` (the magnitude of H's terms, which its rounding is
-      relative to: H itself is 0 with a free final time): the maximum principle, checked on the set rather than on the law that
+      each axis), relative to ``1 + |L(v) - L(u)| + sum |p_i (f_i(v) - f_i(u))|`` (the magnitude of the terms of H a
+      change of the control changes, which the difference's rounding is relative to; H itself may be 0, with a free
+      final time, while its terms are 1e4): the maximum principle, checked on the set rather than on the law that
       produced the control;
     * ``feasibility``: the largest violation of a state bound or a path constraint on the samples, relative to the
       range of its values along the extremal (at least 1), of a control's bounds (relative to their span, at least
       1), and for the ball, of ``|u| <= r`` relative to r;
     * ``hamiltonian_constant``: the largest change of H along the extremal relative to 1 + the largest magnitude of
-      its terms (autonomous
-      problems only);
+      its terms ``|L| + sum |p_i f_i|``, at most 1e-8 (autonomous problems only);
     * ``legendre_clebsch``: on singular arcs of order q, how negative ``(-1)^q d/du (d/dt)^(2q) H_u`` gets
       (relative to its largest magnitude), the generalised Legendre-Clebsch (Kelley) condition; with
       ``multiplier_sign``: on boundary arcs, how negative the inequality's multiplier gets (relative to its largest
@@ -657,11 +692,20 @@ def certify(
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()
     # the magnitude of H's terms, |L| + sum |p_i f_i|: what its rounding is relative to (H itself may be 0, as with
-    # a free final time, while its terms are 1e4: the tumour's)
+    # a free final time, while its terms are 1e4: the tumour's); for the minimum, only the terms a control changes
     terms = ca.Function(
         "terms", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.fabs(ham.L) + ca.sum1(ca.fabs(ham.p * ham.f))]
     )
     scale = 1.0 + np.asarray(terms.map(samples)(X.T, L.T, U.T, t[None, :], Ps)).ravel()
+    v = ca.SX.sym("v", problem.nu)
+    at_v = [ca.substitute(e, ham.u, v) for e in (ham.H, ham.L, ham.p * ham.f)]
+    changed = 1.0 + ca.fabs(at_v[1] - ham.L) + ca.sum1(ca.fabs(at_v[2] - ham.p * ham.f))
+    against = ca.Function("against", [ham.x, ham.p, ham.u, v, ham.t, ham.P], [at_v[0], changed]).map(samples)
+
+    def lower_by(V):  # how much lower H is at the candidate controls V (columns), relative to what they change
+        H_v, denominator = (np.asarray(a).ravel() for a in against(X.T, L.T, U.T, V, t[None, :], Ps))
+        return H_v, (H_star - H_v) / denominator
+
     every = [(q, q.function.map(samples)) for q in inequalities(problem)]
     mixed = [c for q, c in every if not q.pure]
     violation = 0.0
@@ -681,8 +725,7 @@ def certify(
         candidates = [np.repeat(V[:, None], samples, axis=1) for V in _ball_points(problem.nu, radius)]
         candidates += _rotations(U, radius)  # and the extremal's own control turned slightly: a first-order test
         for V in candidates:
-            H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
-            worst = max(worst, float(np.max((H_star - H_v) / scale)))
+            worst = max(worst, float(np.max(lower_by(V)[1])))
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
     lows, highs = [], []
@@ -705,10 +748,10 @@ def certify(
             V[trial[0], :] = trial[1]
         else:
             V[:, :] = np.asarray(trial)[:, None]
-        H_v = np.asarray(Hmap(X.T, L.T, V, t[None, :], Ps)).ravel()
+        _, lower = lower_by(V)
         for c in mixed:
-            H_v[np.asarray(c(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = np.inf
-        worst = max(worst, float(np.max((H_star - H_v) / scale)))
+            lower[np.asarray(c(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = -np.inf  # not admissible
+        worst = max(worst, float(np.max(lower)))
     ineq = [q.function(ham.x, ham.u, ham.t, ham.P) for q in inequalities(problem)]
     autonomous = not ca.depends_on(ca.vertcat(ham.f, ham.L, *ineq), ham.t)
     drift = float(np.max(np.abs(H_star - H_star[0])) / np.max(scale))
@@ -750,7 +793,7 @@ def certify(
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
         Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
         Check("feasibility", max(violation, 0.0), 1e-8, "largest violation of the state bounds and path constraints"),
-        *((Check("hamiltonian_constant", drift, 1e-6, "change of H along the extremal"),) if autonomous else ()),
+        *((Check("hamiltonian_constant", drift, 1e-8, "change of H along the extremal"),) if autonomous else ()),
         Check("legendre_clebsch", kelley, 1e-8, "generalised Legendre-Clebsch condition on singular arcs"),
         Check("multiplier_sign", sign, 1e-8, "the inequality's multiplier is nonnegative on boundary arcs"),
         *compared,

@@ -21,7 +21,6 @@ says that the budget binds, is checked (``terminal_multiplier_sign``).
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import replace
 
 import casadi as ca
@@ -30,9 +29,10 @@ import numpy as np
 from .problem import Constraint
 from .structure import Structure, inequalities
 
-#: how far from 0 a direct solution's ``c(x(tf))``, relative to the constraint's range along it, may lie for the
-#: constraint to count as active at tf
-ACTIVE = 1e-6
+#: how far from 0 a direct solution's ``c(x)``, relative to the constraint's range along it, may lie for the
+#: constraint to count as active; and the last share of the horizon over which it must be (a budget spent at the
+#: final instant only, reached by full thrust throughout, is no boundary arc: its equality would be degenerate)
+ACTIVE, FINAL = 1e-6, 0.01
 
 
 def monotone_constraints(problem) -> dict:
@@ -50,25 +50,22 @@ def monotone_constraints(problem) -> dict:
         i = q.controls[0]
         if ca.depends_on(rate, ca.vertcat(x, t)) or ca.depends_on(ca.jacobian(rate, u), u):
             continue  # Dc depends on the state or time, or is not affine in the controls
-        lows = [c_.lower for c_ in problem.controls]
-        highs = [c_.upper for c_ in problem.controls]
-        if not all(np.isfinite(lows[j]) and np.isfinite(highs[j]) for j in range(problem.nu)):
+        lo, hi = problem.controls[i].lower, problem.controls[i].upper
+        if not (np.isfinite(lo) and np.isfinite(hi)):
             continue
-        at = ca.Function("rate", [u], [rate])
-        corners = [float(at(ca.DM(v))) for v in itertools.product(*zip(lows, highs))]
-        if min(corners) < -1e-12 * max(1.0, max(abs(v) for v in corners)):
+        at = ca.Function("rate", [u[i]], [rate])  # Dc in the one control it depends on, affinely
+        ends = [float(at(lo)), float(at(hi))]
+        if min(ends) < -1e-12 * max(1.0, *map(abs, ends)):
             continue  # c can decrease: the constraint can bind before tf
-        slope = float(ca.Function("a", [u], [ca.jacobian(rate, u[i])])(ca.DM.zeros(problem.nu)))
-        if slope == 0.0:
+        if ends[0] == ends[1]:
             continue
-        value = -float(at(ca.DM.zeros(problem.nu))) / slope
-        out[q.name] = (i, value)
+        out[q.name] = (i, lo - ends[0] * (hi - lo) / (ends[1] - ends[0]))
     return out
 
 
 def as_terminal(problem, structure: Structure, solution):
     """``(problem, structure, converted)``: each non-decreasing state constraint (module docstring) that the direct
-    ``solution`` ends on, rewritten as the terminal equality ``<name>_at_tf``, and its boundary arcs in ``structure``
+    ``solution`` ends on, active over the last :data:`FINAL` of the horizon at least, rewritten as the terminal equality ``<name>_at_tf``, and its boundary arcs in ``structure``
     as bang arcs of the control that holds ``Dc = 0`` there (neighbouring arcs of one kind merged; a boundary arc
     whose control that value leaves inside its bounds stays as it was). ``converted`` lists the names of the
     terminal equalities added, at the end of the problem's boundary constraints; unchanged ``problem`` and
@@ -77,14 +74,14 @@ def as_terminal(problem, structure: Structure, solution):
     if not candidates:
         return problem, structure, []
     ineq = {q.name: q for q in inequalities(problem)}
-    t = np.array([solution.t0, solution.tf])
+    t = np.array([solution.t0, solution.tf - FINAL * (solution.tf - solution.t0), solution.tf])
     X, U = solution.state(t), solution.control(t)
     P = np.asarray(problem._P, dtype=float).ravel()
     relabelled, added = list(structure.arcs), []
     for name, (i, value) in candidates.items():
-        c0, cf = (float(ineq[name].function(X[k], U[k], t[k], P)) for k in range(2))
-        if abs(cf) > ACTIVE * max(1.0, abs(cf - c0)):
-            continue  # not active at tf, so (never decreasing) nowhere
+        c0, before, cf = (float(ineq[name].function(X[k], U[k], t[k], P)) for k in range(3))
+        if max(abs(before), abs(cf)) > ACTIVE * max(1.0, abs(cf - c0)):
+            continue  # not active over a last stretch of the horizon: it binds nowhere, or at the final instant only
         control = problem.controls[i]
         kind = _bang(control, value)
         if kind is not None:

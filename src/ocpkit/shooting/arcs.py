@@ -24,8 +24,8 @@ Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative alo
   entry conditions (the system is then over-determined and consistent: Gauss-Newton). A state constraint on a
   control H is regular in, and one of order two, are refused by name.
 
-Junctions between two bang arcs satisfy ``H(u_left) = H(u_right)`` (the switching function crosses its
-threshold); between a regular arc and a bound the control is continuous. Unknowns: the free initial states, the
+Junctions between two bang arcs satisfy ``H(u_left) = H(u_right)``, the row divided by the control's jump (the
+switching function crosses its threshold: the row is its value there); between a regular arc and a bound the control is continuous. Unknowns: the free initial states, the
 initial costates, at each junction its time and ``(x, p)`` there (multiple shooting: each arc integrated from its
 own node, matched at its end), a free final time, one multiplier per boundary equality, and the starting controls
 of implicit regular arcs. Conditions: the matching, the junctions', and the transversality conditions of
@@ -559,7 +559,11 @@ class ArcShooting:
                 swapped = ca.vertcat(*[ra.control[j] if j == i else la.control[j] for j in range(self.problem.nu)])
                 Ha = ca.substitute(fl.H, fl.u, la.control)
                 Hb = ca.substitute(fl.H, fl.u, swapped)
-                F = ca.Function("switch", [*sym_in, la.w], [Ha - Hb])
+                # per unit of the control's jump: the switching function there (H affine in the control), not H's
+                # jump, which scales with the bounds (the tumour's dose of 75 made the row 75 times its noise)
+                jump = la.control[i] - ra.control[i]
+                span = abs(float(ca.evalf(jump))) if jump.is_constant() else 0.0
+                F = ca.Function("switch", [*sym_in, la.w], [(Ha - Hb) / span if span > 0 else Ha - Hb])
                 rows.append(F(xl, pl, tj, P, wl))
             elif ka == "regular" and kb in BANG:
                 F = ca.Function("continuity", [*sym_in, la.w], [la.control[i] - ra.control[i]])
