@@ -33,6 +33,8 @@ CERTIFIED = [
     "catalyst_mixing",
     "orbit_raising",
     "rayleigh_mixed",
+    "rayleigh",
+    "tumour_anti_angiogenesis",
     "gto_geo_5N",
 ]
 
@@ -67,6 +69,7 @@ def main() -> None:
                 "total_s": total_s,
                 "chain_over_direct": chain_s / direct_s,
                 "newton_iterations": extremal.shooting.n_jacobian,
+                "route": extremal.route,
             }
         )
         print(f"{name}: {total_s:.3f} s end to end", flush=True)

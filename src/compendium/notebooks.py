@@ -188,8 +188,24 @@ def strip_volatile_metadata(path: str | Path) -> None:
         for key in _VOLATILE_CELL_METADATA:
             cell.metadata.pop(key, None)
         if cell.cell_type == "code":
-            cell.outputs = _merged_streams(cell.outputs)
+            cell.outputs = static_views(_merged_streams(cell.outputs))
     nbformat.write(nb, str(path))
+
+
+#: the output of a live widget: its model lives in the kernel that made it
+WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
+
+
+def static_views(outputs: list) -> list:
+    """``outputs`` without the views of live widgets (``compendium.explorer``) where a static picture comes with
+    them: stored without its kernel, a widget view renders nothing (nbconvert, nbviewer and GitHub pick it first
+    and show a blank) and its model id changes with every run; the picture is what a reader without the kernel
+    sees."""
+    for out in outputs:
+        data = out.get("data") if out.get("output_type") in ("display_data", "execute_result") else None
+        if data and WIDGET_VIEW in data and len(set(data) - {WIDGET_VIEW, "text/plain"}) > 0:
+            del data[WIDGET_VIEW]
+    return outputs
 
 
 def _merged_streams(outputs: list) -> list:
@@ -401,6 +417,9 @@ def build_report(executed: str | Path, output: str | Path) -> Path:
     rows = []
     for nb_path in notebooks:
         nb = nbformat.read(str(nb_path), as_version=4)
+        for cell in nb.cells:
+            if cell.cell_type == "code":
+                cell.outputs = static_views(cell.outputs)
         body, _ = exporter.from_notebook_node(nb)
         target = output / f"{nb_path.stem}.html"
         target.write_text(body, encoding="utf-8")

@@ -1,0 +1,439 @@
+"""Move a slider, see the new optimal trajectory (issue 25): :func:`explore`.
+
+A transcription is built once; each slider move solves it again at the new parameter values, warm-started exactly
+from the solved point nearest to them (a continuation along the slider's path), and redraws the curves in place.
+
+* :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` starts from the nearest
+  solved values (distances in each parameter's share of its range), then from the next nearest, then, stepping
+  halfway from the nearest towards the target, from the points in between; it never raises for a failed solve (the
+  :class:`Outcome` says so: no solution, the solver's status) and raises a ``ValueError`` naming a parameter that
+  is unknown or outside its range.
+* :class:`LatestOnly` runs one solve at a time in a background thread, always the newest value asked for: values
+  asked while a solve runs replace one another, so dragging never queues stale work; a result whose values were
+  superseded before it finished is kept as a warm start but not drawn.
+* :class:`Explorer` (what :func:`explore` returns) shows a slider per parameter, the chosen histories (a figure of
+  ipympl's, its lines updated in place) and a status line: the solver's status, its iterations, the solve time,
+  the error estimate and the objective. A failed solve draws no curve and says so in the status; an inaccurate one
+  (error estimate above the threshold) is drawn grey.
+
+It degrades to a picture: displayed where no widget can live (a stored notebook on GitHub, nbviewer, the HTML
+report, papermill and nbval), the explorer shows a static figure of the default solution and a sentence saying it
+is interactive in JupyterLab (the display carries both, and each front end shows what it can). It writes nothing
+under ``figures/`` or ``data/derived/``.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ocpkit import SolverError
+
+#: what the static picture says
+STATIC_NOTE = "Interactive in JupyterLab: run this cell there to move the sliders."
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One solve of an :class:`ExploreSession`: the parameter ``values`` asked for, the ``solution`` (None where
+    the solve failed), the solver's ``status`` and ``iterations``, the wall time ``solve_s`` (every attempt), the
+    ``error_estimate`` and ``objective`` (NaN without a solution), and the solved values it was warm-started from
+    (``start``; None: the transcription's own guess)."""
+
+    values: dict
+    solution: object | None
+    status: str
+    iterations: int
+    solve_s: float
+    error_estimate: float = float("nan")
+    objective: float = float("nan")
+    start: dict | None = None
+    attempts: int = 1
+
+    @property
+    def solved(self) -> bool:
+        return self.solution is not None
+
+    def accurate(self, threshold: float) -> bool:
+        return self.solved and bool(self.error_estimate <= threshold)
+
+    def status_line(self) -> str:
+        if not self.solved:
+            return f"FAILED: {self.status} ({self.attempts} attempts, {1e3 * self.solve_s:.0f} ms); no curve drawn"
+        return (
+            f"{self.status} · {self.iterations} iterations · {1e3 * self.solve_s:.0f} ms · "
+            f"error estimate {self.error_estimate:.1e} · objective {self.objective:.8g}"
+        )
+
+
+class ExploreSession:
+    """Solves ``transcription`` at parameter values chosen one after another (module docstring).
+
+    ``parameters``: ``{name: (low, high)}``, each a parameter of the transcription's problem; ``first``: a solution
+    of the transcription to start from (default: one solve at the problem's own values); ``solve_options``: passed
+    to every ``transcription.solve`` (default ``error_threshold=None``: the explorer reports the estimate itself);
+    ``halvings``: how many times the continuation halves its step towards a value it cannot reach directly."""
+
+    def __init__(
+        self,
+        transcription,
+        parameters: Mapping[str, tuple[float, float]],
+        *,
+        first=None,
+        solve_options: Mapping | None = None,
+        halvings: int = 3,
+        keep: int = 200,
+    ):
+        problem = transcription.problem
+        if not parameters:
+            raise ValueError("give at least one parameter to explore: {name: (low, high)}")
+        ranges = {}
+        for name, bounds in parameters.items():
+            if name not in problem.parameters:
+                raise KeyError(f"unknown parameter {name!r}; {problem.name!r} has {sorted(problem.parameters)}")
+            lo, hi = (float(b) for b in bounds)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise ValueError(f"parameter {name!r}: its range must be finite with low < high, got {bounds!r}")
+            ranges[name] = (lo, hi)
+        self.transcription, self.ranges = transcription, ranges
+        self.names = list(ranges)
+        self.solve_options = {"error_threshold": None, **(solve_options or {})}
+        self.halvings, self.keep = int(halvings), int(keep)
+        self._lock = threading.Lock()
+        self.solved: list[tuple[np.ndarray, object]] = []  # (values in range units, solution), newest last
+        if first is None:
+            first = transcription.solve(**self.solve_options)
+        self.defaults = {n: float(first.parameters.get(n, problem.parameters[n])) for n in self.names}
+        self._remember(self._point(self.defaults, check=False), first)
+        self.first = first
+
+    def _point(self, values: Mapping[str, float], check: bool = True) -> np.ndarray:
+        unknown = sorted(set(values) - set(self.names))
+        if unknown:
+            raise KeyError(f"unknown parameters {unknown}; this explorer varies {self.names}")
+        out = []
+        for n in self.names:
+            v = float(values.get(n, self.defaults[n]))
+            lo, hi = self.ranges[n]
+            if check and not (np.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"parameter {n!r} = {v!r} is outside its range [{lo:g}, {hi:g}]")
+            out.append((v - lo) / (hi - lo))
+        return np.array(out)
+
+    def _values(self, point: np.ndarray) -> dict:
+        return {n: float(lo + p * (hi - lo)) for n, p, (lo, hi) in zip(self.names, point, self.ranges.values())}
+
+    def _remember(self, point, solution) -> None:
+        with self._lock:
+            self.solved.append((point, solution))
+            del self.solved[: max(0, len(self.solved) - self.keep)]
+
+    def nearest(self, values: Mapping[str, float], count: int = 2) -> list[tuple[np.ndarray, object]]:
+        """The ``count`` solved points nearest to ``values`` (in each parameter's share of its range)."""
+        target = self._point(values)
+        with self._lock:
+            ranked = sorted(self.solved, key=lambda s: float(np.linalg.norm(s[0] - target)))
+        return ranked[:count]
+
+    def _attempt(self, point, start):
+        t = time.perf_counter()
+        try:
+            solution = self.transcription.solve(start, parameters=self._values(point), **self.solve_options)
+        except SolverError as exc:
+            return None, exc.status, exc.iterations or 0, time.perf_counter() - t
+        return solution, solution.status, solution.iterations, time.perf_counter() - t
+
+    def solve(self, values: Mapping[str, float]) -> Outcome:
+        """The transcription solved at ``values`` (the others at their defaults), from the nearest solved points,
+        else by continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a
+        solution, never an exception."""
+        target = self._point(values)
+        asked = self._values(target)
+        spent, attempts, status, iterations = 0.0, 0, "", 0
+        near = self.nearest(asked)
+        for point, start in near:
+            solution, status, iterations, dt = self._attempt(target, start)
+            spent, attempts = spent + dt, attempts + 1
+            if solution is not None:
+                return self._done(target, solution, spent, attempts, point)
+        # continuation from the nearest: halfway towards the target until a step solves, then on from there
+        point, start = near[0]
+        step = 0.5
+        for _ in range(3 * self.halvings):  # each pass halves the step or the distance left
+            if step < 0.5**self.halvings:
+                break
+            middle = point + step * (target - point)
+            solution, status, iterations, dt = self._attempt(middle, start)
+            spent, attempts = spent + dt, attempts + 1
+            if solution is None:
+                step *= 0.5
+                continue
+            self._remember(middle, solution)
+            point, start = middle, solution
+            solution, status, iterations, dt = self._attempt(target, start)
+            spent, attempts = spent + dt, attempts + 1
+            if solution is not None:
+                return self._done(target, solution, spent, attempts, point)
+        return Outcome(asked, None, status, iterations, spent, start=self._values(near[0][0]), attempts=attempts)
+
+    def _done(self, target, solution, spent, attempts, start_point) -> Outcome:
+        self._remember(target, solution)
+        return Outcome(
+            self._values(target),
+            solution,
+            solution.status,
+            solution.iterations,
+            spent,
+            error_estimate=float(solution.error_estimate),
+            objective=float(solution.objective),
+            start=self._values(start_point),
+            attempts=attempts,
+        )
+
+
+class LatestOnly:
+    """``work(request)`` in a background thread for the newest request only (module docstring); ``deliver(result)``
+    is called with each result whose request was not superseded while it ran; ``debounce`` seconds of quiet before
+    a request starts."""
+
+    def __init__(self, work: Callable, deliver: Callable, debounce: float = 0.02):
+        self.work, self.deliver, self.debounce = work, deliver, float(debounce)
+        self._pending = None
+        self._stamp = 0
+        self._busy = False
+        self._cv = threading.Condition()
+        self.delivered = 0
+        self.dropped = 0
+        self._thread = threading.Thread(target=self._run, name="explorer", daemon=True)
+        self._thread.start()
+
+    def submit(self, request) -> None:
+        with self._cv:
+            if self._pending is not None:
+                self.dropped += 1
+            self._pending = request
+            self._stamp += 1
+            self._cv.notify_all()
+
+    def idle(self, timeout: float = 30.0) -> bool:
+        """Wait until no request is pending or running (True), or ``timeout`` seconds (False)."""
+        end = time.monotonic() + timeout
+        with self._cv:
+            while self._pending is not None or self._busy:
+                left = end - time.monotonic()
+                if left <= 0 or not self._cv.wait(left):
+                    return self._pending is None and not self._busy
+        return True
+
+    def _run(self) -> None:
+        while True:
+            with self._cv:
+                while self._pending is None:
+                    self._cv.wait()
+                stamp = self._stamp
+                # quiet for `debounce` seconds: a newer value replaces this one before it starts
+                while self._cv.wait_for(lambda s=stamp: self._stamp != s, timeout=self.debounce):
+                    stamp = self._stamp
+                request, self._pending, self._busy = self._pending, None, True
+            try:
+                result = self.work(request)
+                with self._cv:
+                    stale = self._pending is not None
+                if stale:
+                    self.dropped += 1
+                else:
+                    self.deliver(result)
+                    self.delivered += 1
+            finally:
+                with self._cv:
+                    self._busy = False
+                    self._cv.notify_all()
+
+
+@dataclass
+class History:
+    """A panel of the explorer: ``column`` a state or control of the problem, drawn against time (``label`` on the
+    axis; ``scale`` multiplies the values)."""
+
+    column: str
+    label: str = ""
+    scale: float = 1.0
+
+    def data(self, solution, samples: int = 200) -> tuple[np.ndarray, np.ndarray]:
+        t = np.linspace(solution.t0, solution.tf, samples)
+        problem = solution.problem
+        if self.column in problem.state_names:
+            y = solution.state(t)[:, problem.state_names.index(self.column)]
+        elif self.column in problem.control_names:
+            y = solution.control(t)[:, problem.control_names.index(self.column)]
+        else:
+            raise KeyError(
+                f"unknown history {self.column!r}; the states are {list(problem.state_names)}, the controls "
+                f"{list(problem.control_names)}"
+            )
+        return t, self.scale * np.asarray(y, dtype=float)
+
+
+@dataclass
+class Explorer:
+    """The sliders, the live figure and the status line of :func:`explore` (module docstring); ``outcome`` the
+    outcome drawn last, ``timings`` the last move's split (``solve_s``, ``data_s``, ``redraw_s``)."""
+
+    session: ExploreSession
+    histories: list
+    threshold: float = 1e-3
+    steps: int = 100
+    outcome: Outcome | None = None
+    timings: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        import ipywidgets as widgets
+        from matplotlib.figure import Figure
+
+        self.histories = [h if isinstance(h, History) else History(h) for h in self.histories]
+        first = self.session.first
+        for h in self.histories:
+            h.data(first, 2)  # an unknown column is an error here, not in the thread
+        self.figure = Figure(figsize=(8, 1.2 + 1.6 * len(self.histories)), layout="constrained")
+        axes = self.figure.subplots(len(self.histories), 1, sharex=True, squeeze=False)[:, 0]
+        self.lines, self.reference = [], []
+        for ax, h in zip(axes, self.histories):
+            t, y = h.data(first)
+            (ref,) = ax.plot(t, y, color="0.6", lw=1.0, ls="--", label="default")
+            (line,) = ax.plot(t, y, color="C0", lw=1.6, label="this value")
+            ax.set_ylabel(h.label or h.column)
+            self.lines.append(line)
+            self.reference.append(ref)
+        axes[0].legend(fontsize=8, loc="best")
+        axes[-1].set_xlabel("t")
+        self.axes = list(axes)
+        self.sliders = {}
+        for name, (lo, hi) in self.session.ranges.items():
+            s = widgets.FloatSlider(
+                value=self.session.defaults[name],
+                min=lo,
+                max=hi,
+                step=(hi - lo) / self.steps,
+                description=name,
+                continuous_update=True,
+                readout_format=".4g",
+                layout=widgets.Layout(width="480px"),
+            )
+            s.observe(self._moved, names="value")
+            self.sliders[name] = s
+        self.status = widgets.HTML(value=self._status_html(self._first_outcome()))
+        self.worker = LatestOnly(self._solve, self._draw)
+        self._canvas = None
+
+    def _first_outcome(self) -> Outcome:
+        s = self.session.first
+        return Outcome(
+            dict(self.session.defaults),
+            s,
+            s.status,
+            s.iterations,
+            s.solve_s,
+            error_estimate=float(s.error_estimate),
+            objective=float(s.objective),
+        )
+
+    def _status_html(self, outcome: Outcome) -> str:
+        colour = "#b00020" if not outcome.solved else ("#666" if not outcome.accurate(self.threshold) else "#1b5e20")
+        note = "" if not outcome.solved or outcome.accurate(self.threshold) else " (inaccurate: drawn grey)"
+        return f"<span style='color:{colour};font-family:monospace'>{outcome.status_line()}{note}</span>"
+
+    def values(self) -> dict:
+        return {n: float(s.value) for n, s in self.sliders.items()}
+
+    def _moved(self, _change=None) -> None:
+        self.worker.submit(self.values())
+
+    def _solve(self, values):
+        t = time.perf_counter()
+        outcome = self.session.solve(values)
+        data = [h.data(outcome.solution) for h in self.histories] if outcome.solved else None
+        self.timings = {"solve_s": outcome.solve_s, "data_s": time.perf_counter() - t - outcome.solve_s}
+        return outcome, data
+
+    def _draw(self, result) -> None:
+        outcome, data = result
+        t = time.perf_counter()
+        self.outcome = outcome
+        grey = outcome.solved and not outcome.accurate(self.threshold)
+        for line, ax, d in zip(self.lines, self.axes, data or [None] * len(self.lines)):
+            line.set_visible(d is not None)
+            if d is not None:
+                line.set_data(*d)
+                line.set_color("0.55" if grey else "C0")
+                ax.relim()
+                ax.autoscale_view()
+        self.status.value = self._status_html(outcome)
+        if self._canvas is not None:
+            self._canvas.draw_idle()
+        self.timings["redraw_s"] = time.perf_counter() - t
+
+    def widget(self):
+        """The explorer as one ipywidgets box: sliders, status line, live figure (ipympl's canvas)."""
+        import ipywidgets as widgets
+
+        if self._canvas is None:
+            import warnings
+
+            from ipympl.backend_nbagg import new_figure_manager_given_figure
+
+            with warnings.catch_warnings():  # ipympl's toolbar calls traitlets in a way it deprecates (not ours)
+                warnings.filterwarnings("ignore", "Passing unrecognized arguments", DeprecationWarning)
+                manager = new_figure_manager_given_figure(id(self.figure), self.figure)
+            self._canvas = manager.canvas
+            self._canvas.header_visible = False
+            self._canvas.toolbar_visible = False
+        return widgets.VBox([*self.sliders.values(), self.status, self._canvas])
+
+    def static_png(self) -> bytes:
+        """The default solution's figure as a PNG (what a front end without widgets shows)."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=self.figure.get_size_inches(), layout="constrained")
+        axes = fig.subplots(len(self.histories), 1, sharex=True, squeeze=False)[:, 0]
+        for ax, h, ref in zip(axes, self.histories, self.reference):
+            ax.plot(*ref.get_data(), color="C0", lw=1.6)
+            ax.set_ylabel(h.label or h.column)
+        axes[-1].set_xlabel("t")
+        values = ", ".join(f"{n} = {v:.4g}" for n, v in self.session.defaults.items())
+        fig.suptitle(f"The default solution ({values}). {STATIC_NOTE}", fontsize=8, wrap=True)
+        buf = io.BytesIO()
+        FigureCanvasAgg(fig).print_png(buf)
+        return buf.getvalue()
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        bundle = dict(self.widget()._repr_mimebundle_(include=include, exclude=exclude) or {})
+        bundle["image/png"] = base64.b64encode(self.static_png()).decode("ascii")
+        bundle["text/plain"] = STATIC_NOTE
+        return bundle
+
+
+def explore(
+    transcription,
+    parameters: Mapping[str, tuple[float, float]],
+    histories: Sequence,
+    *,
+    first=None,
+    threshold: float = 1e-3,
+    solve_options: Mapping | None = None,
+) -> Explorer:
+    """An explorer of ``transcription`` over ``parameters`` (``{name: (low, high)}``, parameters of its problem),
+    drawing ``histories`` (state or control names, or :class:`History`) against time (module docstring).
+    ``first``: a solution to start from (default: the transcription solved at the problem's own values);
+    ``threshold``: the error estimate above which a solution is drawn grey."""
+    session = ExploreSession(transcription, parameters, first=first, solve_options=solve_options)
+    return Explorer(session, list(histories), threshold=threshold)
+
+
+__all__ = ["STATIC_NOTE", "ExploreSession", "Explorer", "History", "LatestOnly", "Outcome", "explore"]

@@ -1,0 +1,94 @@
+"""The explorer (compendium.explorer): its solving half against direct solves, its one-at-a-time worker, and the
+widget's curves and status after a move (no browser here: tests/test_lab.py drives JupyterLab)."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from ocpkit import HLGL
+
+from compendium.explorer import STATIC_NOTE, ExploreSession, LatestOnly, explore
+from compendium.problems import lunar_ascent
+
+
+@pytest.fixture(scope="module")
+def ascent():
+    return HLGL(lunar_ascent(thrust_as_parameter=True), 20)
+
+
+def test_each_value_is_solved_from_the_nearest_solved_one_and_is_the_direct_solution(ascent):
+    session = ExploreSession(ascent, {"a": (0.5, 5.0)})
+    assert session.defaults == {"a": 3.0}
+    for a, start in [(3.2, 3.0), (3.15, 3.2), (2.0, 3.0), (1.5, 2.0)]:
+        outcome = session.solve({"a": a})
+        assert outcome.solved and outcome.start == pytest.approx({"a": start})
+        fresh = HLGL(lunar_ascent(thrust_as_parameter=True), 20).solve(parameters={"a": a}, error_threshold=None)
+        assert outcome.objective == pytest.approx(fresh.objective, rel=1e-7)
+        assert outcome.error_estimate < 1e-6 and outcome.iterations <= 10
+
+
+def test_a_value_without_a_solution_is_an_outcome_not_an_exception(ascent):
+    session = ExploreSession(ascent, {"a": (0.05, 5.0)})
+    outcome = session.solve({"a": 0.05})  # a twentieth of the weight: no ascent, from any solved point
+    assert not outcome.solved and outcome.solution is None and outcome.attempts > 1
+    assert outcome.status and outcome.status_line().startswith("FAILED")
+    assert session.solve({"a": 2.5}).solved  # and the session goes on
+    with pytest.raises(ValueError, match=r"parameter 'a' = 6.0 is outside its range \[0.05, 5\]"):
+        session.solve({"a": 6.0})
+    with pytest.raises(KeyError, match="unknown parameters"):
+        session.solve({"thrust": 2.0})
+    with pytest.raises(KeyError, match="unknown parameter 'g'"):
+        ExploreSession(ascent, {"g": (0.1, 1.0)})
+
+
+def test_the_worker_runs_the_newest_value_only():
+    seen, done, gate = [], [], threading.Event()
+
+    def work(value):
+        seen.append(value)
+        gate.wait(5)
+        return value
+
+    worker = LatestOnly(work, done.append, debounce=0.0)
+    worker.submit(0)
+    time.sleep(0.05)  # 0 is running
+    for value in range(1, 20):
+        worker.submit(value)  # each replaces the one before: only 19 will run
+    gate.set()
+    assert worker.idle(10)
+    assert seen == [0, 19] and done == [19]  # 0 finished superseded: kept out of the drawing
+    assert worker.dropped == 19
+
+
+def test_a_move_redraws_the_curves_in_place_and_a_failure_draws_none(ascent):
+    explorer = explore(ascent, {"a": (0.05, 5.0)}, ["Y", "theta"])
+    lines = list(explorer.lines)
+    explorer.sliders["a"].value = 2.0
+    assert explorer.worker.idle(30)
+    fresh = HLGL(lunar_ascent(thrust_as_parameter=True), 20).solve(parameters={"a": 2.0}, error_threshold=None)
+    t, y = lines[0].get_data()
+    assert explorer.lines == lines and np.all([line.get_visible() for line in lines])
+    assert y == pytest.approx(fresh.state(t)[:, fresh.problem.state_names.index("Y")], abs=1e-9)
+    assert "Solve_Succeeded" in explorer.status.value and set(explorer.timings) == {"solve_s", "data_s", "redraw_s"}
+    explorer.sliders["a"].value = 0.05
+    assert explorer.worker.idle(30)
+    assert not any(line.get_visible() for line in lines) and "FAILED" in explorer.status.value
+    bundle = explorer._repr_mimebundle_()
+    assert bundle["text/plain"] == STATIC_NOTE and bundle["image/png"]
+    assert "application/vnd.jupyter.widget-view+json" in bundle
+
+
+def test_stored_and_reported_the_explorer_is_its_picture():
+    """A widget view stored without its kernel renders nothing (nbconvert picks it first): stores and the report
+    keep the picture and drop the view; an output that is only a widget keeps it."""
+    import nbformat
+
+    from compendium.notebooks import WIDGET_VIEW, static_views
+
+    view = {WIDGET_VIEW: {"model_id": "x", "version_major": 2, "version_minor": 0}}
+    both = nbformat.v4.new_output("execute_result", {**view, "image/png": "iVBO", "text/plain": STATIC_NOTE})
+    alone = nbformat.v4.new_output("display_data", {**view, "text/plain": "VBox()"})
+    kept = static_views([both, alone])
+    assert set(kept[0]["data"]) == {"image/png", "text/plain"} and WIDGET_VIEW in kept[1]["data"]
