@@ -154,6 +154,7 @@ bench: setup
 	$(PY) benchmarks/bench_many_solves.py
 	$(PY) benchmarks/bench_sweep.py
 	$(PY) benchmarks/bench_quasi_newton.py
+	$(PY) benchmarks/bench_explorer.py
 
 # stored outputs use the default parameters; where those are a notebook's published ones the run is also copied into
 # the published record (identical when nothing changed: review `git status`); every run's own folder is build/runs/
