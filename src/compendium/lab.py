@@ -14,7 +14,10 @@ Compared with a bare ``jupyter lab notebooks/``, the server
   Jupyter's runtime folder) instead of unencrypted TCP on localhost, which is
   what ipykernel warns about ("Kernel is running over TCP without encryption");
 * passes ``--allow-root`` when run as root (containers), where JupyterLab
-  otherwise refuses to start.
+  otherwise refuses to start;
+* saves a notebook without the views of live widgets that come with a picture
+  (:func:`compendium.notebooks.pre_save_hook`: the explorer's sliders), so a
+  notebook run and saved in Lab stays as stored.
 
 JupyterLab is the one installed next to the running interpreter.
 """
@@ -44,6 +47,9 @@ def lab_command(extra_args: list[str] | tuple[str, ...] = ()) -> list[str]:
         "--LabApp.default_url=/lab/tree/notebooks",
         f"--MappingKernelManager.default_kernel_name={KERNEL_NAME}",
         "--KernelManager.transport=ipc",
+        # a live widget's view is not saved where a picture comes with it (compendium.explorer): a notebook run and
+        # saved in Lab stays as stored
+        "--ContentsManager.pre_save_hook=compendium.notebooks.pre_save_hook",
     ]
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         defaults.append("--allow-root")

@@ -30,7 +30,9 @@ KERNEL_NAME = "ocpkit"
 
 # metadata written by papermill/nbclient that changes on every run
 _VOLATILE_CELL_METADATA = ("papermill", "execution")
-_VOLATILE_NB_METADATA = ("papermill",)
+# papermill's record of the run, and the state of live widgets (nbclient and Lab save it; new model ids every run,
+# and their views are not stored: static_views)
+_VOLATILE_NB_METADATA = ("papermill", "widgets")
 
 
 def parameters_cell(path: str | Path):
@@ -194,6 +196,17 @@ def strip_volatile_metadata(path: str | Path) -> None:
 
 #: the output of a live widget: its model lives in the kernel that made it
 WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
+
+
+def pre_save_hook(model: dict, **_) -> None:
+    """Jupyter server's pre-save hook (``make lab`` sets it): a notebook is saved with :func:`static_views` of its
+    outputs and without the widgets' state, as ``make store`` stores it."""
+    if model.get("type") != "notebook" or not isinstance(model.get("content"), dict):
+        return
+    model["content"].get("metadata", {}).pop("widgets", None)
+    for cell in model["content"].get("cells", []):
+        if cell.get("cell_type") == "code":
+            static_views(cell.get("outputs", []))
 
 
 def static_views(outputs: list) -> list:
