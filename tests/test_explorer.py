@@ -92,3 +92,16 @@ def test_stored_and_reported_the_explorer_is_its_picture():
     alone = nbformat.v4.new_output("display_data", {**view, "text/plain": "VBox()"})
     kept = static_views([both, alone])
     assert set(kept[0]["data"]) == {"image/png", "text/plain"} and WIDGET_VIEW in kept[1]["data"]
+
+
+def test_lab_saves_the_explorer_as_it_is_stored():
+    """make lab's pre-save hook: the widget's view goes where a picture comes with it, and so does the widgets'
+    state in the notebook's metadata (new model ids every run)."""
+    from compendium.notebooks import WIDGET_VIEW, pre_save_hook
+
+    view = {WIDGET_VIEW: {"model_id": "x", "version_major": 2, "version_minor": 0}}
+    cell = {"cell_type": "code", "outputs": [{"output_type": "execute_result", "data": {**view, "image/png": "iVBO"}}]}
+    model = {"type": "notebook", "content": {"metadata": {"widgets": {"state": {}}, "kernelspec": {}}, "cells": [cell]}}
+    pre_save_hook(model=model, path="n.ipynb", contents_manager=None)
+    assert model["content"]["metadata"] == {"kernelspec": {}} and set(cell["outputs"][0]["data"]) == {"image/png"}
+    pre_save_hook(model={"type": "file", "content": "text"}, path="a.txt", contents_manager=None)  # left alone

@@ -141,10 +141,10 @@ class ExploreSession:
             ranked = sorted(self.solved, key=lambda s: float(np.linalg.norm(s[0] - target)))
         return ranked[:count]
 
-    def _attempt(self, point, start):
+    def _attempt(self, values: dict, start):
         t = time.perf_counter()
         try:
-            solution = self.transcription.solve(start, parameters=self._values(point), **self.solve_options)
+            solution = self.transcription.solve(start, parameters=values, **self.solve_options)
         except SolverError as exc:
             return None, exc.status, exc.iterations or 0, time.perf_counter() - t
         return solution, solution.status, solution.iterations, time.perf_counter() - t
@@ -154,14 +154,14 @@ class ExploreSession:
         else by continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a
         solution, never an exception."""
         target = self._point(values)
-        asked = self._values(target)
+        asked = {n: float(values.get(n, self.defaults[n])) for n in self.names}
         spent, attempts, status, iterations = 0.0, 0, "", 0
         near = self.nearest(asked)
         for point, start in near:
-            solution, status, iterations, dt = self._attempt(target, start)
+            solution, status, iterations, dt = self._attempt(asked, start)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(target, solution, spent, attempts, point)
+                return self._done(asked, target, solution, spent, attempts, point)
         # continuation from the nearest: halfway towards the target until a step solves, then on from there
         point, start = near[0]
         step = 0.5
@@ -169,23 +169,23 @@ class ExploreSession:
             if step < 0.5**self.halvings:
                 break
             middle = point + step * (target - point)
-            solution, status, iterations, dt = self._attempt(middle, start)
+            solution, status, iterations, dt = self._attempt(self._values(middle), start)
             spent, attempts = spent + dt, attempts + 1
             if solution is None:
                 step *= 0.5
                 continue
             self._remember(middle, solution)
             point, start = middle, solution
-            solution, status, iterations, dt = self._attempt(target, start)
+            solution, status, iterations, dt = self._attempt(asked, start)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(target, solution, spent, attempts, point)
+                return self._done(asked, target, solution, spent, attempts, point)
         return Outcome(asked, None, status, iterations, spent, start=self._values(near[0][0]), attempts=attempts)
 
-    def _done(self, target, solution, spent, attempts, start_point) -> Outcome:
+    def _done(self, asked, target, solution, spent, attempts, start_point) -> Outcome:
         self._remember(target, solution)
         return Outcome(
-            self._values(target),
+            asked,
             solution,
             solution.status,
             solution.iterations,
@@ -315,11 +315,15 @@ class Explorer:
         self.axes = list(axes)
         self.sliders = {}
         for name, (lo, hi) in self.session.ranges.items():
+            default = self.session.defaults[name]
+            step = (hi - lo) / self.steps
+            if default > lo:  # the default on the slider's grid (the front end snaps a value to it, and sends it back)
+                step = (default - lo) / max(1, round((default - lo) / step))
             s = widgets.FloatSlider(
-                value=self.session.defaults[name],
+                value=default,
                 min=lo,
                 max=hi,
-                step=(hi - lo) / self.steps,
+                step=step,
                 description=name,
                 continuous_update=True,
                 readout_format=".4g",
@@ -327,7 +331,8 @@ class Explorer:
             )
             s.observe(self._moved, names="value")
             self.sliders[name] = s
-        self.status = widgets.HTML(value=self._status_html(self._first_outcome()))
+        self.outcome = self._first_outcome()
+        self.status = widgets.HTML(value=self._status_html(self.outcome))
         self.worker = LatestOnly(self._solve, self._draw)
         self._canvas = None
 

@@ -1,0 +1,144 @@
+"""The explorer in JupyterLab, driven as a user drives it (issue 25): notebook 01 run in Lab in headless Chromium, its
+thrust slider moved by keyboard, the new solution read back from the kernel, a value without a solution shown as
+failed with no curve, and the published record untouched.
+
+A throw-away clone of the repository is served by `python -m compendium.lab` (as in tests/test_lab_roundtrip.py,
+whose Chromium driver, over the DevTools protocol, and Lab commands this reuses). About 20 s.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+from test_lab import _running_lab, needs_chromium
+from test_lab_roundtrip import (
+    _ACCEPT_DIALOG,
+    _PANEL,
+    _PROGRESS,
+    _WATCH,
+    MAKE_ENV,
+    PAGE_TIMEOUT,
+    _Browser,
+    _clone_working_tree,
+    _git,
+    _lab_config,
+    pytestmark,  # noqa: F401  (the same skips: Lab and the kernel installed)
+)
+
+NAME = "01_lunar_ascent.ipynb"
+MOVE_TIMEOUT = 5.0  # from the key press to the new status line in the page (the benchmark's median is 0.07 s)
+
+# the explore cell's output: its slider handle, the readout and the status line
+_WIDGETS = """(() => {
+  const panel = window.__roundtrip.panel;
+  const cell = panel.content.widgets.find(c => c.model.type === 'code'
+                                               && c.model.sharedModel.getSource().includes('explore('));
+  if (!cell) return {error: 'no explore cell in the notebook'};
+  const node = cell.outputArea.node;
+  const handle = node.querySelector('.noUi-handle');
+  const canvas = node.querySelector('.jupyter-matplotlib canvas, .jupyter-matplotlib-canvas-div canvas');
+  const status = node.querySelector('.widget-html-content');
+  const readout = node.querySelector('.widget-readout');
+  window.__explorer = {handle, status};
+  return {done: !!(handle && canvas && status), handle: !!handle, canvas: !!canvas,
+          status: status && status.textContent, readout: readout && (readout.innerText || readout.value)};
+})()"""
+
+# the status line, once it differs from BEFORE
+_STATUS_CHANGED = """(() => {
+  const text = window.__explorer.status.textContent;
+  return {done: text !== BEFORE, status: text};
+})()"""
+
+# the explorer as the kernel holds it, after its worker has settled (stdout of one silent execution)
+_READ_BACK = """
+import gc as _gc, json as _json
+from compendium.explorer import Explorer as _Explorer
+_e = [_o for _o in _gc.get_objects() if isinstance(_o, _Explorer)][-1]
+_e.worker.idle(30)
+_o = _e.outcome
+_fresh = _e.session.transcription.solve(parameters=_e.values(), error_threshold=None, raise_on_failure=False)
+print(_json.dumps({"slider": _e.values(), "drawn": _o.values if _o else None, "solved": bool(_o and _o.solved),
+                   "objective": _o.objective if _o else None, "fresh": _fresh.objective if _fresh.converged else None,
+                   "visible": [_l.get_visible() for _l in _e.lines], "timings": _e.timings}))
+"""
+
+_EXECUTE = """(async () => {
+  const kernel = window.__roundtrip.panel.sessionContext.session.kernel;
+  const future = kernel.requestExecute({code: CODE, silent: false, store_history: false});
+  let text = '', error = null;
+  future.onIOPub = msg => {
+    if (msg.header.msg_type === 'stream') text += msg.content.text;
+    if (msg.header.msg_type === 'error') error = msg.content.ename + ': ' + msg.content.evalue;
+  };
+  await future.done;
+  return {done: true, text, error};
+})()"""
+
+
+def _key(browser: _Browser, key: str, code: int) -> None:
+    browser.js("window.__explorer.handle.focus()")
+    for kind in ("rawKeyDown", "keyUp"):
+        browser.call("Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
+
+
+def _read_back(browser: _Browser) -> dict:
+    value = browser.js(_EXECUTE.replace("CODE", json.dumps(_READ_BACK)))
+    assert not value["error"], value
+    return json.loads(value["text"].strip().splitlines()[-1])
+
+
+def _move(browser: _Browser, key: str, code: int, times: int = 1) -> tuple[dict, float]:
+    before = browser.js("window.__explorer.status.textContent")
+    start = time.monotonic()
+    for _ in range(times):
+        _key(browser, key, code)
+    changed = browser.poll(_STATUS_CHANGED.replace("BEFORE", json.dumps(before)), MOVE_TIMEOUT, f"{key} on the slider")
+    return changed, time.monotonic() - start
+
+
+@needs_chromium
+def test_moving_the_thrust_slider_in_lab_solves_and_redraws(tmp_path, monkeypatch):
+    monkeypatch.delenv("OCPKIT_OUTPUT_DIR", raising=False)
+    monkeypatch.delenv("OCPKIT_PROGRESS", raising=False)
+    clone = tmp_path / "clone"
+    _clone_working_tree(clone)
+    workdir = Path(tempfile.mkdtemp(prefix="ocpkit-lab-"))  # short: IPC socket paths are limited to ~107 characters
+    try:
+        env = {"OCPKIT_ROOT": str(clone), "JUPYTER_CONFIG_DIR": str(_lab_config(workdir)), **MAKE_ENV}
+        with _running_lab(workdir, env) as server:
+            browser = _Browser(tmp_path / "profile", tmp_path / "chromium.log")
+            try:
+                browser.call("Page.navigate", url=server.url(f"/lab/tree/notebooks/{NAME}"))
+                browser.poll(_PANEL.replace("PATH", json.dumps(f"notebooks/{NAME}")), PAGE_TIMEOUT, f"opening {NAME}")
+                browser.js(_WATCH)
+                browser.js("void window.jupyterapp.commands.execute('notebook:restart-run-all')")
+                browser.poll(_ACCEPT_DIALOG, 30, "the Restart Kernel dialog")
+                browser.poll(_PROGRESS, 120, f"Run All Cells of {NAME}", interval=0.5)
+                widgets = browser.poll(_WIDGETS, 30, "the explorer's slider, figure and status line in the page")
+                assert "Solve_Succeeded" in widgets["status"], widgets
+                default = _read_back(browser)
+                assert default["slider"] == {"a": 3.0}
+
+                moved, seconds = _move(browser, "ArrowRight", 39, times=5)
+                after = _read_back(browser)
+                print(f"five steps right: the status line changed after {seconds:.2f} s; {after['timings']}")
+                assert after["slider"]["a"] > 3.0 and after["drawn"] == after["slider"] and after["solved"]
+                assert after["objective"] == pytest.approx(after["fresh"], rel=1e-7)  # the solution at that value
+                assert after["objective"] < default["objective"] and all(after["visible"])  # more thrust, sooner
+                assert "Solve_Succeeded" in moved["status"] and seconds < MOVE_TIMEOUT
+
+                failed, _ = _move(browser, "Home", 36)  # the slider's low end, a twentieth of the weight
+                low = _read_back(browser)
+                assert low["slider"]["a"] == pytest.approx(0.05) and not low["solved"], low
+                assert not any(low["visible"]) and failed["status"].startswith("FAILED"), failed
+            finally:
+                browser.close()
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+    assert _git(clone, "status", "--porcelain", "--", "figures", "data") == ""  # the record is untouched
