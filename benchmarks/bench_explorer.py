@@ -6,8 +6,9 @@ For the lunar ascent (HLGL 20, the thrust-to-weight ratio ``a`` as its parameter
 in [2, 4] in steps of a slider's width (``steps`` = 100 of its range, as the explorer's sliders have), then jumps
 across the range at random. Each move is split into the solve (from the nearest solved value:
 ``compendium.explorer.ExploreSession``), the data (sampling the histories) and the redraw (the figure rendered by
-Agg, which is what ipympl does when the front end asks for the new image); the debounce is not counted. Issue 25's
-goal: median under 0.1 s and 95th percentile under 0.3 s. Writes ``build/bench/explorer.csv``.
+Agg, which is what ipympl does when the front end asks for the new image); the debounce, the messages to the front
+end and the image's encoding and transfer are not counted (tests/test_explorer_lab.py measures a move in Lab, end to
+end). Issue 25's goal: median under 0.1 s and 95th percentile under 0.3 s. Writes ``build/bench/explorer.csv``.
 """
 
 from __future__ import annotations

@@ -44,16 +44,17 @@ def test_a_value_without_a_solution_is_an_outcome_not_an_exception(ascent):
 
 
 def test_the_worker_runs_the_newest_value_only():
-    seen, done, gate = [], [], threading.Event()
+    seen, done, gate, started = [], [], threading.Event(), threading.Event()
 
     def work(value):
         seen.append(value)
+        started.set()
         gate.wait(5)
         return value
 
     worker = LatestOnly(work, done.append, debounce=0.0)
     worker.submit(0)
-    time.sleep(0.05)  # 0 is running
+    assert started.wait(5)  # 0 is running
     for value in range(1, 20):
         worker.submit(value)  # each replaces the one before: only 19 will run
     gate.set()
@@ -105,3 +106,47 @@ def test_lab_saves_the_explorer_as_it_is_stored():
     pre_save_hook(model=model, path="n.ipynb", contents_manager=None)
     assert model["content"]["metadata"] == {"kernelspec": {}} and set(cell["outputs"][0]["data"]) == {"image/png"}
     pre_save_hook(model={"type": "file", "content": "text"}, path="a.txt", contents_manager=None)  # left alone
+
+
+def test_the_worker_survives_an_error_and_shows_it_and_a_drag_solves_as_it_goes():
+    done = []
+
+    def work(value):
+        if value == "boom":
+            raise RuntimeError("boom")
+        return value
+
+    worker = LatestOnly(work, done.append, lambda request, exc: f"failed {request}: {exc}", debounce=0.02)
+    worker.submit("boom")
+    assert worker.idle(5) and done == ["failed boom: boom"]
+    worker.submit("fine")
+    assert worker.idle(5) and done[-1] == "fine" and worker._thread.is_alive()
+    # a value every 5 ms for 0.5 s: quieter than the debounce never, yet solves start within max_wait
+    done.clear()
+    for i in range(100):
+        worker.submit(i)
+        time.sleep(0.005)
+    assert worker.idle(5) and len(done) >= 3 and done[-1] == 99
+    worker.stop()
+    worker._thread.join(5)
+    assert not worker._thread.is_alive()
+
+
+def test_an_error_in_the_session_is_shown_not_hung(ascent, monkeypatch):
+    explorer = explore(ascent, {"a": (0.05, 5.0)}, ["Y"])
+    monkeypatch.setattr(explorer.session, "solve", lambda *a, **k: 1 / 0)
+    explorer.sliders["a"].value = 2.0
+    assert explorer.worker.idle(10)
+    assert "ERROR: ZeroDivisionError" in explorer.status.value and not explorer.lines[0].get_visible()
+    monkeypatch.undo()
+    explorer.sliders["a"].value = 2.5
+    assert explorer.worker.idle(10) and "Solve_Succeeded" in explorer.status.value
+    explorer.close()
+
+
+def test_a_first_solution_at_other_values_is_the_default(ascent):
+    first = ascent.solve(parameters={"a": 2.0}, error_threshold=None)
+    session = ExploreSession(ascent, {"a": (0.05, 5.0)}, first=first)
+    assert session.defaults == {"a": 2.0}
+    with pytest.raises(ValueError, match="outside its range"):
+        ExploreSession(ascent, {"a": (2.5, 5.0)}, first=first)

@@ -49,10 +49,10 @@ _WIDGETS = """(() => {
           status: status && status.textContent, readout: readout && (readout.innerText || readout.value)};
 })()"""
 
-# the status line, once it differs from BEFORE
+# the status line, once it differs from BEFORE and no longer says that a value is being solved
 _STATUS_CHANGED = """(() => {
   const text = window.__explorer.status.textContent;
-  return {done: text !== BEFORE, status: text};
+  return {done: text !== BEFORE && !text.startsWith('solving'), status: text};
 })()"""
 
 # the explorer as the kernel holds it, after its worker has settled (stdout of one silent execution)
@@ -60,7 +60,7 @@ _READ_BACK = """
 import gc as _gc, json as _json
 from compendium.explorer import Explorer as _Explorer
 _e = [_o for _o in _gc.get_objects() if isinstance(_o, _Explorer)][-1]
-_e.worker.idle(30)
+assert _e.worker.idle(30), "the explorer's worker is still busy"
 _o = _e.outcome
 _fresh = _e.session.transcription.solve(parameters=_e.values(), error_threshold=None, raise_on_failure=False)
 print(_json.dumps({"slider": _e.values(), "drawn": _o.values if _o else None, "solved": bool(_o and _o.solved),

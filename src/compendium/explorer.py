@@ -25,9 +25,11 @@ under ``figures/`` or ``data/derived/``.
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import threading
 import time
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -37,6 +39,22 @@ from ocpkit import SolverError
 
 #: what the static picture says
 STATIC_NOTE = "Interactive in JupyterLab: run this cell there to move the sliders."
+
+#: the explorer's IPOPT option overrides: its default output level, given, so that the transcription builds the
+#: explorer an IPOPT instance of its own (one instance cannot run two solves at once: the process would crash)
+EXPLORER_IPOPT = {"print_level": 0}
+
+_LOCKS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_LOCKS_GUARD = threading.Lock()
+
+
+@contextlib.contextmanager
+def _solving(transcription):
+    """One explorer's solve of ``transcription`` at a time (several explorers may share a transcription)."""
+    with _LOCKS_GUARD:
+        lock = _LOCKS.setdefault(transcription, threading.Lock())
+    with lock:
+        yield
 
 
 @dataclass(frozen=True)
@@ -103,14 +121,19 @@ class ExploreSession:
             ranges[name] = (lo, hi)
         self.transcription, self.ranges = transcription, ranges
         self.names = list(ranges)
-        self.solve_options = {"error_threshold": None, **(solve_options or {})}
+        options = dict(solve_options or {})
+        # an IPOPT instance of the explorer's own (the transcription keeps one per set of option overrides): a solve
+        # of the transcription elsewhere, in the notebook's own thread, may run while the explorer's does
+        options["ipopt_options"] = {**EXPLORER_IPOPT, **(options.get("ipopt_options") or {})}
+        self.solve_options = {"error_threshold": None, **options, "raise_on_failure": True}
         self.halvings, self.keep = int(halvings), int(keep)
         self._lock = threading.Lock()
         self.solved: list[tuple[np.ndarray, object]] = []  # (values in range units, solution), newest last
         if first is None:
             first = transcription.solve(**self.solve_options)
-        self.defaults = {n: float(first.parameters.get(n, problem.parameters[n])) for n in self.names}
-        self._remember(self._point(self.defaults, check=False), first)
+        solved_with = first.problem.parameters  # the values the solution was solved at
+        self.defaults = {n: float(solved_with.get(n, problem.parameters[n])) for n in self.names}
+        self._remember(self._point(self.defaults), first)
         self.first = first
 
     def _point(self, values: Mapping[str, float], check: bool = True) -> np.ndarray:
@@ -131,6 +154,7 @@ class ExploreSession:
 
     def _remember(self, point, solution) -> None:
         with self._lock:
+            self.solved = [s for s in self.solved if not np.array_equal(s[0], point)]  # the newest at a point
             self.solved.append((point, solution))
             del self.solved[: max(0, len(self.solved) - self.keep)]
 
@@ -144,39 +168,49 @@ class ExploreSession:
     def _attempt(self, values: dict, start):
         t = time.perf_counter()
         try:
-            solution = self.transcription.solve(start, parameters=values, **self.solve_options)
+            with _solving(self.transcription):  # one solve of a transcription at a time, among explorers
+                solution = self.transcription.solve(start, parameters=values, **self.solve_options)
         except SolverError as exc:
             return None, exc.status, exc.iterations or 0, time.perf_counter() - t
+        if not solution.converged:  # (raise_on_failure is forced, but a solution that says so is never drawn)
+            return None, solution.status, solution.iterations, time.perf_counter() - t
         return solution, solution.status, solution.iterations, time.perf_counter() - t
 
-    def solve(self, values: Mapping[str, float]) -> Outcome:
+    def solve(self, values: Mapping[str, float], superseded: Callable[[], bool] = lambda: False) -> Outcome:
         """The transcription solved at ``values`` (the others at their defaults), from the nearest solved points,
         else by continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a
-        solution, never an exception."""
+        solution, never an exception; its status is that of the solve at ``values`` from the nearest solved point.
+        ``superseded()``, asked between attempts: True stops the search (status ``"superseded"``)."""
         target = self._point(values)
         asked = {n: float(values.get(n, self.defaults[n])) for n in self.names}
         spent, attempts, status, iterations = 0.0, 0, "", 0
         near = self.nearest(asked)
         for point, start in near:
-            solution, status, iterations, dt = self._attempt(asked, start)
+            if attempts and superseded():
+                return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
+            solution, tried, its, dt = self._attempt(asked, start)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
                 return self._done(asked, target, solution, spent, attempts, point)
+            if attempts == 1:
+                status, iterations = tried, its
         # continuation from the nearest: halfway towards the target until a step solves, then on from there
         point, start = near[0]
         step = 0.5
         for _ in range(3 * self.halvings):  # each pass halves the step or the distance left
             if step < 0.5**self.halvings:
                 break
+            if superseded():
+                return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
             middle = point + step * (target - point)
-            solution, status, iterations, dt = self._attempt(self._values(middle), start)
+            solution, _, _, dt = self._attempt(self._values(middle), start)
             spent, attempts = spent + dt, attempts + 1
             if solution is None:
                 step *= 0.5
                 continue
             self._remember(middle, solution)
             point, start = middle, solution
-            solution, status, iterations, dt = self._attempt(asked, start)
+            solution, _, _, dt = self._attempt(asked, start)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
                 return self._done(asked, target, solution, spent, attempts, point)
@@ -199,17 +233,31 @@ class ExploreSession:
 
 class LatestOnly:
     """``work(request)`` in a background thread for the newest request only (module docstring); ``deliver(result)``
-    is called with each result whose request was not superseded while it ran; ``debounce`` seconds of quiet before
-    a request starts."""
+    is called with each result whose request was not superseded while it ran. A request starts after ``debounce``
+    seconds without a newer one, or ``max_wait`` seconds after it was first asked, whichever comes first (a drag
+    that sends a value every 16 ms still solves as it goes). ``work`` may ask :meth:`superseded` to stop early. An
+    exception in ``work`` or ``deliver`` becomes ``failed(request, exception)``, delivered: the thread goes on."""
 
-    def __init__(self, work: Callable, deliver: Callable, debounce: float = 0.02):
-        self.work, self.deliver, self.debounce = work, deliver, float(debounce)
+    def __init__(
+        self,
+        work: Callable,
+        deliver: Callable,
+        failed: Callable | None = None,
+        *,
+        debounce: float = 0.02,
+        max_wait: float = 0.1,
+    ):
+        self.work, self.deliver, self.failed = work, deliver, failed
+        self.debounce, self.max_wait = float(debounce), float(max_wait)
         self._pending = None
+        self._since = 0.0
         self._stamp = 0
         self._busy = False
+        self._stopped = False
         self._cv = threading.Condition()
         self.delivered = 0
         self.dropped = 0
+        self.errors: list[BaseException] = []
         self._thread = threading.Thread(target=self._run, name="explorer", daemon=True)
         self._thread.start()
 
@@ -217,9 +265,16 @@ class LatestOnly:
         with self._cv:
             if self._pending is not None:
                 self.dropped += 1
+            else:
+                self._since = time.monotonic()
             self._pending = request
             self._stamp += 1
             self._cv.notify_all()
+
+    def superseded(self) -> bool:
+        """Whether a newer request waits (the running one may stop)."""
+        with self._cv:
+            return self._pending is not None or self._stopped
 
     def idle(self, timeout: float = 30.0) -> bool:
         """Wait until no request is pending or running (True), or ``timeout`` seconds (False)."""
@@ -231,25 +286,53 @@ class LatestOnly:
                     return self._pending is None and not self._busy
         return True
 
+    def stop(self) -> None:
+        """End the thread (after the request running, if any)."""
+        with self._cv:
+            self._stopped, self._pending = True, None
+            self._cv.notify_all()
+
+    def _next(self):
+        with self._cv:
+            while self._pending is None and not self._stopped:
+                self._cv.wait()
+            while not self._stopped:
+                stamp, waited = self._stamp, time.monotonic() - self._since
+                quiet = min(self.debounce, max(0.0, self.max_wait - waited))
+                newer = lambda s=stamp: self._stamp != s or self._stopped  # noqa: E731
+                if quiet <= 0 or not self._cv.wait_for(newer, timeout=quiet):
+                    break  # quiet long enough, or waited long enough
+            if self._stopped:
+                return None, False
+            request, self._pending, self._busy = self._pending, None, True
+            return request, True
+
     def _run(self) -> None:
         while True:
-            with self._cv:
-                while self._pending is None:
-                    self._cv.wait()
-                stamp = self._stamp
-                # quiet for `debounce` seconds: a newer value replaces this one before it starts
-                while self._cv.wait_for(lambda s=stamp: self._stamp != s, timeout=self.debounce):
-                    stamp = self._stamp
-                request, self._pending, self._busy = self._pending, None, True
+            request, ok = self._next()
+            if not ok:
+                return
             try:
-                result = self.work(request)
+                try:
+                    result = self.work(request)
+                except Exception as exc:  # noqa: BLE001  (any error is shown, and the explorer goes on)
+                    self.errors.append(exc)
+                    if self.failed is None:
+                        continue
+                    result = self.failed(request, exc)
                 with self._cv:
                     stale = self._pending is not None
-                if stale:
-                    self.dropped += 1
-                else:
-                    self.deliver(result)
-                    self.delivered += 1
+                    if stale:
+                        self.dropped += 1
+                if not stale:
+                    try:
+                        self.deliver(result)
+                        self.delivered += 1
+                    except Exception as exc:  # noqa: BLE001
+                        self.errors.append(exc)
+                        if self.failed is not None:
+                            with contextlib.suppress(Exception):
+                                self.deliver(self.failed(request, exc))
             finally:
                 with self._cv:
                     self._busy = False
@@ -333,7 +416,7 @@ class Explorer:
             self.sliders[name] = s
         self.outcome = self._first_outcome()
         self.status = widgets.HTML(value=self._status_html(self.outcome))
-        self.worker = LatestOnly(self._solve, self._draw)
+        self.worker = LatestOnly(self._solve, self._draw, self._failed)
         self._canvas = None
 
     def _first_outcome(self) -> Outcome:
@@ -357,17 +440,32 @@ class Explorer:
         return {n: float(s.value) for n, s in self.sliders.items()}
 
     def _moved(self, _change=None) -> None:
-        self.worker.submit(self.values())
+        values = self.values()
+        self.worker.submit(values)
+        asked = ", ".join(f"{n} = {v:.4g}" for n, v in values.items())
+        self.status.value = f"<span style='color:#666;font-family:monospace'>solving {asked} …</span>"
+
+    def _failed(self, values, exc) -> tuple:
+        message = f"ERROR: {type(exc).__name__}: {exc}".replace("<", "&lt;")
+        return Outcome(dict(values), None, message, 0, 0.0), None
+
+    def close(self) -> None:
+        """Stop the explorer's thread and close its widgets (the solutions it kept are released with it)."""
+        self.worker.stop()
+        for w in [*self.sliders.values(), self.status, *([self._canvas] if self._canvas is not None else [])]:
+            w.close()
 
     def _solve(self, values):
         t = time.perf_counter()
-        outcome = self.session.solve(values)
+        outcome = self.session.solve(values, superseded=self.worker.superseded)
         data = [h.data(outcome.solution) for h in self.histories] if outcome.solved else None
         self.timings = {"solve_s": outcome.solve_s, "data_s": time.perf_counter() - t - outcome.solve_s}
         return outcome, data
 
     def _draw(self, result) -> None:
         outcome, data = result
+        if outcome.status == "superseded":
+            return  # a newer value is on its way
         t = time.perf_counter()
         self.outcome = outcome
         grey = outcome.solved and not outcome.accurate(self.threshold)
@@ -390,9 +488,12 @@ class Explorer:
         if self._canvas is None:
             import warnings
 
+            import matplotlib.pyplot as plt
             from ipympl.backend_nbagg import new_figure_manager_given_figure
 
-            with warnings.catch_warnings():  # ipympl's toolbar calls traitlets in a way it deprecates (not ours)
+            # ipympl's toolbar calls traitlets in a way it deprecates (not ours); with interactive mode off, ipympl
+            # keeps no reference of its own to the figure (plt.ion would queue it for a show that never comes)
+            with warnings.catch_warnings(), plt.ioff():
                 warnings.filterwarnings("ignore", "Passing unrecognized arguments", DeprecationWarning)
                 manager = new_figure_manager_given_figure(id(self.figure), self.figure)
             self._canvas = manager.canvas

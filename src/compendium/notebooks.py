@@ -430,6 +430,7 @@ def build_report(executed: str | Path, output: str | Path) -> Path:
     rows = []
     for nb_path in notebooks:
         nb = nbformat.read(str(nb_path), as_version=4)
+        nb.metadata.pop("widgets", None)  # their state: the views go, and its embedding script is on the network
         for cell in nb.cells:
             if cell.cell_type == "code":
                 cell.outputs = static_views(cell.outputs)
