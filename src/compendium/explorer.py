@@ -6,15 +6,20 @@ from the solved point nearest to them (a continuation along the slider's path), 
 * :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` starts from the nearest
   solved values (distances in each parameter's share of its range), then from the next nearest, then, stepping
   halfway from the nearest towards the target, from the points in between; it never raises for a failed solve (the
-  :class:`Outcome` says so: no solution, the solver's status) and raises a ``ValueError`` naming a parameter that
-  is unknown or outside its range.
+  :class:`Outcome` says so: no solution, the status of the solve at the value asked) and raises a ``ValueError``
+  naming a parameter that is unknown or outside its range. Its solves use an IPOPT instance of their own
+  (:data:`EXPLORER_IPOPT`) and one lock per transcription, so a solve of the same transcription in the notebook's
+  thread, or by another explorer, never runs in the same instance at the same time (that crashes the process).
 * :class:`LatestOnly` runs one solve at a time in a background thread, always the newest value asked for: values
-  asked while a solve runs replace one another, so dragging never queues stale work; a result whose values were
-  superseded before it finished is kept as a warm start but not drawn.
+  asked while a solve runs replace one another, so dragging never queues stale work, and a continuation stops when
+  a newer value waits; a drag still solves as it goes (``max_wait``). A result whose values were superseded before
+  it finished is kept as a warm start but not drawn; an exception is shown as the status (``ERROR: ...``, no curve)
+  and the thread goes on.
 * :class:`Explorer` (what :func:`explore` returns) shows a slider per parameter, the chosen histories (a figure of
   ipympl's, its lines updated in place) and a status line: the solver's status, its iterations, the solve time,
-  the error estimate and the objective. A failed solve draws no curve and says so in the status; an inaccurate one
-  (error estimate above the threshold) is drawn grey.
+  the error estimate and the objective ("solving ..." while a value is solved). A failed solve draws no curve and
+  says so in the status; an inaccurate one (error estimate above the threshold) is drawn grey. ``close()`` ends its
+  thread.
 
 It degrades to a picture: displayed where no widget can live (a stored notebook on GitHub, nbviewer, the HTML
 report, papermill and nbval), the explorer shows a static figure of the default solution and a sentence saying it
