@@ -150,3 +150,23 @@ def test_a_first_solution_at_other_values_is_the_default(ascent):
     assert session.defaults == {"a": 2.0}
     with pytest.raises(ValueError, match="outside its range"):
         ExploreSession(ascent, {"a": (2.5, 5.0)}, first=first)
+
+
+def test_an_explorer_leaves_matplotlibs_backend_as_it_was():
+    """ipympl's import makes itself matplotlib's backend (and closes every figure): in a notebook every figure after
+    an explorer would have become a widget. Checked in a fresh process, where ipympl is not imported yet."""
+    import subprocess
+    import sys
+
+    code = (
+        "import matplotlib; matplotlib.use('agg'); import matplotlib.pyplot as plt\n"
+        "kept = plt.figure()\n"
+        "from ocpkit import HLGL\n"
+        "from compendium.explorer import explore\n"
+        "from compendium.problems import lunar_ascent\n"
+        "e = explore(HLGL(lunar_ascent(thrust_as_parameter=True), 10), {'a': (1.0, 5.0)}, ['Y'])\n"
+        "e.widget()\n"
+        "print(matplotlib.get_backend(), type(plt.figure().canvas).__name__, plt.fignum_exists(kept.number))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.split() == ["agg", "FigureCanvasAgg", "True"], out.stdout + out.stderr

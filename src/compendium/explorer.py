@@ -62,6 +62,23 @@ def _solving(transcription):
         yield
 
 
+def _import_ipympl() -> None:
+    """Import ipympl without its side effect: its package ``__init__`` makes ipympl matplotlib's backend when
+    matplotlib is loaded (``matplotlib.use``, which also closes every open figure), so every figure drawn after an
+    explorer, in the notebook's inline backend, would become a widget. Imported while matplotlib is out of
+    ``sys.modules``, it leaves the backend as it was; its backend module is then imported as usual."""
+    import sys
+
+    if "ipympl" in sys.modules:
+        return
+    matplotlib = sys.modules.pop("matplotlib", None)
+    try:
+        import ipympl  # noqa: F401
+    finally:
+        if matplotlib is not None:
+            sys.modules["matplotlib"] = matplotlib
+
+
 @dataclass(frozen=True)
 class Outcome:
     """One solve of an :class:`ExploreSession`: the parameter ``values`` asked for, the ``solution`` (None where
@@ -494,6 +511,8 @@ class Explorer:
             import warnings
 
             import matplotlib.pyplot as plt
+
+            _import_ipympl()
             from ipympl.backend_nbagg import new_figure_manager_given_figure
 
             # ipympl's toolbar calls traitlets in a way it deprecates (not ours); with interactive mode off, ipympl
