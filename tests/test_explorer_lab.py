@@ -123,7 +123,7 @@ def test_moving_the_thrust_slider_in_lab_solves_and_redraws(tmp_path, monkeypatc
                 widgets = browser.poll(_WIDGETS, 30, "the explorer's slider, figure and status line in the page")
                 assert "Solve_Succeeded" in widgets["status"], widgets
                 default = _read_back(browser)
-                assert default["slider"] == {"a": 3.0}
+                assert default["slider"] == {"a": 3.0, "altitude_km": 185.2}
 
                 moved, seconds = _move(browser, "ArrowRight", 39, times=5)
                 after = _read_back(browser)

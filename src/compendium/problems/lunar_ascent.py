@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import casadi as ca
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit.problem import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 
@@ -62,7 +63,9 @@ def ascent_states(c: dict) -> list[State]:
     ]
 
 
-def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: bool = False) -> OptimalControlProblem:
+def lunar_ascent(
+    speed_smoothing: float | None = None, *, thrust_as_parameter: bool = False, target_as_parameter: bool = False
+) -> OptimalControlProblem:
     """Minimum-time lunar ascent, Eqs. (8)-(11) of Desai & Conway.
 
     ``sqrt(U^2 + V^2)`` is replaced by ``sqrt(U^2 + V^2 + eps^2)``, eps =
@@ -70,6 +73,9 @@ def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: b
     twice differentiable at the initial rest state. ``thrust_as_parameter``: the thrust
     acceleration ``a`` (the thrust-to-weight ratio, g = 1) is the problem parameter ``"a"``,
     so that one transcription solves for many values (``solve(parameters={"a": 2.5})``).
+    ``target_as_parameter``: the target altitude is the parameter ``"altitude_km"`` (default the data file's
+    185.2 km), the final ``Y`` held to it by the boundary equality ``target``
+    (``solve(parameters={"altitude_km": 300})``); the default statement, with ``Y(t_f)`` fixed, is the paper's.
     """
     c = lunar_ascent_constants()
     eps = c["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing)
@@ -79,10 +85,21 @@ def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: b
 
     def dynamics(x, u, t, P=None):
         X, Y, U, V = ca.vertsplit(x)
-        return ca.vertcat(*ascent_rates(X, Y, U, V, u[0], a if P is None else P["a"], g, eps))
+        thrust = P["a"] if P is not None and "a" in P else a
+        return ca.vertcat(*ascent_rates(X, Y, U, V, u[0], thrust, g, eps))
 
     guess = c["guess"]
     states = ascent_states(c)
+    parameters, boundary = {}, []
+    if thrust_as_parameter:
+        parameters["a"] = a
+    if target_as_parameter:
+        R = c["length_unit_m"]
+        parameters["altitude_km"] = load_problem_data("lunar_ascent")["target"]["altitude_m"] / 1e3
+        states[1] = dataclasses.replace(states[1], final=None)
+        boundary.append(
+            Constraint("target", lambda x0, xf, t0, tf, P: xf["Y"] - (1.0 + P["altitude_km"] * 1e3 / R), 0.0, 0.0)
+        )
     lo, hi = c["theta_bounds"]
     controls = [Control("theta", lower=lo, upper=hi, guess=guess["theta"], unit="rad", description="thrust angle")]
     tlo, thi = c["tf_bounds"]
@@ -94,5 +111,6 @@ def lunar_ascent(speed_smoothing: float | None = None, *, thrust_as_parameter: b
         tf=FreeFinalTime(tlo, thi, guess["tf"]),
         mayer=lambda x0, xf, t0, tf, P=None: tf,
         description="Desai & Conway lunar ascent, minimum time (Eqs. 8-11)",
-        parameters={"a": a} if thrust_as_parameter else None,
+        parameters=parameters or None,
+        boundary_constraints=boundary,
     )
