@@ -170,3 +170,18 @@ def test_an_explorer_leaves_matplotlibs_backend_as_it_was():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert out.stdout.split() == ["agg", "FigureCanvasAgg", "True"], out.stdout + out.stderr
+
+
+def test_a_value_dragged_away_and_back_is_the_one_drawn(ascent):
+    """Back on the value drawn while another is on its way: the newest (the value drawn) is what ends drawn; an echo
+    of the drawn value with nothing on its way starts no solve."""
+    explorer = explore(ascent, {"a": (0.05, 5.0)}, ["Y"])
+    solves = []
+    solve = explorer.session.solve
+    explorer.session.solve = lambda values, **kw: solves.append(dict(values)) or solve(values, **kw)
+    explorer.sliders["a"].value = 3.0 + 1e-12  # within rounding of the default: an echo
+    assert explorer.worker.idle(10) and solves == []
+    explorer.sliders["a"].value = 2.0
+    explorer.sliders["a"].value = 3.0  # back before 2.0 was drawn
+    assert explorer.worker.idle(10) and explorer.outcome.values == {"a": 3.0}
+    explorer.close()

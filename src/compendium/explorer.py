@@ -293,6 +293,11 @@ class LatestOnly:
             self._stamp += 1
             self._cv.notify_all()
 
+    def busy(self) -> bool:
+        """Whether a request waits or runs."""
+        with self._cv:
+            return self._pending is not None or self._busy
+
     def superseded(self) -> bool:
         """Whether a newer request waits (the running one may stop)."""
         with self._cv:
@@ -459,10 +464,18 @@ class Explorer:
         return f"<span style='color:{colour};font-family:monospace'>{outcome.status_line()}{note}</span>"
 
     def values(self) -> dict:
-        return {n: float(s.value) for n, s in self.sliders.items()}
+        """The sliders' values; one within rounding of its default (the front end's grid, in its own floating point,
+        may send 185.19999999999996 back for 185.2) is the default."""
+        out = {}
+        for n, s in self.sliders.items():
+            v, default, (lo, hi) = float(s.value), self.session.defaults[n], self.session.ranges[n]
+            out[n] = default if abs(v - default) <= 1e-9 * (hi - lo) else v
+        return out
 
     def _moved(self, _change=None) -> None:
         values = self.values()
+        if self.outcome is not None and values == self.outcome.values and not self.worker.busy():
+            return  # the front end's echo of the value drawn (snapped to its grid): nothing to solve
         self.worker.submit(values)
         asked = ", ".join(f"{n} = {v:.4g}" for n, v in values.items())
         self.status.value = f"<span style='color:#666;font-family:monospace'>solving {asked} …</span>"
