@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from compendium.problems import load_problem_data, lunar_ascent, lunar_ascent_constants
+from compendium.problems import entry_landing_constants, load_problem_data, lunar_ascent, lunar_ascent_constants
 
 
 def test_lunar_constants_follow_the_documented_reading():
@@ -40,3 +40,22 @@ def test_the_lunar_ascents_target_altitude_as_a_parameter():
     higher = transcription.solve(same, parameters={"altitude_km": 300.0}, error_threshold=None)
     R_km = lunar_ascent_constants()["length_unit_m"] / 1e3
     assert higher.state(higher.tf)[1] == pytest.approx(1 + 300.0 / R_km, abs=1e-12) and higher.tf > paper.tf
+
+
+def test_the_entry_landings_initial_state_and_glide_slope_as_parameters():
+    """constants_as_parameters: the initial speed and flight-path angle held by boundary equalities, the speed cap a
+    path constraint, the glide slope a parameter of its cone; at the post's values the post's optimum."""
+    from ocpkit import Radau
+
+    from compendium.problems import entry_landing
+
+    post = Radau(entry_landing(), 10, 20).solve(error_threshold=None)
+    transcription = Radau(entry_landing(constants_as_parameters=True), 10, 20)
+    same = transcription.solve(error_threshold=None)
+    assert same.problem.parameters == {"initial_speed_m_s": 280.0, "initial_flight_path_deg": -65.0}
+    assert same.objective == pytest.approx(post.objective, abs=1e-9)
+    faster = transcription.solve(same, parameters={"initial_speed_m_s": 300.0}, error_threshold=None)
+    unit = entry_landing_constants()["velocity_unit_m_s"]
+    assert faster.state(0.0)[2] * unit == pytest.approx(300.0, abs=1e-9) and faster.objective > post.objective
+    coned = entry_landing(downrange_m=900.0, glide_slope_deg=10.0, constants_as_parameters=True)
+    assert coned.parameters["glide_slope_deg"] == 10.0

@@ -422,6 +422,9 @@ class Explorer:
             self.reference.append(ref)
         axes[0].legend(fontsize=8, loc="best")
         axes[-1].set_xlabel("t")
+        # the layout computed once: redrawn on every move, the constrained layout took half of Agg's drawing time
+        self.figure.draw_without_rendering()
+        self.figure.set_layout_engine("none")
         self.axes = list(axes)
         self.sliders = {}
         for name, (lo, hi) in self.session.ranges.items():

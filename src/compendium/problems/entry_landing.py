@@ -111,11 +111,18 @@ def entry_landing(
     max_sensed_g: float | None = None,
     initial_speed_m_s: float | None = None,
     initial_flight_path_deg: float | None = None,
+    constants_as_parameters: bool = False,
 ) -> OptimalControlProblem:
     """The entry-landing problem (see the module docstring for the options).
 
     ``initial_speed_m_s``, ``initial_flight_path_deg``: another initial speed or flight-path angle
     than the data file's (the speed cap, when on, follows the initial speed).
+
+    ``constants_as_parameters``: the initial speed and flight-path angle (and the glide slope, where one is given)
+    are the solve-time parameters ``initial_speed_m_s``, ``initial_flight_path_deg`` (``glide_slope_deg``), their
+    values the defaults: the initial speed and angle held by boundary equalities, the speed cap a path
+    constraint, so that one transcription solves for many values (``solve(parameters=...)``, the explorer). The
+    default statement, with the initial state fixed, is the post's.
 
     Two path constraints the post left out (notebook 06):
 
@@ -172,6 +179,20 @@ def entry_landing(
 
     h0 = c["h0_R0"]
     sf = None if downrange_m is None else downrange_m / c["R0_m"]
+    v_unit, deg = c["velocity_unit_m_s"], math.pi / 180
+    parameters, boundary = {}, []
+    if constants_as_parameters:
+        given = load_problem_data("entry_landing")["initial"]
+        parameters["initial_speed_m_s"] = given["velocity_m_s"] if initial_speed_m_s is None else initial_speed_m_s
+        parameters["initial_flight_path_deg"] = (
+            given["flight_path_angle_deg"] if initial_flight_path_deg is None else initial_flight_path_deg
+        )
+        boundary = [
+            Constraint("initial_speed", lambda x0, xf, t0, tf, P: x0[2] - P["initial_speed_m_s"] / v_unit, 0.0, 0.0),
+            Constraint(
+                "initial_flight_path", lambda x0, xf, t0, tf, P: x0[3] - P["initial_flight_path_deg"] * deg, 0.0, 0.0
+            ),
+        ]
     states = [
         State(
             "r",
@@ -196,19 +217,21 @@ def entry_landing(
         State(
             "V",
             lower=c["Vf"],
-            upper=c["V0"] if speed_cap else math.inf,
-            initial=c["V0"],
+            upper=c["V0"] if speed_cap and not constants_as_parameters else math.inf,
+            initial=None if constants_as_parameters else c["V0"],
             final=c["Vf"],
             scale=c["V0"],
+            guess=(c["V0"], c["Vf"]) if constants_as_parameters else None,
             description="speed / sqrt(g0 R0)",
         ),
         State(
             "gamma",
             lower=c["gamma_bounds"][0],
             upper=c["gamma_bounds"][1],
-            initial=c["gamma0"],
+            initial=None if constants_as_parameters else c["gamma0"],
             final=c["gammaf"],
             unit="rad",
+            guess=(c["gamma0"], c["gammaf"]) if constants_as_parameters else None,
             description="flight-path angle",
         ),
         State(
@@ -237,15 +260,28 @@ def entry_landing(
     else:
         controls.append(Control("eps", lo, hi, scale=eps_scale, guess=0.0, unit="rad", description="thrust angle"))
     path = []
+    if constants_as_parameters and speed_cap:
+        path.append(
+            Constraint("speed_cap", lambda x, u, t, P: x[2] - P["initial_speed_m_s"] / v_unit, upper=0.0, scale=c["V0"])
+        )
     if glide_slope_deg is not None:
         if sf is None:
             raise ValueError("a glide-slope cone needs the landing site: give downrange_m")
         if not 0 < glide_slope_deg < 90:
             raise ValueError(f"glide_slope_deg must lie in (0, 90), got {glide_slope_deg!r}")
-        slope = math.tan(math.radians(glide_slope_deg))
-        path.append(
-            Constraint("glide_slope", lambda x, u, t: (x[0] - c["rf"]) - slope * (sf - x[1]), lower=0.0, scale=h0)
-        )
+        if constants_as_parameters:
+            parameters["glide_slope_deg"] = glide_slope_deg
+
+            def cone(x, u, t, P):
+                return (x[0] - c["rf"]) - ca.tan(P["glide_slope_deg"] * deg) * (sf - x[1])
+
+        else:
+            slope = math.tan(math.radians(glide_slope_deg))
+
+            def cone(x, u, t):
+                return (x[0] - c["rf"]) - slope * (sf - x[1])
+
+        path.append(Constraint("glide_slope", cone, lower=0.0, scale=h0))
     if max_sensed_g is not None:
         if not (max_sensed_g > 0 and math.isfinite(max_sensed_g)):
             raise ValueError(f"max_sensed_g must be positive, got {max_sensed_g!r}")
@@ -261,6 +297,8 @@ def entry_landing(
         controls,
         dynamics,
         path_constraints=path,
+        boundary_constraints=boundary,
+        parameters=parameters or None,
         tf=c["tf"],
         mayer=(lambda x0, xf, t0, tf: -xf[4]) if objective == "max_final_mass" else (lambda x0, xf, t0, tf: xf[1] / h0),
         description=f"Entry-landing, {objective} (aero {aero_model}, downrange "
