@@ -17,6 +17,7 @@ since the notebook was last stored.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import json
 import os
@@ -262,8 +263,25 @@ def _lab_config(workdir: Path) -> Path:
     return config
 
 
-def _run_all_and_save(server, browser: _Browser, name: str) -> dict:
-    """Open ``notebooks/<name>``, Restart Kernel and Run All Cells, Save; timings of the steps."""
+@contextlib.contextmanager
+def _lab_on(clone: Path, tmp_path: Path):
+    """``(server, browser)``: `python -m compendium.lab` serving ``clone`` as a reader's `make lab` does, and headless
+    Chromium; both stopped on exit."""
+    workdir = Path(tempfile.mkdtemp(prefix="ocpkit-lab-"))  # short: IPC socket paths are limited to ~107 characters
+    try:
+        env = {"OCPKIT_ROOT": str(clone), "JUPYTER_CONFIG_DIR": str(_lab_config(workdir)), **MAKE_ENV}
+        with _running_lab(workdir, env) as server:
+            browser = _Browser(tmp_path / "profile", tmp_path / "chromium.log")
+            try:
+                yield server, browser
+            finally:
+                browser.close()
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+def _run_all(server, browser: _Browser, name: str) -> dict:
+    """Open ``notebooks/<name>``, Restart Kernel and Run All Cells; timings of the steps."""
     timings, start = {}, time.monotonic()
     browser.call("Page.navigate", url=server.url(f"/lab/tree/notebooks/{name}"))
     panel = browser.poll(_PANEL.replace("PATH", json.dumps(f"notebooks/{name}")), PAGE_TIMEOUT, f"opening {name}")
@@ -276,6 +294,12 @@ def _run_all_and_save(server, browser: _Browser, name: str) -> dict:
     assert "Restart" in dialog["text"], dialog
     browser.poll(_PROGRESS, RUN_TIMEOUT, f"Restart Kernel and Run All Cells of {name}", interval=0.5)
     timings["run"] = time.monotonic() - start
+    return timings
+
+
+def _run_all_and_save(server, browser: _Browser, name: str) -> dict:
+    """Open ``notebooks/<name>``, Restart Kernel and Run All Cells, Save; timings of the steps."""
+    timings = _run_all(server, browser, name)
     start = time.monotonic()
     before = browser.js(_LAST_MODIFIED)
     browser.js("void window.jupyterapp.commands.execute('docmanager:save')")  # not awaited: a dialog would block
@@ -457,17 +481,8 @@ def test_restart_run_all_and_save_in_lab_leaves_the_stored_notebook_unchanged(na
     if STORE_FIRST:
         _store(clone, name)
     stored = path.read_text()
-    workdir = Path(tempfile.mkdtemp(prefix="ocpkit-lab-"))  # short: IPC socket paths are limited to ~107 characters
-    try:
-        env = {"OCPKIT_ROOT": str(clone), "JUPYTER_CONFIG_DIR": str(_lab_config(workdir)), **MAKE_ENV}
-        with _running_lab(workdir, env) as server:
-            browser = _Browser(tmp_path / "profile", tmp_path / "chromium.log")
-            try:
-                timings = _run_all_and_save(server, browser, name)
-            finally:
-                browser.close()
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
+    with _lab_on(clone, tmp_path) as (server, browser):
+        timings = _run_all_and_save(server, browser, name)
     print(f"{name}: " + ", ".join(f"{step} {seconds:.1f} s" for step, seconds in timings.items()))
     status = _git(clone, "status", "--porcelain")  # the notebook and the published record; build/ is ignored
     if status:

@@ -425,9 +425,9 @@ def _ball_radius(problem) -> float:
 def _resolved_from(solution, statement, trajectory, result, restated: bool, samples: int = 2001):
     """The direct solution's transcription re-solved from the extremal: its states and t_f, its controls (for a
     restated problem, the direct problem's controls fitted to them: :func:`_fitted_controls`) and its free
-    parameters, at the parameter values of ``statement``, with the first solve's IPOPT options. None where the solution has no transcription, where
-    that transcription warm-started from the solution does not give it back (not the NLP it solved: a phase cut
-    from its links), or where a solve fails."""
+    parameters, at the parameter values of ``statement``, with the first solve's IPOPT options. None where the
+    solution has no transcription, where that transcription warm-started from the solution does not give it back
+    (not the NLP it solved: a phase cut from its links), or where a solve fails."""
     from .problem import Guess
 
     transcription = _transcription(solution)

@@ -65,9 +65,10 @@ def monotone_constraints(problem) -> dict:
 
 def as_terminal(problem, structure: Structure, solution):
     """``(problem, structure, converted)``: each non-decreasing state constraint (module docstring) that the direct
-    ``solution`` ends on, active over the last :data:`FINAL` of the horizon at least, rewritten as the terminal equality ``<name>_at_tf``, and its boundary arcs in ``structure``
-    as bang arcs of the control that holds ``Dc = 0`` there (neighbouring arcs of one kind merged; a boundary arc
-    whose control that value leaves inside its bounds stays as it was). ``converted`` lists the names of the
+    ``solution`` ends on, active over the last :data:`FINAL` of the horizon at least, rewritten as the terminal
+    equality ``<name>_at_tf``, and its boundary arcs in ``structure`` as bang arcs of the control that holds
+    ``Dc = 0`` there (neighbouring arcs of one kind merged; a boundary arc whose control that value leaves inside
+    its bounds stays as it was). ``converted`` lists the names of the
     terminal equalities added, at the end of the problem's boundary constraints; unchanged ``problem`` and
     ``structure`` where there is none."""
     candidates = monotone_constraints(problem)

@@ -73,6 +73,8 @@ class MultipleShootingResult:
     def integration(self) -> Integration:
         """The segments' recorded integrations joined into one record from t0 to tf (each node's defect, below the
         solve's tolerance, is where one segment's record ends and the next one's begins)."""
+        if "_integration" in self.__dict__:
+            return self.__dict__["_integration"]
         runs = self.integrations
         if not runs or any(r.states.shape[0] < 2 for r in runs):
             raise ValueError("this run has no recorded integrations: its last evaluation was not recorded")
@@ -80,7 +82,7 @@ class MultipleShootingResult:
         def joined(name):
             return np.concatenate([getattr(r, name) for r in runs])
 
-        return Integration(
+        self.__dict__["_integration"] = Integration(
             y=runs[-1].y,
             Psi=None,
             status=runs[-1].status,
@@ -100,6 +102,7 @@ class MultipleShootingResult:
             truncated=any(r.truncated for r in runs),
             parameters=runs[-1].parameters,
         )
+        return self.__dict__["_integration"]
 
     @property
     def trajectory(self) -> ShootingTrajectory:
