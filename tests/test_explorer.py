@@ -1,6 +1,7 @@
 """The explorer (compendium.explorer): its solving half against direct solves, its one-at-a-time worker, and the
 widget's curves and status after a move (no browser here: tests/test_lab.py drives JupyterLab)."""
 
+import dataclasses
 import threading
 import time
 
@@ -185,3 +186,101 @@ def test_a_value_dragged_away_and_back_is_the_one_drawn(ascent):
     explorer.sliders["a"].value = 3.0  # back before 2.0 was drawn
     assert explorer.worker.idle(10) and explorer.outcome.values == {"a": 3.0}
     explorer.close()
+
+
+def test_choices_build_each_transcription_once_and_start_from_the_nearest_solution_of_the_same_choices():
+    from ocpkit import MultiRateHLGL
+
+    problem = lunar_ascent()
+    built = []
+
+    def build(M, fast):
+        built.append((M, tuple(fast)))
+        return MultiRateHLGL(problem, 5, ratio=M, fast=fast)
+
+    session = ExploreSession(build, {}, choices={"M": [1, 2], "fast": {"U, V": ["U", "V"], "V": ["V"]}})
+    assert session.choice_defaults == {"M": 1, "fast": "U, V"} and built == [(1, ("U", "V"))]
+    outcome = session.solve({"M": 2})
+    fresh = MultiRateHLGL(problem, 5, ratio=2, fast=["U", "V"]).solve(error_threshold=None)
+    assert outcome.solved and outcome.values == {"M": 2, "fast": "U, V"}
+    assert outcome.objective == pytest.approx(fresh.objective, rel=1e-8)
+    assert session.solve({"M": 2, "fast": "V"}).solved and session.solve({"M": 2}).iterations <= 2
+    assert built == [(1, ("U", "V")), (2, ("U", "V")), (2, ("V",))]  # each combination built once
+    assert [s[1] for s in session.nearest({"M": 2, "fast": "V"}, count=3)] == [(2, "V"), (2, "U, V"), (1, "U, V")]
+    with pytest.raises(ValueError, match=r"choice 'M' = 3 is not one of \[1, 2\]"):
+        session.solve({"M": 3})
+    with pytest.raises(ValueError, match="default 4 is not one of"):
+        ExploreSession(build, {}, choices={"M": [1, 2]}, defaults={"M": 4})
+    with pytest.raises(TypeError, match="build"):
+        ExploreSession(HLGL(problem, 5), {}, choices={"M": [1, 2]})
+
+
+def test_a_history_against_a_reference_is_the_difference_at_the_same_normalised_time(ascent):
+    from compendium.explorer import History
+
+    coarse = HLGL(lunar_ascent(), 5).solve(error_threshold=None)
+    fine = HLGL(lunar_ascent(), 40).solve(error_threshold=None)
+    t, y = History.against(fine, "theta", samples=501).data(coarse)
+    scale = np.abs(fine.control(np.linspace(fine.t0, fine.tf, 501))[:, 0]).max()
+    assert 100 * np.max(np.abs(y)) / scale == pytest.approx(coarse.difference(fine, 501)["theta"], rel=1e-12)
+    with pytest.raises(KeyError, match="unknown history 'Z'"):
+        History.against(fine, "Z")
+
+
+@pytest.fixture(scope="module")
+def transfer():
+    """The slides' 5 N L1 transfer, from the published energy costates (as notebook 05 starts it)."""
+    from compendium.problems.orbit_transfer import final_longitude
+    from compendium.studies import orbit_transfer as study
+
+    systems = study.TransferSystems()
+    shooting = systems.shooting("fuel", 5.0, final="longitude", longitude=final_longitude(5.0), tol=1e-8)
+    start = study.energy_start_vector(study.read_cache("orbit_transfer_energy"), "longitude", 5.0)
+    return systems, study.solve_robustly(shooting, start, maxfev=300)
+
+
+def test_the_transfer_followed_along_the_thrust_reaches_the_slides_one_newton_extremal(transfer):
+    from compendium.paper import paper_table
+    from compendium.problems.orbit_transfer import final_longitude
+    from compendium.studies import orbit_transfer as study
+
+    systems, first = transfer
+    session = ExploreSession(study.thrust_family(systems, first, 5.0), {"thrust_N": (1.0, 10.0)})
+    step = session.solve({"thrust_N": 4.5})  # one step from 5 N
+    assert step.solved and step.start == {"thrust_N": 5.0} and step.measure == "|S|" and step.error_estimate <= 1e-8
+    assert step.solution.integration.y[5] == pytest.approx(final_longitude(4.5), abs=1e-6)  # Lf(Tmax) of 4.5 N
+    assert f"fuel {study.fuel_kg(step.solution):.3f} kg" in step.status_line()
+    path = [session.solve({"thrust_N": T}) for T in (3.0, 2.0, 1.0)]  # jumps of a slider dragged fast
+    assert all(o.solved for o in path) and max(o.attempts for o in path) > 2  # some by continuation
+    far = path[-1]
+    slides = paper_table("switching_detection")
+    one = slides[(slides.thrust_N == 1.0) & (slides.detection == "detection") & (slides.jacobian == "fd")].iloc[0]
+    assert study.fuel_kg(far.solution) == pytest.approx(one.objective_kg, abs=0.05)
+    assert far.solution.integration.switchings == pytest.approx(one.switchings, rel=0.01)
+
+
+def test_a_transfer_explorer_draws_the_mass_and_the_thrust_and_a_failure_draws_none(transfer):
+    from compendium.explorer import History, ShootingFamily
+    from compendium.studies import orbit_transfer as study
+
+    systems, first = transfer
+    explorer = explore(
+        study.thrust_family(systems, first, 5.0),
+        {"thrust_N": (1.0, 10.0)},
+        [History("m"), History("|u|", function=study.thrust_magnitude, samples=4000)],
+        time_label="t (h)",
+    )
+    try:
+        explorer.sliders["thrust_N"].value = 5.5
+        assert explorer.worker.idle(60) and explorer.outcome.solved
+        mass, thrust = (line.get_ydata() for line in explorer.lines)
+        assert mass[-1] == pytest.approx(1500.0 - study.fuel_kg(explorer.outcome.solution), abs=1e-6)
+        assert set(np.round(thrust, 9)) <= {0.0, 1.0} and explorer.axes[-1].get_xlabel() == "t (h)"
+    finally:
+        explorer.close()
+    family = study.thrust_family(systems, first, 5.0)
+    outcome = ExploreSession(family, {"thrust_N": (1.0, 10.0)}, halvings=1).solve({"thrust_N": 2.0})
+    assert not outcome.solved and outcome.status_line().startswith("FAILED")  # too far for one halving
+    assert outcome.attempts > 1 and outcome.start == {"thrust_N": 5.0}
+    with pytest.raises(ValueError, match="converged"):
+        ShootingFamily(family.build, dataclasses.replace(first, converged=False), {"thrust_N": 5.0})

@@ -1,25 +1,34 @@
 """Move a slider, see the new optimal trajectory (issue 25): :func:`explore`.
 
-A transcription is built once; each slider move solves it again at the new parameter values, warm-started exactly
-from the solved point nearest to them (a continuation along the slider's path), and redraws the curves in place.
+What is explored is a family of problems: each value of the sliders (continuous parameters) and of the drop-downs
+(discrete choices) is solved again, warm-started from the solved value nearest to it (a continuation along the
+slider's path), and the curves are redrawn in place.
 
+* A family says how one value is solved from another. :class:`TranscriptionFamily`: a transcription built once
+  (or one per combination of choices, ``build(**choices)``, each built when first chosen), solved at the new
+  parameter values from the nearest solution: exactly where it is of the same transcription, else interpolated.
+  :class:`ShootingFamily`: the extremals of an indirect shooting, each found from the nearest one (its unknowns,
+  or a prediction from them, e.g. the final time scaled), the shooting rebuilt at each value where a boundary
+  condition moves with the parameter.
 * :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` starts from the nearest
-  solved values (distances in each parameter's share of its range), then from the next nearest, then, stepping
-  halfway from the nearest towards the target, from the points in between; it never raises for a failed solve (the
-  :class:`Outcome` says so: no solution, the status of the solve at the value asked) and raises a ``ValueError``
-  naming a parameter that is unknown or outside its range. Its solves use an IPOPT instance of their own
-  (:data:`EXPLORER_IPOPT`) and one lock per transcription, so a solve of the same transcription in the notebook's
-  thread, or by another explorer, never runs in the same instance at the same time (that crashes the process).
+  solved values (those of the same choices first, then by distance in each parameter's share of its range), then
+  from the next nearest, then, stepping halfway from the nearest towards the target, from the points in between; it
+  never raises for a failed solve (the :class:`Outcome` says so: no solution, the status of the solve at the value
+  asked) and raises a ``ValueError`` naming a parameter that is unknown or outside its range, or a choice that is
+  not one of its options. A transcription's solves use an IPOPT instance of their own (:data:`EXPLORER_IPOPT`) and
+  one lock per transcription, so a solve of the same transcription in the notebook's thread, or by another
+  explorer, never runs in the same instance at the same time (that crashes the process).
 * :class:`LatestOnly` runs one solve at a time in a background thread, always the newest value asked for: values
   asked while a solve runs replace one another, so dragging never queues stale work, and a continuation stops when
   a newer value waits; a drag still solves as it goes (``max_wait``). A result whose values were superseded before
   it finished is kept as a warm start but not drawn; an exception is shown as the status (``ERROR: ...``, no curve)
   and the thread goes on.
-* :class:`Explorer` (what :func:`explore` returns) shows a slider per parameter, the chosen histories (a figure of
-  ipympl's, its lines updated in place) and a status line: the solver's status, its iterations, the solve time,
-  the error estimate and the objective ("solving ..." while a value is solved). A failed solve draws no curve and
-  says so in the status; an inaccurate one (error estimate above the threshold) is drawn grey. ``close()`` ends its
-  thread.
+* :class:`Explorer` (what :func:`explore` returns) shows a slider per parameter, a drop-down per choice, the chosen
+  histories (:class:`History`: a state, a control, a function of the trajectory, or a difference from a reference;
+  a figure of ipympl's, its lines updated in place) and a status line: the solver's status, its iterations, the
+  solve time, the accuracy (error estimate, or |S| for a shooting), the objective and what the family adds ("solving
+  ..." while a value is solved). A failed solve draws no curve and says so in the status; an inaccurate one
+  (accuracy above the threshold) is drawn grey. ``close()`` ends its thread.
 
 It degrades to a picture: displayed where no widget can live (a stored notebook on GitHub, nbviewer, the HTML
 report, papermill and nbval), the explorer shows a static figure of the default solution and a sentence saying it
@@ -81,10 +90,11 @@ def _import_ipympl() -> None:
 
 @dataclass(frozen=True)
 class Outcome:
-    """One solve of an :class:`ExploreSession`: the parameter ``values`` asked for, the ``solution`` (None where
-    the solve failed), the solver's ``status`` and ``iterations``, the wall time ``solve_s`` (every attempt), the
-    ``error_estimate`` and ``objective`` (NaN without a solution), and the solved values it was warm-started from
-    (``start``; None: the transcription's own guess)."""
+    """One solve of an :class:`ExploreSession`: the ``values`` asked for (parameters and choices), the
+    ``solution`` (None where the solve failed), the solver's ``status`` and ``iterations``, the wall time
+    ``solve_s`` (every attempt), the ``error_estimate`` (the family's ``measure`` of accuracy: a transcription's
+    error estimate, a shooting's |S|) and ``objective`` (NaN without a solution), the solved values it was
+    warm-started from (``start``; None: the family's own first solution) and what the family adds (``note``)."""
 
     values: dict
     solution: object | None
@@ -95,6 +105,8 @@ class Outcome:
     objective: float = float("nan")
     start: dict | None = None
     attempts: int = 1
+    measure: str = "error estimate"
+    note: str = ""
 
     @property
     def solved(self) -> bool:
@@ -106,62 +118,238 @@ class Outcome:
     def status_line(self) -> str:
         if not self.solved:
             return f"FAILED: {self.status} ({self.attempts} attempts, {1e3 * self.solve_s:.0f} ms); no curve drawn"
+        note = f" · {self.note}" if self.note else ""
         return (
             f"{self.status} · {self.iterations} iterations · {1e3 * self.solve_s:.0f} ms · "
-            f"error estimate {self.error_estimate:.1e} · objective {self.objective:.8g}"
+            f"{self.measure} {self.error_estimate:.1e} · objective {self.objective:.8g}{note}"
         )
 
 
-class ExploreSession:
-    """Solves ``transcription`` at parameter values chosen one after another (module docstring).
+class TranscriptionFamily:
+    """The direct solutions of a transcription over its problem's parameters: ``transcription`` a built one, or
+    ``build(**choices)`` one per combination of the explorer's discrete choices (each built once, when first asked
+    for). A solve starts from the nearest solved solution: exactly where it is of the same transcription, else
+    interpolated onto the new mesh (:meth:`ocpkit.transcription.base.Transcription.initial_point`)."""
 
-    ``parameters``: ``{name: (low, high)}``, each a parameter of the transcription's problem; ``first``: a solution
-    of the transcription to start from (default: one solve at the problem's own values); ``solve_options``: passed
-    to every ``transcription.solve`` (default ``error_threshold=None``: the explorer reports the estimate itself);
-    ``halvings``: how many times the continuation halves its step towards a value it cannot reach directly."""
+    measure = "error estimate"
 
     def __init__(
         self,
-        transcription,
-        parameters: Mapping[str, tuple[float, float]],
+        transcription=None,
         *,
-        first=None,
+        build: Callable | None = None,
         solve_options: Mapping | None = None,
-        halvings: int = 3,
-        keep: int = 200,
+        note: Callable | None = None,
     ):
-        problem = transcription.problem
-        if not parameters:
-            raise ValueError("give at least one parameter to explore: {name: (low, high)}")
-        ranges = {}
-        for name, bounds in parameters.items():
-            if name not in problem.parameters:
-                raise KeyError(f"unknown parameter {name!r}; {problem.name!r} has {sorted(problem.parameters)}")
-            lo, hi = (float(b) for b in bounds)
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise ValueError(f"parameter {name!r}: its range must be finite with low < high, got {bounds!r}")
-            ranges[name] = (lo, hi)
-        self.transcription, self.ranges = transcription, ranges
-        self.names = list(ranges)
+        if (transcription is None) == (build is None):
+            raise ValueError("give a built transcription or build(**choices), not both")
+        self._build, self._built, self.note = build, {}, note
+        if transcription is not None:
+            self._built[()] = transcription
         options = dict(solve_options or {})
         # an IPOPT instance of the explorer's own (the transcription keeps one per set of option overrides): a solve
         # of the transcription elsewhere, in the notebook's own thread, may run while the explorer's does
         options["ipopt_options"] = {**EXPLORER_IPOPT, **(options.get("ipopt_options") or {})}
         self.solve_options = {"error_threshold": None, **options, "raise_on_failure": True}
+
+    def transcription(self, choices: Mapping) -> object:
+        """The transcription of these choices (built once)."""
+        if self._build is None:
+            return self._built[()]
+        key = tuple(sorted(choices.items()))
+        if key not in self._built:
+            self._built[key] = self._build(**choices)
+        return self._built[key]
+
+    def parameters(self, choices: Mapping) -> Mapping[str, float]:
+        """The problem's parameters and their own values."""
+        problem = self.transcription(choices).problem
+        return {n: problem.parameters[n] for n in problem.parameters}
+
+    def first(self, choices: Mapping):
+        return self.transcription(choices).solve(**self.solve_options)
+
+    @staticmethod
+    def solved_at(solution) -> Mapping[str, float]:
+        return solution.problem.parameters
+
+    def attempt(self, values: Mapping, choices: Mapping, start, start_values: Mapping):
+        """The solution at ``values`` from ``start``; raises :class:`~ocpkit.SolverError` where it fails."""
+        transcription = self.transcription(choices)
+        with _solving(transcription):  # one solve of a transcription at a time, among explorers
+            solution = transcription.solve(start, parameters=dict(values), **self.solve_options)
+        if not solution.converged:  # (raise_on_failure is forced, but a solution that says so is never drawn)
+            raise SolverError("IPOPT", solution.status, solution.iterations)
+        return solution
+
+    def describe(self, solution) -> dict:
+        return {
+            "status": solution.status,
+            "iterations": solution.iterations,
+            "error_estimate": float(solution.error_estimate),
+            "objective": float(solution.objective),
+            "note": "" if self.note is None else str(self.note(solution)),
+        }
+
+    @staticmethod
+    def trajectory(solution):
+        return solution
+
+
+class ShootingFamily:
+    """The extremals of a shooting problem over its parameters, each found from the nearest one (a continuation).
+
+    ``build(values)``: the :class:`~ocpkit.shooting.Shooting` at those parameter values (a boundary condition may
+    move with them); ``first``: a converged :class:`~ocpkit.shooting.ShootingResult` at ``values``;
+    ``predict(start_values, z, values)``: the unknowns to start from at ``values``, given those ``z`` solved at
+    ``start_values`` (default: ``z`` itself); ``solve_options``: passed to ``Shooting.solve`` (default: MINPACK's
+    hybrid method, 100 evaluations); ``note(result)``: what the status line adds (e.g. the fuel and the switchings).
+    The status line's accuracy is the residual |S|; the iterations are shooting-function evaluations."""
+
+    measure = "|S|"
+
+    def __init__(
+        self,
+        build: Callable[[dict], object],
+        first,
+        values: Mapping[str, float],
+        *,
+        predict: Callable | None = None,
+        solve_options: Mapping | None = None,
+        note: Callable | None = None,
+    ):
+        if not getattr(first, "converged", False):
+            raise ValueError("first must be a converged shooting result (the family is followed from it)")
+        self.build, self.predict, self.note = build, predict, note
+        self.values = {n: float(v) for n, v in values.items()}
+        self._first = first
+        self.solve_options = {"solver": "hybr", "maxfev": 100, **(solve_options or {}), "raise_on_failure": True}
+        self._lock = threading.Lock()
+
+    def parameters(self, choices: Mapping) -> Mapping[str, float]:
+        return dict(self.values)
+
+    def first(self, choices: Mapping):
+        return self._first
+
+    def solved_at(self, result) -> Mapping[str, float]:
+        return self.values  # (asked of the first result only)
+
+    def attempt(self, values: Mapping, choices: Mapping, start, start_values: Mapping):
+        """The extremal at ``values`` from ``start`` (solved at ``start_values``); raises
+        :class:`~ocpkit.SolverError` where the shooting fails."""
+        values = {n: float(v) for n, v in values.items()}
+        z = start.z if self.predict is None else self.predict(dict(start_values), np.asarray(start.z), values)
+        with self._lock:
+            return self.build(values).solve(np.asarray(z, dtype=float), **self.solve_options)
+
+    def describe(self, result) -> dict:
+        return {
+            "status": "converged",
+            "iterations": int(result.n_shooting),
+            "error_estimate": float(result.norm),
+            "objective": float(result.objective),
+            "note": "" if self.note is None else str(self.note(result)),
+        }
+
+    @staticmethod
+    def trajectory(result):
+        return result.trajectory
+
+
+def _options(name: str, spec) -> dict:
+    """A choice's options as ``{label: value}`` (a list's items are their own labels)."""
+    options = dict(spec) if isinstance(spec, Mapping) else {o: o for o in spec}
+    if not options:
+        raise ValueError(f"choice {name!r} has no options")
+    return options
+
+
+class ExploreSession:
+    """Solves a family of problems at values chosen one after another (module docstring).
+
+    ``target``: a built transcription (its problem's parameters are explored); ``build(**choices)`` returning one,
+    where ``choices`` are given; or a family (:class:`TranscriptionFamily`, :class:`ShootingFamily`).
+    ``parameters``: ``{name: (low, high)}``, continuous parameters of the problem; ``choices``: ``{name: options}``,
+    discrete arguments of ``build`` (a list, or ``{label: value}``), the first option the default unless
+    ``defaults`` names another. ``first``: a solution to start from (default: one solve at the problem's own
+    values); ``solve_options``: passed to every ``transcription.solve`` (default ``error_threshold=None``: the
+    explorer reports the estimate itself); ``note(solution)``: what the status line adds; ``halvings``: how many times the continuation halves its step towards a
+    value it cannot reach directly."""
+
+    def __init__(
+        self,
+        target,
+        parameters: Mapping[str, tuple[float, float]],
+        *,
+        choices: Mapping[str, object] | None = None,
+        defaults: Mapping[str, object] | None = None,
+        first=None,
+        solve_options: Mapping | None = None,
+        note: Callable | None = None,
+        halvings: int = 3,
+        keep: int = 200,
+    ):
+        self.options = {name: _options(name, spec) for name, spec in (choices or {}).items()}
+        defaults = dict(defaults or {})
+        unknown = sorted(set(defaults) - set(self.options))
+        if unknown:
+            raise KeyError(f"defaults {unknown} are not choices; the choices are {sorted(self.options)}")
+        self.choice_defaults = {}
+        for name, options in self.options.items():
+            label = defaults.get(name, next(iter(options)))
+            if label not in options:
+                raise ValueError(f"choice {name!r}: default {label!r} is not one of {list(options)}")
+            self.choice_defaults[name] = label
+        if hasattr(target, "attempt"):
+            if solve_options or note:
+                raise ValueError("give solve_options and note to the family, not to the session")
+            family = target
+        elif self.options:
+            if not callable(target) or hasattr(target, "solve"):
+                raise TypeError("with choices, give build(**choices) returning a transcription")
+            family = TranscriptionFamily(build=self._builder(target), solve_options=solve_options, note=note)
+        else:
+            family = TranscriptionFamily(target, solve_options=solve_options, note=note)
+        self.family = family
+        own = family.parameters(self.choice_defaults)
+        if not parameters and not self.options:
+            raise ValueError("give at least one parameter to explore: {name: (low, high)}")
+        ranges = {}
+        for name, bounds in parameters.items():
+            if name not in own:
+                raise KeyError(f"unknown parameter {name!r}; the problem has {sorted(own)}")
+            if name in self.options:
+                raise ValueError(f"{name!r} is both a parameter and a choice")
+            lo, hi = (float(b) for b in bounds)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise ValueError(f"parameter {name!r}: its range must be finite with low < high, got {bounds!r}")
+            ranges[name] = (lo, hi)
+        self.ranges = ranges
+        self.names = list(ranges)
         self.halvings, self.keep = int(halvings), int(keep)
         self._lock = threading.Lock()
-        self.solved: list[tuple[np.ndarray, object]] = []  # (values in range units, solution), newest last
+        self.solved: list[tuple[np.ndarray, tuple, object]] = []  # (values in range units, choices, solution)
         if first is None:
-            first = transcription.solve(**self.solve_options)
-        solved_with = first.problem.parameters  # the values the solution was solved at
-        self.defaults = {n: float(solved_with.get(n, problem.parameters[n])) for n in self.names}
-        self._remember(self._point(self.defaults), first)
+            first = family.first(self.choice_defaults)
+        solved_with = family.solved_at(first)  # the values the solution was solved at
+        self.defaults = {n: float(solved_with.get(n, own[n])) for n in self.names}
+        self._remember(self._point(self.defaults), self._labels(self.choice_defaults), first)
         self.first = first
 
-    def _point(self, values: Mapping[str, float], check: bool = True) -> np.ndarray:
-        unknown = sorted(set(values) - set(self.names))
+    @property
+    def transcription(self):
+        """The transcription of the default choices (a transcription family's)."""
+        return self.family.transcription(self.choice_defaults)
+
+    def _builder(self, build: Callable) -> Callable:
+        options = self.options
+        return lambda **labels: build(**{n: options[n][label] for n, label in labels.items()})
+
+    def _point(self, values: Mapping[str, object], check: bool = True) -> np.ndarray:
+        unknown = sorted(set(values) - set(self.names) - set(self.options))
         if unknown:
-            raise KeyError(f"unknown parameters {unknown}; this explorer varies {self.names}")
+            raise KeyError(f"unknown parameters {unknown}; this explorer varies {self.names + list(self.options)}")
         out = []
         for n in self.names:
             v = float(values.get(n, self.defaults[n]))
@@ -171,85 +359,119 @@ class ExploreSession:
             out.append((v - lo) / (hi - lo))
         return np.array(out)
 
+    def _labels(self, values: Mapping[str, object]) -> tuple:
+        out = []
+        for n, options in self.options.items():
+            label = values.get(n, self.choice_defaults[n])
+            if label not in options:
+                raise ValueError(f"choice {n!r} = {label!r} is not one of {list(options)}")
+            out.append(label)
+        return tuple(out)
+
     def _values(self, point: np.ndarray) -> dict:
         return {n: float(lo + p * (hi - lo)) for n, p, (lo, hi) in zip(self.names, point, self.ranges.values())}
 
-    def _remember(self, point, solution) -> None:
+    def _choices(self, labels: tuple) -> dict:
+        return dict(zip(self.options, labels))
+
+    def _remember(self, point, labels, solution) -> None:
         with self._lock:
-            self.solved = [s for s in self.solved if not np.array_equal(s[0], point)]  # the newest at a point
-            self.solved.append((point, solution))
+            same = lambda s: np.array_equal(s[0], point) and s[1] == labels  # noqa: E731
+            self.solved = [s for s in self.solved if not same(s)]  # the newest at a point
+            self.solved.append((point, labels, solution))
             del self.solved[: max(0, len(self.solved) - self.keep)]
 
-    def nearest(self, values: Mapping[str, float], count: int = 2) -> list[tuple[np.ndarray, object]]:
-        """The ``count`` solved points nearest to ``values`` (in each parameter's share of its range)."""
-        target = self._point(values)
+    def nearest(self, values: Mapping[str, object], count: int = 2) -> list[tuple[np.ndarray, tuple, object]]:
+        """The ``count`` solved points nearest to ``values``: those of the same choices first, then by distance (in
+        each parameter's share of its range)."""
+        target, labels = self._point(values), self._labels(values)
         with self._lock:
-            ranked = sorted(self.solved, key=lambda s: float(np.linalg.norm(s[0] - target)))
+            ranked = sorted(
+                self.solved,
+                key=lambda s: (sum(a != b for a, b in zip(s[1], labels)), float(np.linalg.norm(s[0] - target))),
+            )
         return ranked[:count]
 
-    def _attempt(self, values: dict, start):
+    def _attempt(self, values: dict, labels: tuple, start, start_point):
         t = time.perf_counter()
         try:
-            with _solving(self.transcription):  # one solve of a transcription at a time, among explorers
-                solution = self.transcription.solve(start, parameters=values, **self.solve_options)
+            solution = self.family.attempt(values, self._choices(labels), start, self._values(start_point))
         except SolverError as exc:
             return None, exc.status, exc.iterations or 0, time.perf_counter() - t
-        if not solution.converged:  # (raise_on_failure is forced, but a solution that says so is never drawn)
-            return None, solution.status, solution.iterations, time.perf_counter() - t
-        return solution, solution.status, solution.iterations, time.perf_counter() - t
+        return solution, "", 0, time.perf_counter() - t
 
-    def solve(self, values: Mapping[str, float], superseded: Callable[[], bool] = lambda: False) -> Outcome:
-        """The transcription solved at ``values`` (the others at their defaults), from the nearest solved points,
-        else by continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a
-        solution, never an exception; its status is that of the solve at ``values`` from the nearest solved point.
+    def solve(self, values: Mapping[str, object], superseded: Callable[[], bool] = lambda: False) -> Outcome:
+        """The family solved at ``values`` (the others at their defaults), from the nearest solved points, else by
+        continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a solution,
+        never an exception; its status is that of the solve at ``values`` from the nearest solved point.
         ``superseded()``, asked between attempts: True stops the search (status ``"superseded"``)."""
-        target = self._point(values)
-        asked = {n: float(values.get(n, self.defaults[n])) for n in self.names}
+        target, labels = self._point(values), self._labels(values)
+        asked = {n: float(values.get(n, self.defaults[n])) for n in self.names} | self._choices(labels)
+        params = {n: asked[n] for n in self.names}
         spent, attempts, status, iterations = 0.0, 0, "", 0
         near = self.nearest(asked)
-        for point, start in near:
+        for point, _, start in near:
             if attempts and superseded():
                 return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
-            solution, tried, its, dt = self._attempt(asked, start)
+            solution, tried, its, dt = self._attempt(params, labels, start, point)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(asked, target, solution, spent, attempts, point)
+                return self._done(asked, target, labels, solution, spent, attempts, point)
             if attempts == 1:
                 status, iterations = tried, its
         # continuation from the nearest: halfway towards the target until a step solves, then on from there
-        point, start = near[0]
+        point, _, start = near[0]
         step = 0.5
         for _ in range(3 * self.halvings):  # each pass halves the step or the distance left
-            if step < 0.5**self.halvings:
+            if step < 0.5**self.halvings or not len(point):
                 break
             if superseded():
                 return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
             middle = point + step * (target - point)
-            solution, _, _, dt = self._attempt(self._values(middle), start)
+            solution, _, _, dt = self._attempt(self._values(middle), labels, start, point)
             spent, attempts = spent + dt, attempts + 1
             if solution is None:
                 step *= 0.5
                 continue
-            self._remember(middle, solution)
+            self._remember(middle, labels, solution)
             point, start = middle, solution
-            solution, _, _, dt = self._attempt(asked, start)
+            solution, _, _, dt = self._attempt(params, labels, start, point)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(asked, target, solution, spent, attempts, point)
-        return Outcome(asked, None, status, iterations, spent, start=self._values(near[0][0]), attempts=attempts)
+                return self._done(asked, target, labels, solution, spent, attempts, point)
+        start_values = self._values(near[0][0]) | self._choices(near[0][1])
+        return Outcome(
+            asked,
+            None,
+            status,
+            iterations,
+            spent,
+            start=start_values,
+            attempts=attempts,
+            measure=self.family.measure,
+        )
 
-    def _done(self, asked, target, solution, spent, attempts, start_point) -> Outcome:
-        self._remember(target, solution)
+    def _done(self, asked, target, labels, solution, spent, attempts, start_point) -> Outcome:
+        self._remember(target, labels, solution)
         return Outcome(
             asked,
             solution,
-            solution.status,
-            solution.iterations,
-            spent,
-            error_estimate=float(solution.error_estimate),
-            objective=float(solution.objective),
+            solve_s=spent,
             start=self._values(start_point),
             attempts=attempts,
+            measure=self.family.measure,
+            **self.family.describe(solution),
+        )
+
+    def outcome_of_first(self) -> Outcome:
+        """The first solution as an :class:`Outcome` (what the explorer shows before any move)."""
+        s = self.first
+        return Outcome(
+            dict(self.defaults) | dict(self.choice_defaults),
+            s,
+            solve_s=float(getattr(s, "solve_s", getattr(s, "cpu_s", 0.0))),
+            measure=self.family.measure,
+            **self.family.describe(s),
         )
 
 
@@ -369,25 +591,46 @@ class LatestOnly:
 @dataclass
 class History:
     """A panel of the explorer: ``column`` a state or control of the problem, drawn against time (``label`` on the
-    axis; ``scale`` multiplies the values)."""
+    axis; ``scale`` multiplies the values), or any quantity ``function(trajectory, t)`` computes (e.g. the thrust's
+    magnitude), named ``column``; ``samples`` points in time (a bang-bang control needs many)."""
 
     column: str
     label: str = ""
     scale: float = 1.0
+    function: Callable | None = None
+    samples: int = 200
 
-    def data(self, solution, samples: int = 200) -> tuple[np.ndarray, np.ndarray]:
-        t = np.linspace(solution.t0, solution.tf, samples)
-        problem = solution.problem
+    def values(self, trajectory, t: np.ndarray) -> np.ndarray:
+        """The quantity along ``trajectory`` at times ``t`` (unscaled)."""
+        problem = trajectory.problem
+        if self.function is not None:
+            return np.asarray(self.function(trajectory, t), dtype=float)
         if self.column in problem.state_names:
-            y = solution.state(t)[:, problem.state_names.index(self.column)]
-        elif self.column in problem.control_names:
-            y = solution.control(t)[:, problem.control_names.index(self.column)]
-        else:
-            raise KeyError(
-                f"unknown history {self.column!r}; the states are {list(problem.state_names)}, the controls "
-                f"{list(problem.control_names)}"
-            )
-        return t, self.scale * np.asarray(y, dtype=float)
+            return trajectory.state(t)[:, problem.state_names.index(self.column)]
+        if self.column in problem.control_names:
+            return trajectory.control(t)[:, problem.control_names.index(self.column)]
+        raise KeyError(
+            f"unknown history {self.column!r}; the states are {list(problem.state_names)}, the controls "
+            f"{list(problem.control_names)} (or give a function)"
+        )
+
+    def data(self, trajectory, samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, scale * values)`` at ``samples`` times evenly spaced over the trajectory."""
+        t = np.linspace(trajectory.t0, trajectory.tf, self.samples if samples is None else samples)
+        return t, self.scale * np.asarray(self.values(trajectory, t), dtype=float)
+
+    @classmethod
+    def against(cls, reference, column: str, label: str = "", scale: float = 1.0, samples: int = 200) -> History:
+        """The difference of ``column`` from ``reference`` (a trajectory: a converged solution, say) at the same
+        normalised time ``(t - t0) / (tf - t0)``, as :meth:`ocpkit.trajectory.Trajectory.difference` compares."""
+        at = cls(column)
+        at.values(reference, np.array([reference.t0]))  # an unknown column is an error here
+
+        def difference(trajectory, t):
+            s = (t - trajectory.t0) / (trajectory.tf - trajectory.t0)
+            return at.values(trajectory, t) - at.values(reference, reference.t0 + s * (reference.tf - reference.t0))
+
+        return cls(f"{column} - reference", label or f"{column} − reference", scale, difference, samples)
 
 
 @dataclass
@@ -399,6 +642,7 @@ class Explorer:
     histories: list
     threshold: float = 1e-3
     steps: int = 100
+    time_label: str = "t"
     outcome: Outcome | None = None
     timings: dict = field(default_factory=dict)
 
@@ -407,7 +651,7 @@ class Explorer:
         from matplotlib.figure import Figure
 
         self.histories = [h if isinstance(h, History) else History(h) for h in self.histories]
-        first = self.session.first
+        first = self._trajectory(self.session.first)
         for h in self.histories:
             h.data(first, 2)  # an unknown column is an error here, not in the thread
         self.figure = Figure(figsize=(8, 1.2 + 1.6 * len(self.histories)), layout="constrained")
@@ -421,7 +665,7 @@ class Explorer:
             self.lines.append(line)
             self.reference.append(ref)
         axes[0].legend(fontsize=8, loc="best")
-        axes[-1].set_xlabel("t")
+        axes[-1].set_xlabel(self.time_label)
         # the layout computed once: redrawn on every move, the constrained layout took half of Agg's drawing time
         self.figure.draw_without_rendering()
         self.figure.set_layout_engine("none")
@@ -444,22 +688,23 @@ class Explorer:
             )
             s.observe(self._moved, names="value")
             self.sliders[name] = s
-        self.outcome = self._first_outcome()
+        self.choosers = {}
+        for name, options in self.session.options.items():
+            d = widgets.Dropdown(
+                options=list(options),
+                value=self.session.choice_defaults[name],
+                description=name,
+                layout=widgets.Layout(width="480px"),
+            )
+            d.observe(self._moved, names="value")
+            self.choosers[name] = d
+        self.outcome = self.session.outcome_of_first()
         self.status = widgets.HTML(value=self._status_html(self.outcome))
         self.worker = LatestOnly(self._solve, self._draw, self._failed)
         self._canvas = None
 
-    def _first_outcome(self) -> Outcome:
-        s = self.session.first
-        return Outcome(
-            dict(self.session.defaults),
-            s,
-            s.status,
-            s.iterations,
-            s.solve_s,
-            error_estimate=float(s.error_estimate),
-            objective=float(s.objective),
-        )
+    def _trajectory(self, solution):
+        return self.session.family.trajectory(solution)
 
     def _status_html(self, outcome: Outcome) -> str:
         colour = "#b00020" if not outcome.solved else ("#666" if not outcome.accurate(self.threshold) else "#1b5e20")
@@ -473,14 +718,14 @@ class Explorer:
         for n, s in self.sliders.items():
             v, default, (lo, hi) = float(s.value), self.session.defaults[n], self.session.ranges[n]
             out[n] = default if abs(v - default) <= 1e-9 * (hi - lo) else v
-        return out
+        return out | {n: d.value for n, d in self.choosers.items()}
 
     def _moved(self, _change=None) -> None:
         values = self.values()
         if self.outcome is not None and values == self.outcome.values and not self.worker.busy():
             return  # the front end's echo of the value drawn (snapped to its grid): nothing to solve
         self.worker.submit(values)
-        asked = ", ".join(f"{n} = {v:.4g}" for n, v in values.items())
+        asked = ", ".join(f"{n} = {v:.4g}" if isinstance(v, float) else f"{n} = {v}" for n, v in values.items())
         self.status.value = f"<span style='color:#666;font-family:monospace'>solving {asked} …</span>"
 
     def _failed(self, values, exc) -> tuple:
@@ -490,13 +735,15 @@ class Explorer:
     def close(self) -> None:
         """Stop the explorer's thread and close its widgets (the solutions it kept are released with it)."""
         self.worker.stop()
-        for w in [*self.sliders.values(), self.status, *([self._canvas] if self._canvas is not None else [])]:
+        canvas = [self._canvas] if self._canvas is not None else []
+        for w in [*self.sliders.values(), *self.choosers.values(), self.status, *canvas]:
             w.close()
 
     def _solve(self, values):
         t = time.perf_counter()
         outcome = self.session.solve(values, superseded=self.worker.superseded)
-        data = [h.data(outcome.solution) for h in self.histories] if outcome.solved else None
+        trajectory = self._trajectory(outcome.solution) if outcome.solved else None
+        data = [h.data(trajectory) for h in self.histories] if outcome.solved else None
         self.timings = {"solve_s": outcome.solve_s, "data_s": time.perf_counter() - t - outcome.solve_s}
         return outcome, data
 
@@ -539,7 +786,12 @@ class Explorer:
             self._canvas = manager.canvas
             self._canvas.header_visible = False
             self._canvas.toolbar_visible = False
-        return widgets.VBox([*self.sliders.values(), self.status, self._canvas])
+        return widgets.VBox([*self.sliders.values(), *self.choosers.values(), self.status, self._canvas])
+
+    @property
+    def static_note(self) -> str:
+        """What the static picture says (:data:`STATIC_NOTE`; "make the choices" where there is no slider)."""
+        return STATIC_NOTE if self.sliders else STATIC_NOTE.replace("move the sliders", "make the choices")
 
     def static_png(self) -> bytes:
         """The default solution's figure as a PNG (what a front end without widgets shows)."""
@@ -551,9 +803,14 @@ class Explorer:
         for ax, h, ref in zip(axes, self.histories, self.reference):
             ax.plot(*ref.get_data(), color="C0", lw=1.6)
             ax.set_ylabel(h.label or h.column)
-        axes[-1].set_xlabel("t")
-        values = ", ".join(f"{n} = {v:.4g}" for n, v in self.session.defaults.items())
-        fig.suptitle(f"The default solution ({values}). {STATIC_NOTE}", fontsize=8, wrap=True)
+        axes[-1].set_xlabel(self.time_label)
+        values = ", ".join(
+            [f"{n} = {v:.4g}" for n, v in self.session.defaults.items()]
+            + [f"{n} = {v}" for n, v in self.session.choice_defaults.items()]
+        )
+        first = self.session.outcome_of_first()
+        about = f"; {first.note}" if first.note else ""
+        fig.suptitle(f"The default solution ({values}{about}). {self.static_note}", fontsize=8, wrap=True)
         buf = io.BytesIO()
         FigureCanvasAgg(fig).print_png(buf)
         return buf.getvalue()
@@ -561,25 +818,51 @@ class Explorer:
     def _repr_mimebundle_(self, include=None, exclude=None):
         bundle = dict(self.widget()._repr_mimebundle_(include=include, exclude=exclude) or {})
         bundle["image/png"] = base64.b64encode(self.static_png()).decode("ascii")
-        bundle["text/plain"] = STATIC_NOTE
+        bundle["text/plain"] = self.static_note
         return bundle
 
 
 def explore(
-    transcription,
-    parameters: Mapping[str, tuple[float, float]],
+    target,
+    parameters: Mapping[str, tuple[float, float]] | None,
     histories: Sequence,
     *,
+    choices: Mapping[str, object] | None = None,
+    defaults: Mapping[str, object] | None = None,
     first=None,
     threshold: float = 1e-3,
     solve_options: Mapping | None = None,
+    note: Callable | None = None,
+    time_label: str = "t",
 ) -> Explorer:
-    """An explorer of ``transcription`` over ``parameters`` (``{name: (low, high)}``, parameters of its problem),
-    drawing ``histories`` (state or control names, or :class:`History`) against time (module docstring).
-    ``first``: a solution to start from (default: the transcription solved at the problem's own values);
-    ``threshold``: the error estimate above which a solution is drawn grey."""
-    session = ExploreSession(transcription, parameters, first=first, solve_options=solve_options)
-    return Explorer(session, list(histories), threshold=threshold)
+    """An explorer of ``target`` over ``parameters`` (``{name: (low, high)}``, parameters of its problem) and
+    ``choices`` (``{name: options}``: a drop-down each), drawing ``histories`` (state or control names, or
+    :class:`History`) against time (module docstring). ``target``: a built transcription; ``build(**choices)``
+    returning one; or a :class:`ShootingFamily` (extremals followed by continuation). ``defaults``: the choices'
+    defaults (else each one's first option); ``first``: a solution to start from (default: solved at the problem's
+    own values); ``threshold``: the accuracy (error estimate, |S|) above which a solution is drawn grey;
+    ``solve_options`` and ``note(solution)`` (what the status line adds): a transcription's; ``time_label``: the
+    time axis's."""
+    session = ExploreSession(
+        target,
+        parameters or {},
+        choices=choices,
+        defaults=defaults,
+        first=first,
+        solve_options=solve_options,
+        note=note,
+    )
+    return Explorer(session, list(histories), threshold=threshold, time_label=time_label)
 
 
-__all__ = ["STATIC_NOTE", "ExploreSession", "Explorer", "History", "LatestOnly", "Outcome", "explore"]
+__all__ = [
+    "STATIC_NOTE",
+    "ExploreSession",
+    "Explorer",
+    "History",
+    "LatestOnly",
+    "Outcome",
+    "ShootingFamily",
+    "TranscriptionFamily",
+    "explore",
+]

@@ -370,3 +370,55 @@ def coupling_study(
     out.insert(1, "coupling", [k[0] for k in keys])
     out.insert(2, "ratio", [k[1] for k in keys])
     return out.drop(columns="case")
+
+
+def coupling_explorer(
+    problem,
+    reference,
+    *,
+    segments: Sequence[int],
+    ratios: Sequence[int],
+    couplings: Sequence[str],
+    partitions: dict,
+    default: dict,
+    ipopt_options=None,
+    n: int = 2001,
+):
+    """The two-timescale scheme's choices in :func:`compendium.explorer.explore`: the coarse segments ``N``, the
+    ratio ``M``, the coupling and the partition (``partitions``: label -> fast states; one without fast states, the
+    standard scheme, is left out), each a drop-down; every combination is built once (``MultiRateHLGL``) and
+    solved from the nearest solved one. ``default``: ``{"N", "M", "coupling", "fast"}`` of the first solution
+    (added to the options where they lack it). Drawn: the control and its difference from ``reference`` at the
+    same normalised time; the status line adds the NLP's size and the largest control difference (%,
+    :meth:`ocpkit.trajectory.Trajectory.difference` on ``n`` points)."""
+    from ..explorer import History, explore
+
+    fast = {label: list(f) for label, f in partitions.items() if f}
+    first_fast = list(default["fast"])
+    label = next((k for k, f in fast.items() if f == first_fast), f"{', '.join(first_fast)} fast")
+    fast.setdefault(label, first_fast)
+    choices = {
+        "N": sorted({*segments, default["N"]}),
+        "M": sorted({*ratios, default["M"]}),
+        "coupling": list(dict.fromkeys([*couplings, default["coupling"]])),
+        "fast": fast,
+    }
+    control = problem.control_names[0]
+    deg = 180.0 / np.pi
+
+    def note(solution) -> str:
+        error = solution.difference(reference, n)["controls"]
+        return f"{solution.decision_variables} NLP parameters · control vs reference {error:.1e} %"
+
+    return explore(
+        lambda N, M, coupling, fast: MultiRateHLGL(problem, N, ratio=M, fast=fast, coupling=coupling),
+        None,
+        [
+            History(control, f"{control} (deg)", scale=deg),
+            History.against(reference, control, f"{control} − reference (deg)", scale=deg, samples=n),
+        ],
+        choices=choices,
+        defaults={"N": default["N"], "M": default["M"], "coupling": default["coupling"], "fast": label},
+        solve_options={"ipopt_options": ipopt_options},
+        note=note,
+    )
