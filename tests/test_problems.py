@@ -59,3 +59,36 @@ def test_the_entry_landings_initial_state_and_glide_slope_as_parameters():
     assert faster.state(0.0)[2] * unit == pytest.approx(300.0, abs=1e-9) and faster.objective > post.objective
     coned = entry_landing(downrange_m=900.0, glide_slope_deg=10.0, constants_as_parameters=True)
     assert coned.parameters["glide_slope_deg"] == 10.0
+
+
+def test_the_lunar_ascents_thrust_and_target_as_constants_of_the_statement():
+    """lunar_ascent(a=..., altitude_km=...): another thrust or target in the paper's statement (what notebook 01's
+    parameters thrust_to_weight and target_altitude_km give) is the parametrised statement solved at those values;
+    given as parameters, they are the defaults."""
+    from ocpkit import HLGL
+
+    stated = HLGL(lunar_ascent(a=2.5, altitude_km=300.0), 20).solve(error_threshold=None)
+    varied = HLGL(lunar_ascent(thrust_as_parameter=True, target_as_parameter=True), 20).solve(
+        parameters={"a": 2.5, "altitude_km": 300.0}, error_threshold=None
+    )
+    assert stated.tf == pytest.approx(varied.tf, rel=1e-9) and not stated.problem.parameters
+    defaults = lunar_ascent(a=2.5, altitude_km=300.0, thrust_as_parameter=True, target_as_parameter=True)
+    assert defaults.parameters == {"a": 2.5, "altitude_km": 300.0}
+    assert lunar_ascent().states[1].final == pytest.approx(lunar_ascent_constants()["final"]["Y"], rel=1e-15)
+    with pytest.raises(ValueError, match="altitude_km must be positive"):
+        lunar_ascent(altitude_km=-1.0)
+    with pytest.raises(ValueError, match="a must be positive"):
+        lunar_ascent(a=0.0)
+
+
+def test_the_downrange_bound_follows_the_entry():
+    """The bound (V0 cos gamma0)^2 / (2 a_max) of another entry: a quarter of the post's at half its horizontal
+    speed (a_max depends on V0 through the lift, so the check is at the post's speed with a steeper angle)."""
+    from compendium.problems import minimum_downrange_bound
+
+    post = minimum_downrange_bound()
+    steep = minimum_downrange_bound(initial_flight_path_deg=-80.0)
+    ratio = (math.cos(math.radians(-80.0)) / math.cos(math.radians(-65.0))) ** 2
+    assert steep["downrange_bound_m"] == pytest.approx(ratio * post["downrange_bound_m"], rel=1e-12)
+    same = minimum_downrange_bound(initial_speed_m_s=280.0, initial_flight_path_deg=-65.0)
+    assert same == pytest.approx(post, rel=1e-14)

@@ -81,7 +81,12 @@ def lift_scale(aero_model: str) -> float:
     return 0.5 * c["rho"] * c["Sref_m2"] * c["g0"] * length / (c["m0_kg"] * c["g0"])
 
 
-def minimum_downrange_bound(aero_model: str = "corrected") -> dict:
+def minimum_downrange_bound(
+    aero_model: str = "corrected",
+    *,
+    initial_speed_m_s: float | None = None,
+    initial_flight_path_deg: float | None = None,
+) -> dict:
     """A lower bound on the final downrange (m) of any trajectory admissible under the post's bounds.
 
     With gamma in [-90, 90] deg, ds/dt = V cos(gamma) >= 0: the downrange never
@@ -90,8 +95,13 @@ def minimum_downrange_bound(aero_model: str = "corrected") -> dict:
     component of thrust, lift and drag over the mass (gravity is vertical), at most
     ``a_max = (Tmax + sqrt(1 + (D/L)^2) L_max) / m_min`` with the lift largest at
     ``u_L = 1`` and ``V = V0`` (``V <= V0``). Hence ``s_f >= (V0 cos gamma0)^2 / (2 a_max)``.
+    ``initial_speed_m_s``, ``initial_flight_path_deg``: another entry, as :func:`entry_landing`.
     """
     c = entry_landing_constants()
+    if initial_speed_m_s is not None:
+        c["V0"] = float(initial_speed_m_s) / c["velocity_unit_m_s"]
+    if initial_flight_path_deg is not None:
+        c["gamma0"] = float(initial_flight_path_deg) * math.pi / 180
     k = lift_scale(aero_model)
     L_max = k * c["V0"] ** 2
     a_max = (c["Tmax"] + math.hypot(1.0, c["drag_to_lift"]) * L_max) / c["mass_bounds"][0]  # in g0

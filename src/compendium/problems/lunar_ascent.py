@@ -64,7 +64,12 @@ def ascent_states(c: dict) -> list[State]:
 
 
 def lunar_ascent(
-    speed_smoothing: float | None = None, *, thrust_as_parameter: bool = False, target_as_parameter: bool = False
+    speed_smoothing: float | None = None,
+    *,
+    a: float | None = None,
+    altitude_km: float | None = None,
+    thrust_as_parameter: bool = False,
+    target_as_parameter: bool = False,
 ) -> OptimalControlProblem:
     """Minimum-time lunar ascent, Eqs. (8)-(11) of Desai & Conway.
 
@@ -76,12 +81,21 @@ def lunar_ascent(
     ``target_as_parameter``: the target altitude is the parameter ``"altitude_km"`` (default the data file's
     185.2 km), the final ``Y`` held to it by the boundary equality ``target``
     (``solve(parameters={"altitude_km": 300})``); the default statement, with ``Y(t_f)`` fixed, is the paper's.
+    ``a`` and ``altitude_km``: another thrust-to-weight ratio or target altitude (default: the data file's, the
+    paper's), the constant of the statement or, as a parameter, its default value.
     """
     c = lunar_ascent_constants()
     eps = c["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing)
     if not (eps > 0 and math.isfinite(eps)):
         raise ValueError(f"speed_smoothing must be positive and finite, got {speed_smoothing!r}")
-    g, a = c["g"], c["a"]
+    for name, value in (("a", a), ("altitude_km", altitude_km)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    R = c["length_unit_m"]
+    target_km = load_problem_data("lunar_ascent")["target"]["altitude_m"] / 1e3 if altitude_km is None else altitude_km
+    if altitude_km is not None:  # (else the data file's target as it stands, to the last digit)
+        c["final"]["Y"] = 1.0 + altitude_km * 1e3 / R
+    g, a = c["g"], (c["a"] if a is None else float(a))
 
     def dynamics(x, u, t, P=None):
         X, Y, U, V = ca.vertsplit(x)
@@ -94,8 +108,7 @@ def lunar_ascent(
     if thrust_as_parameter:
         parameters["a"] = a
     if target_as_parameter:
-        R = c["length_unit_m"]
-        parameters["altitude_km"] = load_problem_data("lunar_ascent")["target"]["altitude_m"] / 1e3
+        parameters["altitude_km"] = float(target_km)
         states[1] = dataclasses.replace(states[1], final=None)
         boundary.append(
             Constraint("target", lambda x0, xf, t0, tf, P: xf["Y"] - (1.0 + P["altitude_km"] * 1e3 / R), 0.0, 0.0)

@@ -10,15 +10,16 @@ from ocpkit import HLGL
 from ..problems.lunar_ascent import lunar_ascent, lunar_ascent_constants
 
 
-def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None):
+def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None, **problem_options):
     """Minimum time of the lunar ascent for each speed smoothing eps (HLGL, fixed mesh).
 
+    ``problem_options``: passed to :func:`~compendium.problems.lunar_ascent` (another thrust or target).
     Returns a DataFrame with eps, tf, the change of tf from the smallest eps,
     IPOPT iterations and the re-integration error.
     """
     rows = []
     for eps in smoothings:
-        sol = HLGL(lunar_ascent(float(eps)), segments).solve(ipopt_options=ipopt_options)
+        sol = HLGL(lunar_ascent(float(eps), **problem_options), segments).solve(ipopt_options=ipopt_options)
         rows.append(
             {
                 "speed_smoothing": float(eps),
