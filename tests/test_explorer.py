@@ -204,7 +204,11 @@ def test_choices_build_each_transcription_once_and_start_from_the_nearest_soluti
     fresh = MultiRateHLGL(problem, 5, ratio=2, fast=["U", "V"]).solve(error_threshold=None)
     assert outcome.solved and outcome.values == {"M": 2, "fast": "U, V"}
     assert outcome.objective == pytest.approx(fresh.objective, rel=1e-8)
-    assert session.solve({"M": 2, "fast": "V"}).solved and session.solve({"M": 2}).iterations <= 2
+    assert outcome.start == {"M": 1, "fast": "U, V"}  # the start's choices, by label
+    partition = session.solve({"M": 2, "fast": "V"})
+    assert partition.solved and partition.start == {"M": 2, "fast": "U, V"}  # the same M first
+    again = session.solve({"M": 2})  # solved before: that solution, no attempt
+    assert again.attempts == 0 and again.solution is outcome.solution
     assert built == [(1, ("U", "V")), (2, ("U", "V")), (2, ("V",))]  # each combination built once
     assert [s[1] for s in session.nearest({"M": 2, "fast": "V"}, count=3)] == [(2, "V"), (2, "U, V"), (1, "U, V")]
     with pytest.raises(ValueError, match=r"choice 'M' = 3 is not one of \[1, 2\]"):
@@ -213,9 +217,112 @@ def test_choices_build_each_transcription_once_and_start_from_the_nearest_soluti
         ExploreSession(build, {}, choices={"M": [1, 2]}, defaults={"M": 4})
     with pytest.raises(TypeError, match="build"):
         ExploreSession(HLGL(problem, 5), {}, choices={"M": [1, 2]})
+    with pytest.raises(TypeError, match=r"cannot be its own label; give \{label: value\}"):
+        ExploreSession(build, {}, choices={"fast": [["U", "V"], ["V"]]})
+    with pytest.raises(ValueError, match="is not one of"):
+        session.solve({"fast": ["V"]})  # a value, not its label
+    with pytest.raises(KeyError, match="unknown parameters or choices"):
+        session.solve({"N": 5})
 
 
-def test_a_history_against_a_reference_is_the_difference_at_the_same_normalised_time(ascent):
+class _Failing:
+    """A family whose every solve fails (counted), with one parameter and one choice."""
+
+    measure, objective_label = "error estimate", "objective"
+    options, choice_defaults = {"k": {"x": 1, "y": 2}}, {"k": "x"}
+
+    def __init__(self):
+        self.attempts = []
+
+    def parameters(self):
+        return {"p": 0.5}
+
+    def first(self):
+        return "the first"
+
+    def solved_at(self, solution):
+        return {"p": 0.5}
+
+    def attempt(self, values, labels, start, start_values):
+        from ocpkit import SolverError
+
+        self.attempts.append((dict(values), dict(labels)))
+        raise SolverError("fake", "never")
+
+
+def test_a_choice_that_fails_is_tried_once_from_each_nearest_point_not_stepped_towards():
+    family = _Failing()
+    session = ExploreSession(family, {"p": (0.0, 1.0)})
+    outcome = session.solve({"k": "y"})  # the parameter where it was: no continuation to step along
+    assert not outcome.solved and outcome.status == "never" and family.attempts == [({"p": 0.5}, {"k": "y"})]
+    assert outcome.start == {"p": 0.5, "k": "x"}
+    with pytest.raises(ValueError, match="give choices, defaults, solve_options and note to the family"):
+        ExploreSession(family, {"p": (0.0, 1.0)}, choices={"k": [1]})
+
+
+def test_drop_downs_choose_and_the_picture_says_so():
+    import base64
+
+    from ocpkit import MultiRateHLGL
+
+    problem = lunar_ascent()
+    explorer = explore(
+        lambda M, fast: MultiRateHLGL(problem, 5, ratio=M, fast=fast),
+        histories=["theta"],
+        choices={"M": [1, 2], "fast": {("U", "V"): ["U", "V"], ("V",): ["V"]}},  # tuples as labels
+        defaults={"M": 2},
+    )
+    try:
+        assert not explorer.sliders and list(explorer.choosers) == ["M", "fast"]
+        assert explorer.values() == {"M": 2, "fast": ("U", "V")}
+        assert [label for label, _ in explorer.choosers["fast"].options] == ["('U', 'V')", "('V',)"]
+        bundle = explorer._repr_mimebundle_()
+        assert bundle["text/plain"] == STATIC_NOTE.replace("move the sliders", "make the choices")
+        assert base64.b64decode(bundle["image/png"]).startswith(b"\x89PNG")
+        before = explorer.lines[0].get_ydata().copy()
+        explorer.choosers["fast"].value = ("V",)
+        assert explorer.worker.idle(30) and explorer.outcome.solved
+        assert explorer.outcome.values == {"M": 2, "fast": ("V",)}
+        fresh = MultiRateHLGL(problem, 5, ratio=2, fast=["V"]).solve(error_threshold=None)
+        assert explorer.outcome.objective == pytest.approx(fresh.objective, rel=1e-8)
+        assert not np.array_equal(explorer.lines[0].get_ydata(), before)
+    finally:
+        explorer.close()
+    with pytest.raises(ValueError, match="give the histories"):
+        explore(lambda M: MultiRateHLGL(problem, 5, ratio=M, fast=["V"]), choices={"M": [1, 2]})
+
+
+def test_the_two_timescale_explorer_offers_the_notebooks_choices_and_starts_from_its_solution():
+    from ocpkit import MultiRateHLGL
+
+    from compendium.studies.two_timescale import coupling_explorer
+
+    problem = lunar_ascent()
+    reference = HLGL(problem, 40).solve(error_threshold=None)
+    case1 = MultiRateHLGL(problem, 5, ratio=2, fast=["U", "V"]).solve(error_threshold=None)
+    explorer = coupling_explorer(
+        problem,
+        reference,
+        segments=[5],
+        ratios=[1],
+        couplings=["galerkin"],
+        partitions={"standard": [], "V fast": ["V"]},
+        default={"N": 5, "M": 2, "coupling": "coarse", "fast": ["U", "V"]},
+        first=case1,
+    )
+    try:
+        options = {n: list(o) for n, o in explorer.session.options.items()}
+        assert options == {"N": [5], "M": [1, 2], "coupling": ["galerkin", "coarse"], "fast": ["V fast", "U, V fast"]}
+        assert explorer.session.first is case1 and "NLP parameters" in explorer.outcome.note
+        galerkin = explorer.session.solve({"coupling": "galerkin"})
+        assert galerkin.solved and galerkin.start == {"N": 5, "M": 2, "coupling": "coarse", "fast": "U, V fast"}
+        error = float(galerkin.note.split("control vs reference ")[1].split(" %")[0])
+        assert error < case1.difference(reference)["controls"] / 10  # the Galerkin coupling's control (notebook 02)
+    finally:
+        explorer.close()
+
+
+def test_a_history_against_a_reference_is_the_difference_at_the_same_normalised_time():
     from compendium.explorer import History
 
     coarse = HLGL(lunar_ascent(), 5).solve(error_threshold=None)
@@ -284,3 +391,26 @@ def test_a_transfer_explorer_draws_the_mass_and_the_thrust_and_a_failure_draws_n
     assert outcome.attempts > 1 and outcome.start == {"thrust_N": 5.0}
     with pytest.raises(ValueError, match="converged"):
         ShootingFamily(family.build, dataclasses.replace(first, converged=False), {"thrust_N": 5.0})
+
+
+def test_a_shooting_family_gets_all_its_values_and_a_failed_integration_is_a_failed_solve(transfer):
+    from compendium.explorer import ShootingFamily
+    from compendium.problems.orbit_transfer import final_longitude
+
+    systems, first = transfer
+    seen = []
+
+    def build(values):  # a second value, not explored, still reaches build
+        seen.append(dict(values))
+        T = values["thrust_N"]
+        return systems.shooting("fuel", T, final="longitude", longitude=final_longitude(T, values["c"]), tol=1e-8)
+
+    family = ShootingFamily(build, first, {"thrust_N": 5.0, "c": 1.25})
+    assert ExploreSession(family, {"thrust_N": (1.0, 10.0)}).solve({"thrust_N": 5.05}).solved
+    assert seen == [{"thrust_N": 5.05, "c": 1.25}]
+    broken = ShootingFamily(build, first, {"thrust_N": 5.0, "c": 1.25}, predict=lambda a, z, v: z[:3])
+    outcome = ExploreSession(broken, {"thrust_N": (1.0, 10.0)}, halvings=1).solve({"thrust_N": 5.05})
+    assert not outcome.solved and outcome.status.startswith("ValueError")  # a wrong start: failed, not an error
+    other = dataclasses.replace(first)  # equal, but not the family's own
+    with pytest.raises(ValueError, match="starts from its own first result"):
+        ExploreSession(family, {"thrust_N": (1.0, 10.0)}, first=other)

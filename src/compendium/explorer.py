@@ -8,16 +8,17 @@ slider's path), and the curves are redrawn in place.
   (or one per combination of choices, ``build(**choices)``, each built when first chosen), solved at the new
   parameter values from the nearest solution: exactly where it is of the same transcription, else interpolated.
   :class:`ShootingFamily`: the extremals of an indirect shooting, each found from the nearest one (its unknowns,
-  or a prediction from them, e.g. the final time scaled), the shooting rebuilt at each value where a boundary
-  condition moves with the parameter.
-* :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` starts from the nearest
-  solved values (those of the same choices first, then by distance in each parameter's share of its range), then
-  from the next nearest, then, stepping halfway from the nearest towards the target, from the points in between; it
-  never raises for a failed solve (the :class:`Outcome` says so: no solution, the status of the solve at the value
-  asked) and raises a ``ValueError`` naming a parameter that is unknown or outside its range, or a choice that is
-  not one of its options. A transcription's solves use an IPOPT instance of their own (:data:`EXPLORER_IPOPT`) and
-  one lock per transcription, so a solve of the same transcription in the notebook's thread, or by another
-  explorer, never runs in the same instance at the same time (that crashes the process).
+  or a prediction from them, e.g. the final time scaled), the shooting rebuilt at each value (so a boundary
+  condition may move with the parameter).
+* :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` returns a value solved
+  before as it was; else it starts from the nearest solved values (ranked by how many choices differ, then by
+  distance in each parameter's share of its range), then from the next nearest, then, stepping halfway from the
+  nearest towards the target, from the points in between. It never raises for a failed solve (the
+  :class:`Outcome` says so: no solution, the status of the solve at the value asked); it raises a ``KeyError``
+  naming an unknown parameter or choice, and a ``ValueError`` naming a parameter outside its range or a choice
+  that is not one of its options. A transcription's solves use an IPOPT instance of their own
+  (:data:`EXPLORER_IPOPT`) and one lock per transcription, so a solve of the same transcription in the notebook's
+  thread, or by another explorer, never runs in the same instance at the same time (that crashes the process).
 * :class:`LatestOnly` runs one solve at a time in a background thread, always the newest value asked for: values
   asked while a solve runs replace one another, so dragging never queues stale work, and a continuation stops when
   a newer value waits; a drag still solves as it goes (``max_wait``). A result whose values were superseded before
@@ -28,7 +29,8 @@ slider's path), and the curves are redrawn in place.
   a figure of ipympl's, its lines updated in place) and a status line: the solver's status, its iterations, the
   solve time, the accuracy (error estimate, or |S| for a shooting), the objective and what the family adds ("solving
   ..." while a value is solved). A failed solve draws no curve and says so in the status; an inaccurate one
-  (accuracy above the threshold) is drawn grey. ``close()`` ends its thread.
+  (accuracy above the threshold) is drawn grey. ``close()`` ends its thread; an explorer no longer shown keeps its
+  transcriptions and solutions until it is closed (or its cell's output is cleared and it is collected).
 
 It degrades to a picture: displayed where no widget can live (a stored notebook on GitHub, nbviewer, the HTML
 report, papermill and nbval), the explorer shows a static figure of the default solution and a sentence saying it
@@ -40,10 +42,12 @@ from __future__ import annotations
 
 import base64
 import contextlib
+import html
 import io
 import threading
 import time
 import weakref
+from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -90,11 +94,12 @@ def _import_ipympl() -> None:
 
 @dataclass(frozen=True)
 class Outcome:
-    """One solve of an :class:`ExploreSession`: the ``values`` asked for (parameters and choices), the
+    """One solve of an :class:`ExploreSession`: the ``values`` asked for (parameters, and choices by label), the
     ``solution`` (None where the solve failed), the solver's ``status`` and ``iterations``, the wall time
     ``solve_s`` (every attempt), the ``error_estimate`` (the family's ``measure`` of accuracy: a transcription's
-    error estimate, a shooting's |S|) and ``objective`` (NaN without a solution), the solved values it was
-    warm-started from (``start``; None: the family's own first solution) and what the family adds (``note``)."""
+    error estimate, a shooting's |S|) and the ``objective`` (named ``objective_label``; NaN without a solution), the
+    solved values it was warm-started from (``start``; None: the family's own first solution), the ``attempts``
+    and what the family adds (``note``). A value solved before is that solution again (no attempt)."""
 
     values: dict
     solution: object | None
@@ -107,6 +112,7 @@ class Outcome:
     attempts: int = 1
     measure: str = "error estimate"
     note: str = ""
+    objective_label: str = "objective"
 
     @property
     def solved(self) -> bool:
@@ -118,32 +124,86 @@ class Outcome:
     def status_line(self) -> str:
         if not self.solved:
             return f"FAILED: {self.status} ({self.attempts} attempts, {1e3 * self.solve_s:.0f} ms); no curve drawn"
-        note = f" · {self.note}" if self.note else ""
-        return (
-            f"{self.status} · {self.iterations} iterations · {1e3 * self.solve_s:.0f} ms · "
-            f"{self.measure} {self.error_estimate:.1e} · objective {self.objective:.8g}{note}"
-        )
+        parts = [
+            self.status,
+            f"{self.iterations} iterations",
+            f"{1e3 * self.solve_s:.0f} ms",
+            f"{self.measure} {self.error_estimate:.1e}",
+        ]
+        if self.objective_label:
+            parts.append(f"{self.objective_label} {self.objective:.8g}")
+        return " · ".join(parts + ([self.note] if self.note else []))
+
+
+def _options(name: str, spec) -> dict:
+    """A choice's options as ``{label: value}`` (a list's items are their own labels, so they must be hashable)."""
+    if isinstance(spec, Mapping):
+        options = dict(spec)
+    else:
+        options = {}
+        for option in spec:
+            try:
+                hash(option)
+            except TypeError:
+                raise TypeError(
+                    f"choice {name!r}: the option {option!r} cannot be its own label; give {{label: value}}"
+                ) from None
+            options[option] = option
+    if not options:
+        raise ValueError(f"choice {name!r} has no options")
+    return options
+
+
+def _is_option(label, options: Mapping) -> bool:
+    try:
+        return label in options
+    except TypeError:  # an unhashable label is none of them
+        return False
 
 
 class TranscriptionFamily:
-    """The direct solutions of a transcription over its problem's parameters: ``transcription`` a built one, or
-    ``build(**choices)`` one per combination of the explorer's discrete choices (each built once, when first asked
-    for). A solve starts from the nearest solved solution: exactly where it is of the same transcription, else
-    interpolated onto the new mesh (:meth:`ocpkit.transcription.base.Transcription.initial_point`)."""
+    """The direct solutions of a transcription over its problem's parameters, and over discrete choices.
+
+    ``transcription``: a built one; or ``build(**choices)``, called with the choices' values (``choices``:
+    ``{name: options}``, a list or ``{label: value}``; the first option each one's default unless ``defaults``
+    names another label) and each combination built when first chosen, the last ``keep_built`` kept. A solve
+    starts from the nearest solved solution: exactly where it is of the same transcription, else interpolated onto
+    the new mesh (:meth:`ocpkit.transcription.base.Transcription.initial_point`). ``solve_options``: passed to every
+    ``solve`` (default ``error_threshold=None``: the explorer reports the estimate itself); ``note(solution)``:
+    what the status line adds. A combination is built in the explorer's thread, under this family's lock."""
 
     measure = "error estimate"
+    objective_label = "objective"
 
     def __init__(
         self,
         transcription=None,
         *,
         build: Callable | None = None,
+        choices: Mapping[str, object] | None = None,
+        defaults: Mapping[str, object] | None = None,
         solve_options: Mapping | None = None,
         note: Callable | None = None,
+        keep_built: int = 16,
     ):
         if (transcription is None) == (build is None):
             raise ValueError("give a built transcription or build(**choices), not both")
-        self._build, self._built, self.note = build, {}, note
+        if transcription is not None and (choices or defaults):
+            raise ValueError("choices need build(**choices): a built transcription has none")
+        self.options = {name: _options(name, spec) for name, spec in (choices or {}).items()}
+        defaults = dict(defaults or {})
+        unknown = sorted(set(defaults) - set(self.options))
+        if unknown:
+            raise KeyError(f"defaults {unknown} are not choices; the choices are {sorted(self.options)}")
+        self.choice_defaults = {}
+        for name, options in self.options.items():
+            label = defaults.get(name, next(iter(options)))
+            if not _is_option(label, options):
+                raise ValueError(f"choice {name!r}: default {label!r} is not one of {list(options)}")
+            self.choice_defaults[name] = label
+        self._build, self.note, self.keep_built = build, note, max(1, int(keep_built))
+        self._built: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
         if transcription is not None:
             self._built[()] = transcription
         options = dict(solve_options or {})
@@ -152,30 +212,42 @@ class TranscriptionFamily:
         options["ipopt_options"] = {**EXPLORER_IPOPT, **(options.get("ipopt_options") or {})}
         self.solve_options = {"error_threshold": None, **options, "raise_on_failure": True}
 
-    def transcription(self, choices: Mapping) -> object:
-        """The transcription of these choices (built once)."""
+    def transcription(self, labels: Mapping | None = None) -> object:
+        """The transcription of these choices (by label; default: the defaults), built once."""
         if self._build is None:
             return self._built[()]
-        key = tuple(sorted(choices.items()))
-        if key not in self._built:
-            self._built[key] = self._build(**choices)
-        return self._built[key]
+        labels = {**self.choice_defaults, **(labels or {})}
+        key = tuple(labels[n] for n in self.options)
+        with self._lock:
+            if key in self._built:
+                self._built.move_to_end(key)
+                return self._built[key]
+        built = self._build(**{n: self.options[n][label] for n, label in labels.items()})
+        with self._lock:
+            built = self._built.setdefault(key, built)
+            while len(self._built) > self.keep_built:
+                self._built.popitem(last=False)
+        return built
 
-    def parameters(self, choices: Mapping) -> Mapping[str, float]:
-        """The problem's parameters and their own values."""
-        problem = self.transcription(choices).problem
+    def parameters(self) -> Mapping[str, float]:
+        """The problem's parameters and their own values (those of the default choices' transcription)."""
+        problem = self.transcription().problem
         return {n: problem.parameters[n] for n in problem.parameters}
 
-    def first(self, choices: Mapping):
-        return self.transcription(choices).solve(**self.solve_options)
+    def first(self):
+        """The default choices' transcription solved at the problem's own values."""
+        transcription = self.transcription()
+        with _solving(transcription):
+            return transcription.solve(**self.solve_options)
 
     @staticmethod
     def solved_at(solution) -> Mapping[str, float]:
         return solution.problem.parameters
 
-    def attempt(self, values: Mapping, choices: Mapping, start, start_values: Mapping):
-        """The solution at ``values`` from ``start``; raises :class:`~ocpkit.SolverError` where it fails."""
-        transcription = self.transcription(choices)
+    def attempt(self, values: Mapping, labels: Mapping, start, start_values: Mapping):
+        """The solution at ``values`` of the choices ``labels`` from ``start``; raises :class:`~ocpkit.SolverError`
+        where it fails."""
+        transcription = self.transcription(labels)
         with _solving(transcription):  # one solve of a transcription at a time, among explorers
             solution = transcription.solve(start, parameters=dict(values), **self.solve_options)
         if not solution.converged:  # (raise_on_failure is forced, but a solution that says so is never drawn)
@@ -188,6 +260,7 @@ class TranscriptionFamily:
             "iterations": solution.iterations,
             "error_estimate": float(solution.error_estimate),
             "objective": float(solution.objective),
+            "objective_label": self.objective_label,
             "note": "" if self.note is None else str(self.note(solution)),
         }
 
@@ -199,14 +272,19 @@ class TranscriptionFamily:
 class ShootingFamily:
     """The extremals of a shooting problem over its parameters, each found from the nearest one (a continuation).
 
-    ``build(values)``: the :class:`~ocpkit.shooting.Shooting` at those parameter values (a boundary condition may
-    move with them); ``first``: a converged :class:`~ocpkit.shooting.ShootingResult` at ``values``;
-    ``predict(start_values, z, values)``: the unknowns to start from at ``values``, given those ``z`` solved at
-    ``start_values`` (default: ``z`` itself); ``solve_options``: passed to ``Shooting.solve`` (default: MINPACK's
-    hybrid method, 100 evaluations); ``note(result)``: what the status line adds (e.g. the fuel and the switchings).
-    The status line's accuracy is the residual |S|; the iterations are shooting-function evaluations."""
+    ``build(values)``: the :class:`~ocpkit.shooting.Shooting` at those parameter values (every value of ``values``,
+    the explored ones changed; it is rebuilt for each, so a boundary condition may move with them); ``first``: a
+    converged :class:`~ocpkit.shooting.ShootingResult` at ``values``; ``predict(start_values, z, values)``: the
+    unknowns to start from at ``values``, given those ``z`` solved at ``start_values`` (default: ``z`` itself);
+    ``solve_options``: passed to ``Shooting.solve`` (default: MINPACK's hybrid method, 100 evaluations);
+    ``note(result)``: what the status line adds (e.g. the fuel and the switchings); ``objective_label``: the name of
+    the objective there ("": not shown). The status line's accuracy is the residual |S|; the iterations are
+    shooting-function evaluations. A shooting whose integration fails is a failed solve, as one that does not
+    converge. It has no discrete choices."""
 
     measure = "|S|"
+    options: dict = {}
+    choice_defaults: dict = {}
 
     def __init__(
         self,
@@ -217,31 +295,38 @@ class ShootingFamily:
         predict: Callable | None = None,
         solve_options: Mapping | None = None,
         note: Callable | None = None,
+        objective_label: str = "objective",
     ):
         if not getattr(first, "converged", False):
             raise ValueError("first must be a converged shooting result (the family is followed from it)")
-        self.build, self.predict, self.note = build, predict, note
+        self.build, self.predict, self.note, self.objective_label = build, predict, note, objective_label
         self.values = {n: float(v) for n, v in values.items()}
         self._first = first
         self.solve_options = {"solver": "hybr", "maxfev": 100, **(solve_options or {}), "raise_on_failure": True}
         self._lock = threading.Lock()
 
-    def parameters(self, choices: Mapping) -> Mapping[str, float]:
+    def parameters(self) -> Mapping[str, float]:
         return dict(self.values)
 
-    def first(self, choices: Mapping):
+    def first(self):
         return self._first
 
     def solved_at(self, result) -> Mapping[str, float]:
-        return self.values  # (asked of the first result only)
+        if result is not self._first:
+            raise ValueError("a shooting family starts from its own first result: give first to ShootingFamily")
+        return self.values
 
-    def attempt(self, values: Mapping, choices: Mapping, start, start_values: Mapping):
+    def attempt(self, values: Mapping, labels: Mapping, start, start_values: Mapping):
         """The extremal at ``values`` from ``start`` (solved at ``start_values``); raises
         :class:`~ocpkit.SolverError` where the shooting fails."""
-        values = {n: float(v) for n, v in values.items()}
-        z = start.z if self.predict is None else self.predict(dict(start_values), np.asarray(start.z), values)
+        values = {**self.values, **{n: float(v) for n, v in values.items()}}
+        start_values = {**self.values, **start_values}
+        z = start.z if self.predict is None else self.predict(start_values, np.asarray(start.z), values)
         with self._lock:
-            return self.build(values).solve(np.asarray(z, dtype=float), **self.solve_options)
+            try:
+                return self.build(values).solve(np.asarray(z, dtype=float), **self.solve_options)
+            except (ValueError, ArithmeticError) as exc:  # e.g. the integration from these unknowns fails
+                raise SolverError("shooting", f"{type(exc).__name__}: {exc}") from exc
 
     def describe(self, result) -> dict:
         return {
@@ -249,6 +334,7 @@ class ShootingFamily:
             "iterations": int(result.n_shooting),
             "error_estimate": float(result.norm),
             "objective": float(result.objective),
+            "objective_label": self.objective_label,
             "note": "" if self.note is None else str(self.note(result)),
         }
 
@@ -257,30 +343,24 @@ class ShootingFamily:
         return result.trajectory
 
 
-def _options(name: str, spec) -> dict:
-    """A choice's options as ``{label: value}`` (a list's items are their own labels)."""
-    options = dict(spec) if isinstance(spec, Mapping) else {o: o for o in spec}
-    if not options:
-        raise ValueError(f"choice {name!r} has no options")
-    return options
-
-
 class ExploreSession:
     """Solves a family of problems at values chosen one after another (module docstring).
 
     ``target``: a built transcription (its problem's parameters are explored); ``build(**choices)`` returning one,
-    where ``choices`` are given; or a family (:class:`TranscriptionFamily`, :class:`ShootingFamily`).
-    ``parameters``: ``{name: (low, high)}``, continuous parameters of the problem; ``choices``: ``{name: options}``,
-    discrete arguments of ``build`` (a list, or ``{label: value}``), the first option the default unless
-    ``defaults`` names another. ``first``: a solution to start from (default: one solve at the problem's own
-    values); ``solve_options``: passed to every ``transcription.solve`` (default ``error_threshold=None``: the
-    explorer reports the estimate itself); ``note(solution)``: what the status line adds; ``halvings``: how many times the continuation halves its step towards a
-    value it cannot reach directly."""
+    with ``choices`` (``{name: options}``, a list or ``{label: value}``) and their ``defaults`` (labels; else each
+    one's first option); or a family (:class:`TranscriptionFamily`, :class:`ShootingFamily`), which holds its
+    choices, solve options and note itself. ``parameters``: ``{name: (low, high)}``, continuous parameters of the
+    problem. ``first``: a solution to start from (default: the family's first, a transcription solved at the
+    problem's own values; a shooting family's is its own); ``solve_options`` and ``note(solution)``: a
+    transcription's (:class:`TranscriptionFamily`); ``halvings``: how many times the continuation halves its step
+    towards a value it cannot reach directly; ``keep``: how many solutions are kept as warm starts.
+
+    ``defaults`` are the parameters' values of the first solution, ``choice_defaults`` the choices' labels."""
 
     def __init__(
         self,
         target,
-        parameters: Mapping[str, tuple[float, float]],
+        parameters: Mapping[str, tuple[float, float]] | None = None,
         *,
         choices: Mapping[str, object] | None = None,
         defaults: Mapping[str, object] | None = None,
@@ -290,37 +370,32 @@ class ExploreSession:
         halvings: int = 3,
         keep: int = 200,
     ):
-        self.options = {name: _options(name, spec) for name, spec in (choices or {}).items()}
-        defaults = dict(defaults or {})
-        unknown = sorted(set(defaults) - set(self.options))
-        if unknown:
-            raise KeyError(f"defaults {unknown} are not choices; the choices are {sorted(self.options)}")
-        self.choice_defaults = {}
-        for name, options in self.options.items():
-            label = defaults.get(name, next(iter(options)))
-            if label not in options:
-                raise ValueError(f"choice {name!r}: default {label!r} is not one of {list(options)}")
-            self.choice_defaults[name] = label
+        parameters = dict(parameters or {})
         if hasattr(target, "attempt"):
-            if solve_options or note:
-                raise ValueError("give solve_options and note to the family, not to the session")
+            if solve_options or note or choices or defaults:
+                raise ValueError("give choices, defaults, solve_options and note to the family, not to the session")
             family = target
-        elif self.options:
+        elif choices:
             if not callable(target) or hasattr(target, "solve"):
                 raise TypeError("with choices, give build(**choices) returning a transcription")
-            family = TranscriptionFamily(build=self._builder(target), solve_options=solve_options, note=note)
+            family = TranscriptionFamily(
+                build=target, choices=choices, defaults=defaults, solve_options=solve_options, note=note
+            )
         else:
+            if defaults:
+                raise ValueError("defaults are the choices' labels; there are no choices")
             family = TranscriptionFamily(target, solve_options=solve_options, note=note)
         self.family = family
-        own = family.parameters(self.choice_defaults)
+        self.options, self.choice_defaults = family.options, dict(family.choice_defaults)
         if not parameters and not self.options:
-            raise ValueError("give at least one parameter to explore: {name: (low, high)}")
+            raise ValueError("give at least one parameter ({name: (low, high)}) or choice to explore")
+        own = family.parameters()
         ranges = {}
         for name, bounds in parameters.items():
-            if name not in own:
-                raise KeyError(f"unknown parameter {name!r}; the problem has {sorted(own)}")
             if name in self.options:
                 raise ValueError(f"{name!r} is both a parameter and a choice")
+            if name not in own:
+                raise KeyError(f"unknown parameter {name!r}; the problem has {sorted(own)}")
             lo, hi = (float(b) for b in bounds)
             if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
                 raise ValueError(f"parameter {name!r}: its range must be finite with low < high, got {bounds!r}")
@@ -329,9 +404,9 @@ class ExploreSession:
         self.names = list(ranges)
         self.halvings, self.keep = int(halvings), int(keep)
         self._lock = threading.Lock()
-        self.solved: list[tuple[np.ndarray, tuple, object]] = []  # (values in range units, choices, solution)
+        self.solved: list[tuple[np.ndarray, tuple, object]] = []  # (values in range units, labels, solution)
         if first is None:
-            first = family.first(self.choice_defaults)
+            first = family.first()
         solved_with = family.solved_at(first)  # the values the solution was solved at
         self.defaults = {n: float(solved_with.get(n, own[n])) for n in self.names}
         self._remember(self._point(self.defaults), self._labels(self.choice_defaults), first)
@@ -340,16 +415,14 @@ class ExploreSession:
     @property
     def transcription(self):
         """The transcription of the default choices (a transcription family's)."""
-        return self.family.transcription(self.choice_defaults)
-
-    def _builder(self, build: Callable) -> Callable:
-        options = self.options
-        return lambda **labels: build(**{n: options[n][label] for n, label in labels.items()})
+        return self.family.transcription()
 
     def _point(self, values: Mapping[str, object], check: bool = True) -> np.ndarray:
         unknown = sorted(set(values) - set(self.names) - set(self.options))
         if unknown:
-            raise KeyError(f"unknown parameters {unknown}; this explorer varies {self.names + list(self.options)}")
+            raise KeyError(
+                f"unknown parameters or choices {unknown}; this explorer varies {self.names + list(self.options)}"
+            )
         out = []
         for n in self.names:
             v = float(values.get(n, self.defaults[n]))
@@ -363,7 +436,7 @@ class ExploreSession:
         out = []
         for n, options in self.options.items():
             label = values.get(n, self.choice_defaults[n])
-            if label not in options:
+            if not _is_option(label, options):
                 raise ValueError(f"choice {n!r} = {label!r} is not one of {list(options)}")
             out.append(label)
         return tuple(out)
@@ -382,8 +455,8 @@ class ExploreSession:
             del self.solved[: max(0, len(self.solved) - self.keep)]
 
     def nearest(self, values: Mapping[str, object], count: int = 2) -> list[tuple[np.ndarray, tuple, object]]:
-        """The ``count`` solved points nearest to ``values``: those of the same choices first, then by distance (in
-        each parameter's share of its range)."""
+        """The ``count`` solved points nearest to ``values``: ranked by how many choices differ, then by distance
+        (in each parameter's share of its range)."""
         target, labels = self._point(values), self._labels(values)
         with self._lock:
             ranked = sorted(
@@ -410,21 +483,24 @@ class ExploreSession:
         params = {n: asked[n] for n in self.names}
         spent, attempts, status, iterations = 0.0, 0, "", 0
         near = self.nearest(asked)
-        for point, _, start in near:
+        point, its_labels, start = near[0]
+        if its_labels == labels and np.array_equal(point, target):  # solved before: that solution again
+            return self._done(asked, target, labels, start, 0.0, 0, point, its_labels)
+        for point, its_labels, start in near:
             if attempts and superseded():
                 return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
             solution, tried, its, dt = self._attempt(params, labels, start, point)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(asked, target, labels, solution, spent, attempts, point)
+                return self._done(asked, target, labels, solution, spent, attempts, point, its_labels)
             if attempts == 1:
                 status, iterations = tried, its
         # continuation from the nearest: halfway towards the target until a step solves, then on from there
-        point, _, start = near[0]
+        point, its_labels, start = near[0]
         step = 0.5
         for _ in range(3 * self.halvings):  # each pass halves the step or the distance left
-            if step < 0.5**self.halvings or not len(point):
-                break
+            if step < 0.5**self.halvings or np.allclose(point, target, rtol=0.0, atol=1e-12):
+                break  # (a choice alone changed: no parameter to step along)
             if superseded():
                 return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
             middle = point + step * (target - point)
@@ -434,30 +510,29 @@ class ExploreSession:
                 step *= 0.5
                 continue
             self._remember(middle, labels, solution)
-            point, start = middle, solution
+            point, its_labels, start = middle, labels, solution
             solution, _, _, dt = self._attempt(params, labels, start, point)
             spent, attempts = spent + dt, attempts + 1
             if solution is not None:
-                return self._done(asked, target, labels, solution, spent, attempts, point)
-        start_values = self._values(near[0][0]) | self._choices(near[0][1])
+                return self._done(asked, target, labels, solution, spent, attempts, point, its_labels)
         return Outcome(
             asked,
             None,
             status,
             iterations,
             spent,
-            start=start_values,
+            start=self._values(near[0][0]) | self._choices(near[0][1]),
             attempts=attempts,
             measure=self.family.measure,
         )
 
-    def _done(self, asked, target, labels, solution, spent, attempts, start_point) -> Outcome:
+    def _done(self, asked, target, labels, solution, spent, attempts, start_point, start_labels) -> Outcome:
         self._remember(target, labels, solution)
         return Outcome(
             asked,
             solution,
             solve_s=spent,
-            start=self._values(start_point),
+            start=self._values(start_point) | self._choices(start_labels),
             attempts=attempts,
             measure=self.family.measure,
             **self.family.describe(solution),
@@ -635,8 +710,9 @@ class History:
 
 @dataclass
 class Explorer:
-    """The sliders, the live figure and the status line of :func:`explore` (module docstring); ``outcome`` the
-    outcome drawn last, ``timings`` the last move's split (``solve_s``, ``data_s``, ``redraw_s``)."""
+    """The sliders (``sliders``, one per parameter), the drop-downs (``choosers``, one per choice), the live figure
+    and the status line of :func:`explore` (module docstring); ``outcome`` the outcome drawn last, ``timings`` the
+    last move's split (``solve_s``, ``data_s``, ``redraw_s``)."""
 
     session: ExploreSession
     histories: list
@@ -691,7 +767,7 @@ class Explorer:
         self.choosers = {}
         for name, options in self.session.options.items():
             d = widgets.Dropdown(
-                options=list(options),
+                options=[(str(label), label) for label in options],  # (a label may itself be a tuple)
                 value=self.session.choice_defaults[name],
                 description=name,
                 layout=widgets.Layout(width="480px"),
@@ -709,7 +785,8 @@ class Explorer:
     def _status_html(self, outcome: Outcome) -> str:
         colour = "#b00020" if not outcome.solved else ("#666" if not outcome.accurate(self.threshold) else "#1b5e20")
         note = "" if not outcome.solved or outcome.accurate(self.threshold) else " (inaccurate: drawn grey)"
-        return f"<span style='color:{colour};font-family:monospace'>{outcome.status_line()}{note}</span>"
+        line = html.escape(outcome.status_line() + note)
+        return f"<span style='color:{colour};font-family:monospace'>{line}</span>"
 
     def values(self) -> dict:
         """The sliders' values; one within rounding of its default (the front end's grid, in its own floating point,
@@ -726,10 +803,10 @@ class Explorer:
             return  # the front end's echo of the value drawn (snapped to its grid): nothing to solve
         self.worker.submit(values)
         asked = ", ".join(f"{n} = {v:.4g}" if isinstance(v, float) else f"{n} = {v}" for n, v in values.items())
-        self.status.value = f"<span style='color:#666;font-family:monospace'>solving {asked} …</span>"
+        self.status.value = f"<span style='color:#666;font-family:monospace'>solving {html.escape(asked)} …</span>"
 
     def _failed(self, values, exc) -> tuple:
-        message = f"ERROR: {type(exc).__name__}: {exc}".replace("<", "&lt;")
+        message = f"ERROR: {type(exc).__name__}: {exc}"
         return Outcome(dict(values), None, message, 0, 0.0), None
 
     def close(self) -> None:
@@ -767,7 +844,7 @@ class Explorer:
         self.timings["redraw_s"] = time.perf_counter() - t
 
     def widget(self):
-        """The explorer as one ipywidgets box: sliders, status line, live figure (ipympl's canvas)."""
+        """The explorer as one ipywidgets box: sliders, drop-downs, status line, live figure (ipympl's canvas)."""
         import ipywidgets as widgets
 
         if self._canvas is None:
@@ -824,8 +901,8 @@ class Explorer:
 
 def explore(
     target,
-    parameters: Mapping[str, tuple[float, float]] | None,
-    histories: Sequence,
+    parameters: Mapping[str, tuple[float, float]] | None = None,
+    histories: Sequence | None = None,
     *,
     choices: Mapping[str, object] | None = None,
     defaults: Mapping[str, object] | None = None,
@@ -835,17 +912,20 @@ def explore(
     note: Callable | None = None,
     time_label: str = "t",
 ) -> Explorer:
-    """An explorer of ``target`` over ``parameters`` (``{name: (low, high)}``, parameters of its problem) and
-    ``choices`` (``{name: options}``: a drop-down each), drawing ``histories`` (state or control names, or
-    :class:`History`) against time (module docstring). ``target``: a built transcription; ``build(**choices)``
-    returning one; or a :class:`ShootingFamily` (extremals followed by continuation). ``defaults``: the choices'
-    defaults (else each one's first option); ``first``: a solution to start from (default: solved at the problem's
-    own values); ``threshold``: the accuracy (error estimate, |S|) above which a solution is drawn grey;
-    ``solve_options`` and ``note(solution)`` (what the status line adds): a transcription's; ``time_label``: the
-    time axis's."""
+    """An explorer of ``target`` over ``parameters`` (``{name: (low, high)}``, parameters of its problem: a slider
+    each) and ``choices`` (``{name: options}``, a list or ``{label: value}``: a drop-down each), drawing
+    ``histories`` (state or control names, or :class:`History`) against time (module docstring). ``target``: a
+    built transcription; ``build(**choices)`` returning one (called with the choices' values); or a family
+    (:class:`TranscriptionFamily`, :class:`ShootingFamily`: extremals followed by continuation), which holds its
+    choices, solve options and note. ``defaults``: the choices' default labels (else each one's first option);
+    ``first``: a solution to start from (default: solved at the problem's own values); ``threshold``: the accuracy
+    (error estimate, |S|) above which a solution is drawn grey; ``solve_options`` and ``note(solution)`` (what the
+    status line adds): a transcription's; ``time_label``: the time axis's."""
+    if not histories:
+        raise ValueError("give the histories to draw: state or control names, or History")
     session = ExploreSession(
         target,
-        parameters or {},
+        parameters,
         choices=choices,
         defaults=defaults,
         first=first,

@@ -876,7 +876,8 @@ def thrust_family(systems: TransferSystems, first: ShootingResult, thrust_N: flo
     ``first``: the converged L1 extremal at ``thrust_N`` (final longitude ``Lf(Tmax)``, free tf). Each thrust's
     shooting (correction, variational Jacobian, tolerances ``rtol``) has its own ``Lf(Tmax)``, and starts from the
     nearest extremal solved, its costates kept and its tf scaled by the thrust ratio (tf x Tmax nearly constant,
-    as every continuation of this module predicts). The status line adds the fuel and the switchings.
+    as every continuation of this module predicts). The status line names the objective, the L1 cost, by what it
+    is, the time under full thrust (h), and adds the fuel, the switchings and tf.
     """
     from ..explorer import ShootingFamily
 
@@ -890,7 +891,9 @@ def thrust_family(systems: TransferSystems, first: ShootingResult, thrust_N: flo
     def note(result):
         return f"fuel {fuel_kg(result):.3f} kg · {result.integration.switchings} switchings · tf {result.tf:.1f} h"
 
-    return ShootingFamily(build, first, {"thrust_N": float(thrust_N)}, predict=predict, note=note)
+    return ShootingFamily(
+        build, first, {"thrust_N": float(thrust_N)}, predict=predict, note=note, objective_label="∫|u|dt (h)"
+    )
 
 
 def thrust_magnitude(trajectory, t) -> np.ndarray:

@@ -381,6 +381,7 @@ def coupling_explorer(
     couplings: Sequence[str],
     partitions: dict,
     default: dict,
+    first=None,
     ipopt_options=None,
     n: int = 2001,
 ):
@@ -388,9 +389,9 @@ def coupling_explorer(
     ratio ``M``, the coupling and the partition (``partitions``: label -> fast states; one without fast states, the
     standard scheme, is left out), each a drop-down; every combination is built once (``MultiRateHLGL``) and
     solved from the nearest solved one. ``default``: ``{"N", "M", "coupling", "fast"}`` of the first solution
-    (added to the options where they lack it). Drawn: the control and its difference from ``reference`` at the
-    same normalised time; the status line adds the NLP's size and the largest control difference (%,
-    :meth:`ocpkit.trajectory.Trajectory.difference` on ``n`` points)."""
+    (added to the options where they lack it); ``first``: that solution, if solved already. Drawn: the control and
+    its difference from ``reference`` at the same normalised time; the status line adds the NLP's size and the
+    largest control difference (%, :meth:`ocpkit.trajectory.Trajectory.difference` on ``n`` points)."""
     from ..explorer import History, explore
 
     fast = {label: list(f) for label, f in partitions.items() if f}
@@ -412,13 +413,13 @@ def coupling_explorer(
 
     return explore(
         lambda N, M, coupling, fast: MultiRateHLGL(problem, N, ratio=M, fast=fast, coupling=coupling),
-        None,
-        [
+        histories=[
             History(control, f"{control} (deg)", scale=deg),
             History.against(reference, control, f"{control} − reference (deg)", scale=deg, samples=n),
         ],
         choices=choices,
         defaults={"N": default["N"], "M": default["M"], "coupling": default["coupling"], "fast": label},
+        first=first,
         solve_options={"ipopt_options": ipopt_options},
         note=note,
     )
