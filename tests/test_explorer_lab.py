@@ -1,9 +1,10 @@
 """The explorer in JupyterLab, driven as a user drives it (issue 25): notebook 01 run in Lab in headless Chromium, its
 thrust slider moved by keyboard, the new solution read back from the kernel, a value without a solution shown as
-failed with no curve, and the published record untouched.
+failed with no curve, and the published record untouched; notebook 05's thrust slider moved the same way, each
+value an extremal found by shooting continuation, its fuel in the status line.
 
 A throw-away clone of the repository is served by `python -m compendium.lab` (as in tests/test_lab_roundtrip.py,
-whose Chromium driver, over the DevTools protocol, and Lab commands this reuses). About 20 s.
+whose Chromium driver, over the DevTools protocol, and Lab commands this reuses). About 20 s and 40 s.
 """
 
 from __future__ import annotations
@@ -119,4 +120,42 @@ def test_moving_the_thrust_slider_in_lab_solves_and_redraws(tmp_path, monkeypatc
         low = _read_back(browser)
         assert low["slider"]["a"] == pytest.approx(0.05) and not low["solved"], low
         assert not any(low["visible"]) and failed["status"].startswith("FAILED"), failed
+    assert _git(clone, "status", "--porcelain", "--", "figures", "data") == ""  # the record is untouched
+
+
+# notebook 05's explorer as the kernel holds it: the transfer drawn, and the thrust the slider shows
+_READ_BACK_TRANSFER = """
+import gc as _gc, json as _json
+from compendium.explorer import Explorer as _Explorer
+from compendium.studies.orbit_transfer import fuel_kg as _fuel
+_e = [_o for _o in _gc.get_objects() if isinstance(_o, _Explorer)][-1]
+assert _e.worker.idle(60), "the explorer's worker is still busy"
+_o = _e.outcome
+print(_json.dumps({"slider": _e.values(), "drawn": _o.values, "solved": _o.solved, "norm": _o.error_estimate,
+                   "fuel": _fuel(_o.solution) if _o.solved else None, "note": _o.note,
+                   "visible": [_l.get_visible() for _l in _e.lines]}))
+"""
+
+
+@needs_chromium
+def test_moving_the_transfers_thrust_in_lab_follows_the_extremal(tmp_path, monkeypatch):
+    """Notebook 05's Explore section: two steps left on the thrust slider, each an extremal found by shooting
+    continuation from the last, its fuel and switchings in the status line."""
+    monkeypatch.delenv("OCPKIT_OUTPUT_DIR", raising=False)
+    monkeypatch.delenv("OCPKIT_PROGRESS", raising=False)
+    clone = tmp_path / "clone"
+    _clone_working_tree(clone)
+    with _lab_on(clone, tmp_path) as (server, browser):
+        _run_all(server, browser, "05_orbit_transfer.ipynb")
+        widgets = browser.poll(_WIDGETS, 60, "the transfer explorer's slider, figure and status line in the page")
+        assert "converged" in widgets["status"] and "switchings" in widgets["status"], widgets
+        read = _EXECUTE.replace("CODE", json.dumps(_READ_BACK_TRANSFER))
+        default = json.loads(browser.js(read)["text"].strip().splitlines()[-1])
+        assert default["slider"] == {"thrust_N": 5.0} and default["solved"]
+
+        moved, seconds = _move(browser, "ArrowLeft", 37, times=2)
+        after = json.loads(browser.js(read)["text"].strip().splitlines()[-1])
+        print(f"two steps left: the status line changed after {seconds:.2f} s; {after['note']}")
+        assert after["slider"]["thrust_N"] < 5.0 and after["drawn"] == after["slider"] and after["solved"]
+        assert after["norm"] <= 1e-8 and all(after["visible"]) and f"fuel {after['fuel']:.3f} kg" in moved["status"]
     assert _git(clone, "status", "--porcelain", "--", "figures", "data") == ""  # the record is untouched
