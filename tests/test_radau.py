@@ -227,3 +227,23 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
     err = np.abs(rei.states[-1] - x)
     # with the next interval's control at each interval's end the positions differ by ~1e-6 m
     assert err[:2].max() < 2e-7 and err[2:].max() < 5e-10
+
+
+def test_the_ordering_follows_the_mesh_and_the_solution_says_which():
+    """AMF for global collocation, QAMD (ocpkit's default) for several intervals (benchmarks/bench_orderings.py);
+    the solution records the linear algebra it ran with, and an override wins."""
+    from ocpkit import HLGL, MultiPhase
+    from ocpkit.nlp import linear_solver
+
+    from compendium.problems import flat_moon_ascent
+
+    problem = flat_moon_ascent()
+    assert Radau(problem, 20).effective_ipopt_options()["mumps_pivot_order"] == 2
+    assert Radau(problem, 5, 4).effective_ipopt_options()["mumps_pivot_order"] == 6
+    assert Radau(problem, 20).solve(error_threshold=None).linear_solver == "mumps (AMF ordering)"
+    assert Radau(problem, 5, 4).solve(error_threshold=None).linear_solver == "mumps (QAMD ordering)"
+    given = Radau(problem, 20).solve(ipopt_options={"mumps_pivot_order": 0}, error_threshold=None)
+    assert given.linear_solver == "mumps (AMD ordering)" and linear_solver({"linear_solver": "spral"}) == "spral"
+    # phases: a default every phase asks for, else ocpkit's
+    assert MultiPhase([Radau(problem, 20), Radau(problem, 30)]).ipopt_defaults == {"mumps_pivot_order": 2}
+    assert MultiPhase([Radau(problem, 20), HLGL(problem, 5)]).ipopt_defaults == {}

@@ -45,6 +45,21 @@ DEFAULT_IPOPT_OPTIONS = {
 }
 """IPOPT options used unless overridden (exact Hessian, MUMPS)."""
 
+#: MUMPS's orderings by ``mumps_pivot_order`` (IPOPT's option)
+MUMPS_ORDERINGS = {0: "AMD", 1: "user", 2: "AMF", 3: "SCOTCH", 4: "PORD", 5: "METIS", 6: "QAMD", 7: "automatic"}
+
+
+def linear_solver(options: dict | None = None) -> str:
+    """IPOPT's linear solver and, for MUMPS, its fill-reducing ordering under ``options`` (IPOPT options, over
+    :data:`DEFAULT_IPOPT_OPTIONS`): e.g. ``"mumps (QAMD ordering)"``."""
+    ip = {**DEFAULT_IPOPT_OPTIONS, **(options or {})}
+    name = str(ip.get("linear_solver", "mumps"))
+    if name != "mumps":
+        return name
+    order = ip.get("mumps_pivot_order", 7)
+    return f"mumps ({MUMPS_ORDERINGS.get(int(order), str(order))} ordering)"
+
+
 WARM_START = {
     "warm_start_init_point": "yes",
     "mu_init": 1e-6,

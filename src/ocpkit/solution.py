@@ -227,6 +227,12 @@ class Solution(Trajectory):
         df.insert(0, "t", self.state_times)
         return df
 
+    @property
+    def linear_solver(self) -> str:
+        """IPOPT's linear solver and its ordering in this solve (e.g. ``"mumps (QAMD ordering)"``; chosen by the
+        transcription's structure, :attr:`~ocpkit.Radau.ipopt_defaults`); ``""`` where not recorded."""
+        return str(self.raw.get("linear_solver", ""))
+
     def summary(self) -> dict:
         """Key numbers, JSON-serialisable."""
         return {

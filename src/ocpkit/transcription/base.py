@@ -19,7 +19,7 @@ from ..accuracy import (
     warn_if_path_violated,
 )
 from ..errors import SolverError
-from ..nlp import Block, NLPResult, SeparableNLP, failure_hint
+from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP, failure_hint
 from ..problem import AffineScaling, Guess, OptimalControlProblem, State
 from ..solution import Solution
 from . import session
@@ -428,13 +428,19 @@ class Transcription(session.SolveSession, ABC):
     def nlp(self) -> SeparableNLP:
         return self.build()._nlp
 
+    def effective_ipopt_options(self, ipopt_options: dict | None = None) -> dict:
+        """The IPOPT options a solve with these overrides runs with: ocpkit's defaults
+        (:data:`~ocpkit.nlp.DEFAULT_IPOPT_OPTIONS`), then this transcription's (``ipopt_defaults``: the ordering its
+        structure asks for), then the overrides."""
+        return {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_defaults, **(ipopt_options or {})}
+
     def solver(self, ipopt_options: dict | None = None):
         """The IPOPT instance for these option overrides: created once per set of options, then reused."""
         key = tuple(sorted((ipopt_options or {}).items()))
         if key not in self._solvers:
             self.build()
             t = time.perf_counter()
-            self._solvers[key] = self.nlp.solver({**self.ipopt_defaults, **(ipopt_options or {})})
+            self._solvers[key] = self.nlp.solver(self.effective_ipopt_options(ipopt_options))
             self._solver_build_s = time.perf_counter() - t
         return self._solvers[key]
 

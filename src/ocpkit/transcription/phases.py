@@ -36,7 +36,7 @@ import numpy as np
 
 from .._deprecation import renamed
 from ..names import Named, NamedParameters, UnknownName, call
-from ..nlp import Block, NLPResult, SeparableNLP
+from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP
 from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set, checked_constraints
 from ..solution import Solution
 from ..trajectory import Reintegration, Trajectory
@@ -628,16 +628,24 @@ class MultiPhase(session.SolveSession):
     def n_collocation_points(self) -> int:
         return sum(ph.n_collocation_points for ph in self.phases)
 
+    @property
+    def ipopt_defaults(self) -> dict:
+        """The phases' IPOPT defaults where every phase asks for the same value (an ordering one phase's structure
+        asks for, and another's does not, is left at ocpkit's default)."""
+        first, *others = [ph.ipopt_defaults for ph in self.phases]
+        return {k: v for k, v in first.items() if all(o.get(k, object()) == v for o in others)}
+
+    def effective_ipopt_options(self, ipopt_options: dict | None = None) -> dict:
+        """The IPOPT options a solve with these overrides runs with (as a single transcription's)."""
+        return {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_defaults, **(ipopt_options or {})}
+
     def solver(self, ipopt_options: dict | None = None):
-        """The IPOPT instance for these option overrides (the phases' defaults merged): created once per set."""
+        """The IPOPT instance for these option overrides (:meth:`effective_ipopt_options`): created once per set."""
         self.build()
         key = tuple(sorted((ipopt_options or {}).items()))
         if self._solver is None or key != self._solver_options:
-            defaults = {}
-            for ph in self.phases:
-                defaults.update(ph.ipopt_defaults)
             t = time.perf_counter()
-            self._solver = self._nlp.solver({**defaults, **(ipopt_options or {})})
+            self._solver = self._nlp.solver(self.effective_ipopt_options(ipopt_options))
             self.build_s += time.perf_counter() - t
             self._solver_options = key
         return self._solver
@@ -801,6 +809,11 @@ class MultiPhaseSolution(Trajectory):
     mesh_history: list | None = field(default=None, repr=False)
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
+
+    @property
+    def linear_solver(self) -> str:
+        """IPOPT's linear solver and its ordering in this solve (:attr:`ocpkit.Solution.linear_solver`)."""
+        return str(self.raw.get("linear_solver", ""))
 
     def __post_init__(self) -> None:
         first = self.phases[0].problem

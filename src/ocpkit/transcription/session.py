@@ -10,7 +10,8 @@ estimate interval of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cut
 solution:
 ``interval_errors``, ``accuracy``, ``converged``, ``status``, ``iterations``, ``decision_variables``, ``solve_s``,
 ``raw["transcription"]``. It records on every solution it returns ``raw["solve_options"]`` (the IPOPT options and
-``allow_acceptable`` it was solved with), so that the same NLP can be solved again as it was.
+``allow_acceptable`` it was solved with), so that the same NLP can be solved again as it was, and
+``raw["linear_solver"]`` (IPOPT's linear solver and ordering, :func:`~ocpkit.nlp.linear_solver`).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import numpy as np
 from .._deprecation import renamed
 from ..accuracy import AccuracyWarning
 from ..errors import SolverError
-from ..nlp import WARM_START, solve_nlp
+from ..nlp import WARM_START, linear_solver, solve_nlp
 
 
 @dataclass(frozen=True)
@@ -170,6 +171,9 @@ def solve(
             "ipopt_options": dict(ipopt_options or {}),
             "allow_acceptable": allow_acceptable,
         }
+        # the linear algebra it ran with (a refinement's last mesh: the solution's own)
+        mesh = solution.raw.get("transcription", meshed)
+        solution.raw["linear_solver"] = linear_solver(mesh.effective_ipopt_options(ipopt_options))
     return solution
 
 
