@@ -412,8 +412,9 @@ def test_the_unscaled_shuttle_solves_with_autoscale_in_a_fraction_of_the_iterati
         error_threshold=None, ipopt_options={"max_iter": 300}, raise_on_failure=False
     )
     assert np.degrees(auto.state(auto.tf)[2]) == pytest.approx(np.degrees(by_hand.state(by_hand.tf)[2]), rel=1e-8)
-    assert auto.iterations <= 4 * by_hand.iterations and 3 * auto.iterations < 300
-    assert not raw.converged  # unscaled: not within 300 iterations (646 here to IPOPT's tolerance)
+    assert auto.iterations <= 4 * by_hand.iterations  # 59 against 25
+    # unscaled: 219 iterations (646 under MUMPS's AMF ordering, Radau's before issue 26), the autoscaled 59
+    assert not raw.converged or 3 * auto.iterations < raw.iterations
 
 
 def test_the_values_of_another_meshs_vector_are_refused_not_misread():

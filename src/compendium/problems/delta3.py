@@ -42,7 +42,7 @@ from ._data import load_problem_data
 
 STATE_NAMES = ("x", "y", "z", "vx", "vy", "vz", "m")
 CONTROL_NAMES = ("u1", "u2", "u3")
-GUESS_KINDS = ("gpops2", "linear")
+GUESS_KINDS = ("gpops2", "linear", "asset")
 _ENGINE_NAMES = [("srb", "first_stage"), ("srb", "first_stage"), ("first_stage",), ("second_stage",)]
 
 
@@ -119,6 +119,20 @@ def orbital_elements_np(r, v, mu) -> np.ndarray:
     return np.array([float(q) for q in _elements(r, v, mu, np)])
 
 
+def true_anomaly(mean_anomaly: float, e: float) -> float:
+    """The true anomaly (rad) of an elliptic orbit at ``mean_anomaly`` (rad): Kepler's equation
+    ``E - e sin E = M`` by Newton's method, then ``tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2)``."""
+    if not 0.0 <= e < 1.0:
+        raise ValueError(f"the eccentricity must lie in [0, 1), got {e!r}")
+    E = float(mean_anomaly) if e < 0.8 else math.pi
+    for _ in range(50):
+        step = (E - e * math.sin(E) - mean_anomaly) / (1.0 - e * math.cos(E))
+        E -= step
+        if abs(step) < 1e-15:
+            break
+    return 2.0 * math.atan2(math.sqrt(1.0 + e) * math.sin(E / 2), math.sqrt(1.0 - e) * math.cos(E / 2))
+
+
 def delta3_constants() -> dict:
     """Constants (SI, angles in rad), phase data and boundary values derived from the data file.
 
@@ -190,6 +204,7 @@ def delta3_constants() -> dict:
         T["argument_of_perigee_deg"] * deg,
     )
     r_out, v_out = rv_from_elements(*target, T["guess_true_anomaly_deg"] * deg, mu)
+    r_asset, v_asset = rv_from_elements(*target, true_anomaly(T["guess_mean_anomaly_rad"], target[1]), mu)
     B = d["bounds"]
     return {
         "mu": mu,
@@ -214,6 +229,8 @@ def delta3_constants() -> dict:
         "target": target,
         "r_guess": r_out,
         "v_guess": v_out,
+        "r_guess_asset": r_asset,
+        "v_guess_asset": v_asset,
         "position_max": B["position_max_in_radii"] * Re,
         "speed_max": B["speed_component_max_m_s"],
         "control_max": B["control_component_max"],
@@ -232,8 +249,8 @@ def delta3_mass_drops() -> tuple[float, float, float]:
     return delta3_constants()["mass_drops"]
 
 
-def _dynamics(c: dict, thrust: float, mdot: float):
-    """The phase's ``f(x, u, t)`` (see the module docstring)."""
+def _dynamics(c: dict, thrust: float, mdot: float, direction: bool = False):
+    """The phase's ``f(x, u, t)`` (see the module docstring); ``direction``: the thrust along ``u / |u|``."""
     mu, Re, w = c["mu"], c["Re"], c["omega_E"]
     drag_k = 0.5 * c["CD"] * c["S"]
     rho0, H, eps2 = c["rho0"], c["H"], c["speed_smoothing"] ** 2
@@ -247,13 +264,14 @@ def _dynamics(c: dict, thrust: float, mdot: float):
         speed_rel = ca.sqrt(ca.dot(v_rel, v_rel) + eps2)
         rho = rho0 * ca.exp(-(rad - Re) / H)
         drag = -drag_k * rho * speed_rel * v_rel
-        vdot = -mu / rad**3 * r + thrust / m * u[0:3] + drag / m
+        unit = u[0:3] / ca.sqrt(ca.dot(u[0:3], u[0:3])) if direction else u[0:3]
+        vdot = -mu / rad**3 * r + thrust / m * unit + drag / m
         return ca.vertcat(v, vdot, -mdot)
 
     return dynamics
 
 
-def delta3_phases(*, altitude_constraint: bool = True) -> list[OptimalControlProblem]:
+def delta3_phases(*, altitude_constraint: bool = True, control: str = "unit") -> list[OptimalControlProblem]:
     """The four phases as single-phase problems, in launchMain.m's bounds (see the module docstring).
 
     States ``x, y, z`` (m; bounds +-2 Re, scale Re), ``vx, vy, vz`` (m/s; bounds +-10 km/s,
@@ -261,6 +279,9 @@ def delta3_phases(*, altitude_constraint: bool = True) -> list[OptimalControlPro
     variable ``(m - m_end) / (m_start - m_end)`` in [0, 1]); controls ``u1, u2, u3`` in [-1, 1]
     with the path equality ``|u|^2 = 1``; with ``altitude_constraint`` (default; Betts' and
     yapss' formulation, not GPOPS-II's) the path constraint ``|r| - Re >= 0`` (scaled by 100 km).
+    ``control="direction"`` (ASSET's Delta III example): the thrust acts along ``u / |u|`` and the path
+    constraint is ``0.25 <= |u|^2 <= 2.25`` instead of the equality (the same optimum; the direction's
+    length is free).
 
     Phase 1 starts from the fixed lift-off state ``(r0, v0, m10)``; phases 2-4 have free initial
     states within the bounds (launchMain.m: the linkages fix them). Times are fixed except the
@@ -293,7 +314,17 @@ def delta3_phases(*, altitude_constraint: bool = True) -> list[OptimalControlPro
             Control(n, lower=-umax, upper=umax, guess=float(j == 1), description="thrust direction")
             for j, n in enumerate(CONTROL_NAMES)
         ]
-        path = [Constraint("thrust_direction", lambda x, u, t: ca.dot(u, u), lower=1.0, upper=1.0)]
+        if control not in ("unit", "direction"):
+            raise ValueError(f"control must be 'unit' or 'direction', got {control!r}")
+        free_length = control == "direction"
+        path = [
+            Constraint(
+                "thrust_direction",
+                lambda x, u, t: ca.dot(u, u),
+                lower=0.25 if free_length else 1.0,
+                upper=2.25 if free_length else 1.0,
+            )
+        ]
         if altitude_constraint:
             path.append(Constraint("altitude", lambda x, u, t: ca.norm_2(x[0:3]) - Re, lower=0.0, scale=1e5))
         if last:
@@ -318,7 +349,7 @@ def delta3_phases(*, altitude_constraint: bool = True) -> list[OptimalControlPro
                 f"delta3_phase{k + 1}",
                 states,
                 controls,
-                _dynamics(c, ph["thrust"], ph["mdot"]),
+                _dynamics(c, ph["thrust"], ph["mdot"], direction=free_length),
                 t0=ph["t0"],
                 tf=tf,
                 path_constraints=path,
@@ -341,11 +372,14 @@ def delta3_guesses(kind: str = "gpops2") -> list[Guess]:
 
     ``"linear"``: position and velocity linear in time over the whole flight, from ``(r0, v0)``
     at t = 0 to the target's ``(r, v)`` at true anomaly 0 at t = 961 s; mass and control as above.
+    ``"asset"`` (ASSET's Delta III example): the same, to the target's point at mean anomaly -0.05 rad
+    (``guess_mean_anomaly_rad`` in the data file), downrange and eastward, its line clear of the Earth.
     """
     if kind not in GUESS_KINDS:
         raise ValueError(f"kind must be one of {GUESS_KINDS}, got {kind!r}")
     c = delta3_constants()
-    r0, v0, r1, v1 = c["r0"], c["v0"], c["r_guess"], c["v_guess"]
+    r0, v0 = c["r0"], c["v0"]
+    r1, v1 = (c["r_guess_asset"], c["v_guess_asset"]) if kind == "asset" else (c["r_guess"], c["v_guess"])
     t_end = c["times"][-1]
     start = np.concatenate([r0, v0])
     end = np.concatenate([r1, v1])
