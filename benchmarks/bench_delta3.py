@@ -72,7 +72,8 @@ def main() -> None:
         best = min((solve(control, guess, options) for _ in range(args.repeat)), key=lambda r: r["end_to_end_s"])
         rows.append({"variant": label, **best, "minus_betts_kg": best["final_mass_kg"] - betts})
         print(rows[-1], flush=True)
-    converged = solve("direction", "asset", {"mu_oracle": "probing"}, nodes=3, intervals=40)
+    # (with the probing oracle this mesh stops at IPOPT's acceptable level: the default oracle, 101 iterations)
+    converged = solve("direction", "asset", {}, nodes=3, intervals=40)
     rows.append(
         {
             "variant": "mesh-converged: Radau 3 x 40 per phase",
