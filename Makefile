@@ -147,6 +147,7 @@ bench: setup
 	$(PY) benchmarks/bench_fast_slow.py
 	$(PY) benchmarks/bench_radau.py
 	$(PY) benchmarks/bench_orderings.py
+	$(PY) benchmarks/bench_delta3.py
 	$(PY) benchmarks/bench_shooting.py
 	$(PY) benchmarks/bench_orbit_transfer.py
 	$(PY) benchmarks/bench_constraints.py

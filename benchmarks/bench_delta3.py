@@ -1,4 +1,4 @@
-"""The four-phase Delta III launch: why it took 175 IPOPT iterations, and what it takes (issue 26).
+"""The four-phase Delta III launch: why it takes 175 IPOPT iterations, and what it takes (issue 26).
 
     python benchmarks/bench_delta3.py [--repeat 3]
 
@@ -13,7 +13,8 @@ combine them:
 * **the barrier update**: ocpkit's adaptive strategy with IPOPT's default oracle (``quality-function``) or the
   ``probing`` oracle (Mehrotra's predictor-corrector rule).
 
-Then the mesh-converged optimum (Radau 3 x 40 per phase) against Betts' published 7529.712412 kg
+Then the final mass on finer meshes (Radau 3 x 40, 3 x 80 and 6 x 20 per phase, the default oracle) against Betts'
+published 7529.712412 kg
 (``data/paper/delta3_gpops2.csv``), and ASSET's documented run (``data/paper/delta3_asset.csv``: 160 LGL3
 segments, about 60 ms on an i9-12900k, 7529.749 kg). Writes ``build/bench/delta3.csv``.
 """
@@ -36,9 +37,9 @@ GOAL_KG = 1e-4  # issue 26: the published final mass to this
 
 ROWS = [
     ("GPOPS-II's statement and guess (notebook 06)", "unit", "gpops2", {}),
-    ("+ the barrier's probing oracle", "unit", "gpops2", {"mu_oracle": "probing"}),
-    ("+ ASSET's guess", "unit", "asset", {}),
-    ("+ the direction u/|u|", "direction", "gpops2", {}),
+    ("alone: the barrier's probing oracle", "unit", "gpops2", {"mu_oracle": "probing"}),
+    ("alone: ASSET's guess", "unit", "asset", {}),
+    ("alone: the direction u/|u|", "direction", "gpops2", {}),
     ("the direction and the probing oracle", "direction", "gpops2", {"mu_oracle": "probing"}),
     ("all three", "direction", "asset", {"mu_oracle": "probing"}),
 ]
@@ -49,13 +50,16 @@ def solve(control: str, guess: str, options: dict, nodes: int = 8, intervals: in
     drops = delta3_mass_drops()
     phases = [Radau(p, nodes, intervals) for p in delta3_phases(control=control)]
     mp = MultiPhase(phases, [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)])
-    s = mp.solve(delta3_guesses(guess), ipopt_options={"tol": 1e-8, **options}, error_threshold=None)
+    s = mp.solve(
+        delta3_guesses(guess), ipopt_options={"tol": 1e-8, **options}, error_threshold=None, raise_on_failure=False
+    )
     return {
+        "status": s.status,
         "iterations": s.iterations,
         "build_s": mp.build_s,
         "solve_s": s.solve_s,
         "end_to_end_s": time.perf_counter() - t,
-        "final_mass_kg": float(s.phases[-1].state(s.tf)[6]),
+        "final_mass_kg": float(s.phases[-1].state(s.tf)[6]) if s.converged else float("nan"),
         "nlp_parameters": s.decision_variables,
     }
 
@@ -72,16 +76,18 @@ def main() -> None:
         best = min((solve(control, guess, options) for _ in range(args.repeat)), key=lambda r: r["end_to_end_s"])
         rows.append({"variant": label, **best, "minus_betts_kg": best["final_mass_kg"] - betts})
         print(rows[-1], flush=True)
-    # (with the probing oracle this mesh stops at IPOPT's acceptable level: the default oracle, 101 iterations)
-    converged = solve("direction", "asset", {}, nodes=3, intervals=40)
-    rows.append(
-        {
-            "variant": "mesh-converged: Radau 3 x 40 per phase",
-            **converged,
-            "minus_betts_kg": converged["final_mass_kg"] - betts,
-        }
-    )
-    cols = ["variant", "iterations", "build_s", "solve_s", "end_to_end_s", "final_mass_kg", "minus_betts_kg"]
+    finer = []
+    for nodes, intervals in ((3, 40), (3, 80), (6, 20)):  # (the probing oracle stops at the acceptable level on 3 x 40)
+        row = solve("direction", "asset", {}, nodes=nodes, intervals=intervals)
+        finer.append(row)
+        rows.append(
+            {
+                "variant": f"finer: Radau {nodes} x {intervals} per phase",
+                **row,
+                "minus_betts_kg": row["final_mass_kg"] - betts,
+            }
+        )
+    cols = ["variant", "status", "iterations", "build_s", "solve_s", "end_to_end_s", "final_mass_kg", "minus_betts_kg"]
     report(
         rows,
         cols,
@@ -89,17 +95,19 @@ def main() -> None:
         f"Delta III, four Radau 8 x 4 phases, best of {args.repeat}",
         {"final_mass_kg": ".6f", "minus_betts_kg": ".1e"},
     )
-    first, last = rows[0], rows[-2]
+    first, last = rows[0], rows[len(ROWS) - 1]
     print(
         f"\niterations {first['iterations']} -> {last['iterations']}; end to end {first['end_to_end_s']:.3f} s -> "
         f"{last['end_to_end_s']:.3f} s (goal {GOAL_S:g} s: {'met' if last['end_to_end_s'] < GOAL_S else 'NOT met'})"
     )
+    masses = [r["final_mass_kg"] for r in finer if r["final_mass_kg"] == r["final_mass_kg"]]
+    spread = max(masses) - min(masses) if masses else float("nan")
     gap = abs(last["final_mass_kg"] - betts)
     print(
-        f"final mass {last['final_mass_kg']:.6f} kg against Betts' {betts:.6f}: {gap:.1e} kg "
-        f"(goal {GOAL_KG:g} kg: {'met' if gap <= GOAL_KG else 'NOT met'}); the mesh-converged optimum "
-        f"{converged['final_mass_kg']:.6f} kg is {converged['final_mass_kg'] - betts:+.1e} kg from Betts'; ASSET's "
-        f"documented {asset['final_mass']} kg is {asset['final_mass'] - betts:+.1e} kg, in about "
+        f"final mass {last['final_mass_kg']:.6f} kg against Betts' {betts:.6f}: {gap:.1e} kg (goal {GOAL_KG:g} kg: "
+        f"{'met' if gap <= GOAL_KG else 'NOT met'}); on finer meshes it moves by {spread:.1e} kg "
+        f"({', '.join(f'{m:.6f}' for m in masses)}), so the goal's digit is not settled by the discretisation; "
+        f"ASSET's documented {asset['final_mass']} kg is {asset['final_mass'] - betts:+.1e} kg, in about "
         f"{asset['solve_time'] * 1e3:.0f} ms on its machine ({asset['segments']:.0f} LGL3 segments)"
     )
 

@@ -1,12 +1,13 @@
-"""MUMPS's ordering chosen by the mesh's structure (issue 26): AMF for global Radau, QAMD for several intervals.
+"""MUMPS's ordering by the mesh's structure (issue 26): the rule "AMF for global Radau, QAMD for several intervals".
 
     python benchmarks/bench_orderings.py [--repeat 2]
 
 For each problem and Radau mesh, IPOPT's solve time with MUMPS's AMF ordering (``mumps_pivot_order=2``, what every
-Radau NLP had before) and its QAMD ordering (6, ocpkit's default), the ratio AMF/QAMD, the ordering
-``Radau.ipopt_defaults`` chooses and how far the choice is from the faster of the two (1.00: it chose the faster).
-Then the issue's scaling goal: the flat-moon ascent on Radau 3 x 5000 end to end against HLGL with 5000 segments, in
-the same run (goal: within 1.3 times; 3.7 times with AMF). Writes ``build/bench/orderings.csv``.
+Radau NLP has: ``Radau.ipopt_defaults``) and its QAMD ordering (6, ocpkit's default elsewhere), the ratio AMF/QAMD,
+the ordering the rule would choose and how far that is from the faster of the two (1.00: the faster). The rule is
+measured, not adopted: the ordering also changes where IPOPT converges (``Radau.ipopt_defaults``). Then the issue's
+scaling goal: the flat-moon ascent on Radau 3 x 5000 end to end with QAMD against HLGL with 5000 segments, in the
+same run (goal: within 1.3 times; 3.7 times with AMF). Writes ``build/bench/orderings.csv``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ import warnings
 from _harness import best_of, parser, report
 
 from ocpkit import HLGL, Radau
-from ocpkit.nlp import linear_solver
 
 from compendium.paths import build_dir
 from compendium.problems import entry_landing, flat_moon_ascent, free_flying_robot, goddard_rocket, lunar_ascent
@@ -55,7 +55,7 @@ def main() -> None:
             tr = Radau(problem, n, k)
             amf, it_amf = solve_s(tr, 2, args.repeat)
             qamd, it_qamd = solve_s(tr, 6, args.repeat)
-            chosen = linear_solver(tr.effective_ipopt_options())
+            chosen = "AMF" if k == 1 else "QAMD"  # the rule
             best = min(amf, qamd)
             rows.append(
                 {
@@ -65,8 +65,8 @@ def main() -> None:
                     "qamd_s": qamd,
                     "amf_over_qamd": amf / qamd,
                     "iterations": f"{it_amf} / {it_qamd}",
-                    "chosen": chosen.split("(")[1].split()[0],
-                    "chosen_over_best": (amf if "AMF" in chosen else qamd) / best,  # NaN: a solve failed
+                    "rule": chosen,
+                    "rule_over_best": (amf if chosen == "AMF" else qamd) / best,  # NaN: a solve failed
                 }
             )
             print(rows[-1], flush=True)
@@ -76,18 +76,18 @@ def main() -> None:
         cols,
         args.output,
         f"IPOPT solve time by MUMPS ordering, best of {args.repeat}",
-        {"amf_over_qamd": ".2f", "chosen_over_best": ".2f"},
+        {"amf_over_qamd": ".2f", "rule_over_best": ".2f"},
     )
     flat = flat_moon_ascent()
-    radau = best_of(lambda: Radau(flat, 3, 5000), {}, args.repeat)
+    radau = best_of(lambda: Radau(flat, 3, 5000), {"mumps_pivot_order": 6}, args.repeat)
     hlgl = best_of(lambda: HLGL(flat, 5000), {}, args.repeat)
     ratio = radau["end_to_end_s"] / hlgl["end_to_end_s"]
     print(
-        f"\nflat moon, Radau 3 x 5000: {radau['end_to_end_s']:.2f} s end to end (IPOPT {radau['solve_s']:.2f} s); "
+        f"\nflat moon, Radau 3 x 5000 with QAMD: {radau['end_to_end_s']:.2f} s end to end (IPOPT {radau['solve_s']:.2f} s); "
         f"HLGL 5000: {hlgl['end_to_end_s']:.2f} s (IPOPT {hlgl['solve_s']:.2f} s); ratio {ratio:.2f}, "
         f"goal {GOAL:g}: {'met' if ratio <= GOAL else 'NOT met'}"
     )
-    worst = max(r["chosen_over_best"] for r in rows if r["chosen_over_best"] == r["chosen_over_best"])
+    worst = max((r["rule_over_best"] for r in rows if r["rule_over_best"] == r["rule_over_best"]), default=float("nan"))
     print(f"the rule's choice against the faster ordering, worst case: {worst:.2f} times")
 
 

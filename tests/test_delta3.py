@@ -128,7 +128,7 @@ def test_last_phase_objective_and_orbit_constraint(c, phases):
 
 
 def test_guesses(c, phases):
-    for kind in ("gpops2", "linear"):
+    for kind in ("gpops2", "linear", "asset"):
         guesses = delta3_guesses(kind)
         assert len(guesses) == 4 and all(isinstance(g, Guess) for g in guesses)
         for p, g, ph in zip(phases, guesses, c["phases"]):
@@ -141,6 +141,17 @@ def test_guesses(c, phases):
     assert xs(np.array([0.0]))[0, :3] == pytest.approx(c["r0"])
     _, xs, _ = delta3_guesses("gpops2")[2].functions(phases[2])
     assert xs(np.array([200.0]))[0, :3] == pytest.approx(c["r_guess"])
+    # ASSET's line ends on the target orbit at mean anomaly -0.05 and stays above the ground (the line to true
+    # anomaly 0, GPOPS-II's point, passes 312 km under it)
+    last = delta3_guesses("asset")[3]
+    _, xs, _ = last.functions(phases[3])
+    assert xs(np.array([961.0]))[0, :3] == pytest.approx(c["r_guess_asset"])
+    t = np.linspace(0.0, 961.0, 2001)
+    line = [g.functions(p)[1] for g, p in zip(delta3_guesses("asset"), phases)]
+    height = [
+        np.linalg.norm(line[int(np.searchsorted(c["times"][1:4], s, side="right"))](np.array([s]))[0, :3]) for s in t
+    ]
+    assert min(height) >= c["Re"] - 1e-6
     with pytest.raises(ValueError, match="kind"):
         delta3_guesses("spline")
 
@@ -149,7 +160,8 @@ def test_first_phase_alone_solves(c, phases):
     """Phase 1 alone, its final state free, climbing as high as it can in its 75.2 s. (Its own objective is zero:
     every feasible point is optimal, and IPOPT's path to its 1e-10 tolerance turned on rounding, measured: Radau
     8 x 4 and 10 x 8 stopped at the acceptable level under MUMPS's AMF ordering, 10 x 4 under QAMD. With the final
-    altitude as its objective the problem is well posed: all eight of those runs converge, to one optimum.)"""
+    altitude as its objective the problem is well posed: 10 x 4, 8 x 4, 10 x 8 and 6 x 6 converge under either
+    ordering, to one optimum.)"""
     highest = phases[0].replace(mayer=lambda x0, xf, t0, tf: -ca.sqrt(ca.dot(xf[0:3], xf[0:3])) / c["Re"])
     tops = []
     for nodes, intervals in ((10, 4), (8, 4)):
@@ -176,6 +188,11 @@ def test_asset_statement_and_guess(c):
     nu = true_anomaly(-0.05, e)
     E = 2 * math.atan(math.sqrt((1 - e) / (1 + e)) * math.tan(nu / 2))
     assert E - e * math.sin(E) == pytest.approx(-0.05, abs=1e-15)
+    for e_high in (0.9, 0.99, 0.999):  # Newton's start from M + e sign(M): every M, every e < 1
+        for M in np.linspace(-3.1, 3.1, 63):
+            nu = true_anomaly(M, e_high)
+            E = 2 * math.atan2(math.sqrt(1 - e_high) * math.sin(nu / 2), math.sqrt(1 + e_high) * math.cos(nu / 2))
+            assert E - e_high * math.sin(E) == pytest.approx(M, abs=1e-12)
     assert orbital_elements_np(c["r_guess_asset"], c["v_guess_asset"], c["mu"])[:5] == pytest.approx(c["target"])
     guesses = delta3_guesses("asset")
     x = ca.DM([*c["r0"], *c["v0"], 2e5])

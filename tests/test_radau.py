@@ -229,21 +229,26 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
     assert err[:2].max() < 2e-7 and err[2:].max() < 5e-10
 
 
-def test_the_ordering_follows_the_mesh_and_the_solution_says_which():
-    """AMF for global collocation, QAMD (ocpkit's default) for several intervals (benchmarks/bench_orderings.py);
-    the solution records the linear algebra it ran with, and an override wins."""
-    from ocpkit import HLGL, MultiPhase
+def test_the_ordering_is_recorded_and_an_override_wins():
+    """Radau factorises with MUMPS's AMF ordering on every mesh (the rule measured in benchmarks/bench_orderings.py,
+    QAMD for several intervals, changes where IPOPT converges; Radau.ipopt_defaults); the solution records the linear
+    algebra it ran with, an override wins, and linked phases share a default only where every phase asks for it."""
+    from test_phases import leg  # min 1/2 int u^2 from (0, 0) to (1, 0), split at t = 1/2
+
+    from ocpkit import HLGL, Link, MultiPhase
     from ocpkit.nlp import linear_solver
 
-    from compendium.problems import flat_moon_ascent
+    from compendium.problems import delta3_mass_drops, delta3_phases, flat_moon_ascent
 
     problem = flat_moon_ascent()
     assert Radau(problem, 20).effective_ipopt_options()["mumps_pivot_order"] == 2
-    assert Radau(problem, 5, 4).effective_ipopt_options()["mumps_pivot_order"] == 6
-    assert Radau(problem, 20).solve(error_threshold=None).linear_solver == "mumps (AMF ordering)"
-    assert Radau(problem, 5, 4).solve(error_threshold=None).linear_solver == "mumps (QAMD ordering)"
-    given = Radau(problem, 20).solve(ipopt_options={"mumps_pivot_order": 0}, error_threshold=None)
-    assert given.linear_solver == "mumps (AMD ordering)" and linear_solver({"linear_solver": "spral"}) == "spral"
-    # phases: a default every phase asks for, else ocpkit's
-    assert MultiPhase([Radau(problem, 20), Radau(problem, 30)]).ipopt_defaults == {"mumps_pivot_order": 2}
-    assert MultiPhase([Radau(problem, 20), HLGL(problem, 5)]).ipopt_defaults == {}
+    assert Radau(problem, 5, 4).solve(error_threshold=None).linear_solver == "mumps (AMF ordering)"
+    given = Radau(problem, 5, 4).solve(ipopt_options={"mumps_pivot_order": 6}, error_threshold=None)
+    assert given.linear_solver == "mumps (QAMD ordering)" and linear_solver({"linear_solver": "spral"}) == "spral"
+    assert HLGL(problem, 10).solve(error_threshold=None).linear_solver == "mumps (QAMD ordering)"
+    drops = delta3_mass_drops()
+    links = [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)]
+    assert MultiPhase([Radau(p, 8, 4) for p in delta3_phases()], links).ipopt_defaults == {"mumps_pivot_order": 2}
+    legs = [HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 5), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 6, 2)]
+    two = MultiPhase(legs).solve(error_threshold=None)  # HLGL and Radau: ocpkit's default for the one NLP
+    assert two.linear_solver == "mumps (QAMD ordering)" == two.phases[0].linear_solver

@@ -413,8 +413,9 @@ def test_the_unscaled_shuttle_solves_with_autoscale_in_a_fraction_of_the_iterati
     )
     assert np.degrees(auto.state(auto.tf)[2]) == pytest.approx(np.degrees(by_hand.state(by_hand.tf)[2]), rel=1e-8)
     assert auto.iterations <= 4 * by_hand.iterations  # 59 against 25
-    # unscaled: 219 iterations (646 under MUMPS's AMF ordering, Radau's before issue 26), the autoscaled 59
-    assert not raw.converged or 3 * auto.iterations < raw.iterations
+    # unscaled: capped at 300 here (646 to IPOPT's tolerance; 219 under MUMPS's QAMD ordering), the autoscaled 59
+    assert raw.converged or raw.status == "Maximum_Iterations_Exceeded"  # (capped at 300: raw.iterations is 300)
+    assert 3 * auto.iterations < raw.iterations
 
 
 def test_the_values_of_another_meshs_vector_are_refused_not_misread():

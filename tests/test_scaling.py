@@ -61,8 +61,8 @@ def test_autoscaling_saves_most_of_the_iterations_an_unscaled_problem_costs():
     raw = unscaled_hang_glider()
     unscaled = Radau(raw, 4, 50).solve(error_threshold=None)
     scaled = Radau(autoscale(raw), 4, 50).solve(error_threshold=None)
-    # measured 31 against 99 (against 180 under MUMPS's AMF ordering, Radau's before issue 26): two thirds saved
-    assert scaled.converged and scaled.iterations <= 0.4 * unscaled.iterations
+    # measured 31 against 180 (against 99 under MUMPS's QAMD ordering): at least two thirds saved
+    assert scaled.converged and scaled.iterations <= 0.35 * unscaled.iterations
     assert scaled.objective == pytest.approx(unscaled.objective, rel=1e-6)
 
 

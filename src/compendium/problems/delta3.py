@@ -120,16 +120,20 @@ def orbital_elements_np(r, v, mu) -> np.ndarray:
 
 
 def true_anomaly(mean_anomaly: float, e: float) -> float:
-    """The true anomaly (rad) of an elliptic orbit at ``mean_anomaly`` (rad): Kepler's equation
-    ``E - e sin E = M`` by Newton's method, then ``tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2)``."""
+    """The true anomaly (rad, in (-pi, pi]) of an elliptic orbit at ``mean_anomaly`` (rad): Kepler's equation
+    ``E - e sin E = M`` by Newton's method from ``E = M + e sign(M)`` (M reduced to (-pi, pi]: the iteration then
+    converges for every e < 1), then ``tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2)``."""
     if not 0.0 <= e < 1.0:
         raise ValueError(f"the eccentricity must lie in [0, 1), got {e!r}")
-    E = float(mean_anomaly) if e < 0.8 else math.pi
-    for _ in range(50):
-        step = (E - e * math.sin(E) - mean_anomaly) / (1.0 - e * math.cos(E))
+    M = math.remainder(float(mean_anomaly), 2.0 * math.pi)
+    E = M + e * math.copysign(1.0, M) if M else 0.0
+    for _ in range(100):
+        step = (E - e * math.sin(E) - M) / (1.0 - e * math.cos(E))
         E -= step
-        if abs(step) < 1e-15:
+        if abs(step) <= 1e-15 * max(1.0, abs(E)):
             break
+    else:
+        raise ArithmeticError(f"Kepler's equation did not converge for M = {mean_anomaly!r}, e = {e!r}")
     return 2.0 * math.atan2(math.sqrt(1.0 + e) * math.sin(E / 2), math.sqrt(1.0 - e) * math.cos(E / 2))
 
 

@@ -9,7 +9,7 @@ free final time of about 2000 s; maximise ``theta(t_f)``. With ``heating_limit``
 Two statements of the same problem: ``scaled=True``, scaled by hand as Dymos' example scales it (altitude in units
 of 1e5 ft, speed of 1e4 ft/s, duration of 1000 s, the heating rate of its limit, the cost in degrees); and
 ``scaled=False``, the problem as a user first writes it, every variable in its own unit (altitudes of 1e5 ft next to
-angles of 1e-2 rad), which IPOPT solves in 219 iterations on Radau 4 x 40 (646 under MUMPS's AMF ordering) where the
+angles of 1e-2 rad), which IPOPT solves in 646 iterations on Radau 4 x 40 (219 under MUMPS's QAMD ordering) where the
 hand-scaled statement takes 25 and the same statement through :func:`ocpkit.autoscale` 59 (notebook 07).
 """
 

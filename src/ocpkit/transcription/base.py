@@ -431,7 +431,8 @@ class Transcription(session.SolveSession, ABC):
     def effective_ipopt_options(self, ipopt_options: dict | None = None) -> dict:
         """The IPOPT options a solve with these overrides runs with: ocpkit's defaults
         (:data:`~ocpkit.nlp.DEFAULT_IPOPT_OPTIONS`), then this transcription's (``ipopt_defaults``: the ordering its
-        structure asks for), then the overrides."""
+        structure asks for), then the overrides. A warm start adds :data:`~ocpkit.nlp.WARM_START` before the
+        overrides (its options touch the barrier, not the linear solver)."""
         return {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_defaults, **(ipopt_options or {})}
 
     def solver(self, ipopt_options: dict | None = None):

@@ -99,12 +99,14 @@ class Radau(Transcription):
 
     @property
     def ipopt_defaults(self) -> dict:
-        """MUMPS's ordering by the mesh's structure (``benchmarks/bench_orderings.py``): AMF for global collocation
-        (one interval, one dense differentiation block over the whole horizon), QAMD (ocpkit's default) for
-        several intervals. Measured on 13 problems: with one interval of 100 nodes AMF takes 0.16-1.23 times
-        QAMD's IPOPT time (entry landing 0.74, Goddard 0.67); with several it takes 0.45-4.3 times (entry landing
-        40 x 5: 0.45; the flat moon 3 x 5000: 4.3, 40 x 5: 2.0; the free-flying robot 40 x 5: 2.8)."""
-        return {"mumps_pivot_order": 2} if self.intervals == 1 else {}
+        """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
+        interval, QAMD for several" (issue 26): it picks the faster ordering on 17 of 19 comparable cases (five
+        problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
+        adopted, because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve
+        (notebook 10, Radau 4 x 160) converges in 978 iterations under AMF and stops at 3000 under QAMD, the free-
+        flying robot on 3 x 1000 the other way round. Give ``ipopt_options={"mumps_pivot_order": 6}`` for QAMD;
+        :attr:`~ocpkit.Solution.linear_solver` says which ran."""
+        return {"mumps_pivot_order": 2}
 
     def __init__(
         self, problem: OptimalControlProblem, nodes: int | list[int] = 20, intervals: int | None = None, *, mesh=None

@@ -4,7 +4,7 @@
 checked, one IPOPT solve (an exact warm start from a solution of the same mesh) or a mesh refinement
 (:func:`solve_refined`), the failure policy of :func:`~ocpkit.transcription.base.settle`, and the accuracy
 warnings. What it asks of a mesh object: ``label``, ``build_s``, ``n_collocation_points``, ``nlp``,
-``solver(options)``, ``initial_point(guess)``, ``_bounds(parameters)``, ``_constraint_bounds()``, ``_solution``,
+``solver(options)``, ``effective_ipopt_options(options)``, ``initial_point(guess)``, ``_bounds(parameters)``, ``_constraint_bounds()``, ``_solution``,
 ``_solve_once``, ``refine(errors, tolerance, cuts)``, ``_check_parameters``, ``_warn_if_inaccurate`` and, per
 estimate interval of a solution, ``_mesh_fractions``, ``_path_where`` and ``_cuts``, and ``_refinement_hint``; of a
 solution:
@@ -174,6 +174,9 @@ def solve(
         # the linear algebra it ran with (a refinement's last mesh: the solution's own)
         mesh = solution.raw.get("transcription", meshed)
         solution.raw["linear_solver"] = linear_solver(mesh.effective_ipopt_options(ipopt_options))
+        for phase in getattr(solution, "phases", ()):  # a multi-phase solution's phases: the one NLP's
+            if isinstance(getattr(phase, "raw", None), dict):
+                phase.raw["linear_solver"] = solution.raw["linear_solver"]
     return solution
 
 
