@@ -81,6 +81,20 @@ def lift_scale(aero_model: str) -> float:
     return 0.5 * c["rho"] * c["Sref_m2"] * c["g0"] * length / (c["m0_kg"] * c["g0"])
 
 
+def _entry_constants(initial_speed_m_s: float | None, initial_flight_path_deg: float | None) -> dict:
+    """:func:`entry_landing_constants` with another initial speed (m/s) or flight-path angle (deg), checked."""
+    c = entry_landing_constants()
+    if initial_speed_m_s is not None:
+        if not (math.isfinite(initial_speed_m_s) and initial_speed_m_s > 0):
+            raise ValueError(f"initial_speed_m_s must be a positive speed, got {initial_speed_m_s!r}")
+        c["V0"] = initial_speed_m_s / c["velocity_unit_m_s"]
+    if initial_flight_path_deg is not None:
+        if not (math.isfinite(initial_flight_path_deg) and -90 <= initial_flight_path_deg <= 90):
+            raise ValueError(f"initial_flight_path_deg must lie in [-90, 90], got {initial_flight_path_deg!r}")
+        c["gamma0"] = initial_flight_path_deg * math.pi / 180
+    return c
+
+
 def minimum_downrange_bound(
     aero_model: str = "corrected",
     *,
@@ -97,11 +111,7 @@ def minimum_downrange_bound(
     ``u_L = 1`` and ``V = V0`` (``V <= V0``). Hence ``s_f >= (V0 cos gamma0)^2 / (2 a_max)``.
     ``initial_speed_m_s``, ``initial_flight_path_deg``: another entry, as :func:`entry_landing`.
     """
-    c = entry_landing_constants()
-    if initial_speed_m_s is not None:
-        c["V0"] = float(initial_speed_m_s) / c["velocity_unit_m_s"]
-    if initial_flight_path_deg is not None:
-        c["gamma0"] = float(initial_flight_path_deg) * math.pi / 180
+    c = _entry_constants(initial_speed_m_s, initial_flight_path_deg)
     k = lift_scale(aero_model)
     L_max = k * c["V0"] ** 2
     a_max = (c["Tmax"] + math.hypot(1.0, c["drag_to_lift"]) * L_max) / c["mass_bounds"][0]  # in g0
@@ -143,15 +153,7 @@ def entry_landing(
       drag over mass, at most this many g0: ``((T cos eps + D)^2 + (T sin eps - L)^2) / m^2
       <= max_sensed_g^2`` (units of g0, the problem's acceleration unit).
     """
-    c = entry_landing_constants()
-    if initial_speed_m_s is not None:
-        if not (math.isfinite(initial_speed_m_s) and initial_speed_m_s > 0):
-            raise ValueError(f"initial_speed_m_s must be a positive speed, got {initial_speed_m_s!r}")
-        c["V0"] = initial_speed_m_s / c["velocity_unit_m_s"]
-    if initial_flight_path_deg is not None:
-        if not (math.isfinite(initial_flight_path_deg) and -90 <= initial_flight_path_deg <= 90):
-            raise ValueError(f"initial_flight_path_deg must lie in [-90, 90], got {initial_flight_path_deg!r}")
-        c["gamma0"] = initial_flight_path_deg * math.pi / 180
+    c = _entry_constants(initial_speed_m_s, initial_flight_path_deg)
     k_lift = lift_scale(aero_model)
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
