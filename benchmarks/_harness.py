@@ -73,6 +73,11 @@ def best_of(make_transcription, ipopt_options: dict, repeat: int) -> dict:
     return min(runs, key=lambda r: r["end_to_end_s"])
 
 
+def goal(value: float, limit: float, unit: str = "x") -> str:
+    """``"<= 1.10x: met"`` or ``"<= 1.10x: not met"``: a measured ratio (or time) beside its goal."""
+    return f"<= {limit:g}{unit}: {'met' if value <= limit else 'not met'}"
+
+
 def report(rows: list[dict], columns: list[str], output: str, title: str, formats: dict | None = None) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     os.makedirs(os.path.dirname(output) or ".", exist_ok=True)

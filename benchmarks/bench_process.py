@@ -7,8 +7,11 @@ Rows:
   time from ``python -X importtime`` (issue 14's goal: under 0.15 s);
 - ``flat_moon`` and ``lunar_ascent``: ``process/ocpkit_solve.py`` (import ocpkit, pose, solve) against
   ``process/casadi_solve.py`` (the same HLGL NLP written in plain CasADi, same IPOPT options and start), whole
-  processes (goal: within 1.5x). Both must print the same t_f (to 1e-9, relative) and iterations, and t_f must
-  equal the compendium's own solve of the problem.
+  processes (issue 26's goal: within 1.1x). Both must print the same t_f (to 1e-9, relative) and iterations, and t_f
+  must equal the compendium's own solve of the problem;
+- ``compendium one-liner``: ``python -c "...HLGL(flat_moon_ascent(), 20).solve()..."``, the problem posed by the
+  compendium's module from its TOML data and solved with the default error estimate, against the plain CasADi
+  flat moon (goal: within 1.5x).
 
 Each time is the median of ``--repeat`` runs (the minimum is in the CSV too), after one warm-up run, with
 ``PYTHONDONTWRITEBYTECODE`` removed from the environment: as installed (pip writes bytecode at install time), a
@@ -26,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from _harness import parser, report
+from _harness import goal, parser, report
 
 from ocpkit import HLGL
 
@@ -82,6 +85,7 @@ def main() -> None:
             "casadi_min_s": min_c,
             "importtime_ocpkit_s": importtime("ocpkit", args.repeat),
             "importtime_casadi_s": importtime("casadi", args.repeat),
+            "goal": "",
         }
     )
     reference = {"flat_moon": flat_moon_ascent, "lunar_ascent": lunar_ascent}
@@ -102,10 +106,33 @@ def main() -> None:
                 "ocpkit_min_s": min_o,
                 "casadi_min_s": min_c,
                 "iterations": f"{it_o} / {it_c}",
+                "goal": goal(med_o / med_c, 1.1),
             }
         )
         print(f"{case}: ocpkit {med_o:.3f} s, plain CasADi {med_c:.3f} s", flush=True)
-    cols = ["case", "ocpkit_s", "casadi_s", "ratio", "ocpkit_min_s", "casadi_min_s"]
+        if case == "flat_moon":
+            flat_moon_casadi = (med_c, min_c)
+    one_liner = (
+        "from ocpkit import HLGL; from compendium.problems import flat_moon_ascent; "
+        "print(HLGL(flat_moon_ascent(), 20).solve().tf)"
+    )
+    med_o, min_o, out_o = wall([py, "-c", one_liner], args.repeat)
+    if abs(float(out_o) / HLGL(flat_moon_ascent(), 20).solve().tf - 1) > 1e-9:
+        raise SystemExit(f"compendium one-liner: t_f {out_o} differs from the in-process solve")
+    med_c, min_c = flat_moon_casadi
+    rows.append(
+        {
+            "case": "compendium one-liner, flat moon HLGL 20",
+            "ocpkit_s": med_o,
+            "casadi_s": med_c,
+            "ratio": med_o / med_c,
+            "ocpkit_min_s": min_o,
+            "casadi_min_s": min_c,
+            "goal": goal(med_o / med_c, 1.5),
+        }
+    )
+    print(f"compendium one-liner: {med_o:.3f} s", flush=True)
+    cols = ["case", "ocpkit_s", "casadi_s", "ratio", "goal", "ocpkit_min_s", "casadi_min_s"]
     df = report(rows, cols, args.output, f"Whole processes, median of {args.repeat}", {"ratio": ".2f"})
     imp = df.iloc[0]
     print(f"\npython -X importtime: ocpkit {imp.importtime_ocpkit_s:.3f} s, casadi {imp.importtime_casadi_s:.3f} s")

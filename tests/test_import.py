@@ -34,3 +34,45 @@ def test_a_solve_needs_none_of_them_either():
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split("\n")
     assert out[0] == "", f"a solve loaded {out[0]}"
     assert out[1] == "", f"a refinement's stop test loaded {out[1]}"
+
+
+def test_a_solve_does_not_load_numpy_ma():
+    """NumPy 2.4's ``np.unique`` imports ``numpy.ma`` on its first plain call, about 20 ms of a whole short
+    process: the build, solve and error estimate use ``ocpkit._arrays.unique`` instead (issue 26)."""
+    code = (
+        "import sys\n"
+        "from ocpkit import HLGL, Radau\n"
+        "from compendium.problems import flat_moon_ascent\n"
+        "for tr in (HLGL(flat_moon_ascent(), 10), Radau(flat_moon_ascent(), 4, 3)):\n"
+        "    tr.solve().error_estimate\n"
+        "print('numpy.ma' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.strip()
+    assert out == "False"
+
+
+def test_posing_a_compendium_problem_loads_neither_scipy_nor_pandas():
+    """The compendium's problem modules import SciPy (the linear-tangent solution) and pandas (the gas-oil
+    measurements) only in the functions that need them, so its one-liner costs about a plain CasADi solve."""
+    code = (
+        "import sys\n"
+        "from compendium.problems import flat_moon_ascent, lunar_ascent, entry_landing, gasoil\n"
+        "flat_moon_ascent(), lunar_ascent(), entry_landing()\n"
+        "print(','.join(sorted(m for m in ('scipy', 'pandas', 'matplotlib') if m in sys.modules)))\n"
+        "gasoil()\n"
+        "print('pandas' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split("\n")
+    assert out[0] == "", f"posing a problem loaded {out[0]}"
+    assert out[1] == "True"  # the measurements are read with pandas when they are needed
+
+
+def test_unique_is_numpys():
+    import numpy as np
+
+    from ocpkit._arrays import unique
+
+    rng = np.random.default_rng(0)
+    for values in (rng.integers(0, 7, 50), rng.normal(size=(4, 5)).round(1), np.array([], dtype=int), [3, 3, 1]):
+        got, want = unique(values), np.unique(values)
+        assert got.dtype == want.dtype and np.array_equal(got, want)

@@ -92,3 +92,23 @@ def test_the_downrange_bound_follows_the_entry():
     assert steep["downrange_bound_m"] == pytest.approx(ratio * post["downrange_bound_m"], rel=1e-12)
     same = minimum_downrange_bound(initial_speed_m_s=280.0, initial_flight_path_deg=-65.0)
     assert same == pytest.approx(post, rel=1e-14)
+
+
+def test_problem_data_parsed_once_and_copied(monkeypatch, tmp_path):
+    """A TOML file is parsed once while it is unchanged; each caller gets its own copy, and an edit is seen."""
+    import tomllib
+
+    import compendium.problems._data as data
+
+    (tmp_path / "p.toml").write_text("a = 1.0\n[b]\nc = [1, 2]\n")
+    monkeypatch.setattr(data, "problem_data_dir", lambda: tmp_path)
+    calls = []
+    real = tomllib.load
+    monkeypatch.setattr(data.tomllib, "load", lambda fh: calls.append(1) or real(fh))
+    first = load_problem_data("p")
+    first["b"]["c"].append(3)
+    assert load_problem_data("p") == {"a": 1.0, "b": {"c": [1, 2]}}
+    assert len(calls) == 1
+    (tmp_path / "p.toml").write_text("a = 2.0\n")
+    assert load_problem_data("p") == {"a": 2.0}
+    assert len(calls) == 2

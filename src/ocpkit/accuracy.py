@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 
+from ._arrays import unique
 from .nodes import lgr_estimate_points
 
 #: Estimate points per interval when a scheme does not say (above the degree of HLGL's quintic states)
@@ -51,7 +52,7 @@ def interval_errors(trajectory, points=None, breakpoints=None) -> np.ndarray:
     problem = trajectory.problem
     P = problem.parameter_vector() if problem.parameters else np.zeros(0)
     out = np.empty(K)
-    for m in np.unique(M):
+    for m in unique(M):
         ks = np.flatnonzero(M == m)
         tau, A = lgr_estimate_points(int(m))
         a, b = bp[ks], bp[ks + 1]
@@ -132,7 +133,7 @@ def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES
         centres = [j_cross[k]]
         if not ((Vs[k] == -1).any() and (Vs[k] == 1).any()):
             centres.append(j_status[k])
-        cuts = np.unique(np.concatenate([np.array([j, j + 2]) / samples for j in centres]))
+        cuts = unique(np.concatenate([np.array([j, j + 2]) / samples for j in centres]))
         out.append(cuts[(cuts > 0.0) & (cuts < 1.0)])
     return out
 
@@ -173,7 +174,7 @@ def path_junctions(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, 
         if j.size == 0:
             out.append(np.zeros(0))
             continue
-        cuts = np.unique(np.concatenate([np.array([c, c + 2]) / samples for c in {int(j[0]), int(j[-1])}]))
+        cuts = unique(np.concatenate([np.array([c, c + 2]) / samples for c in {int(j[0]), int(j[-1])}]))
         out.append(cuts[(cuts > 0.0) & (cuts < 1.0)])
     return out
 

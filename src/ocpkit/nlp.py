@@ -26,6 +26,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from ._arrays import unique
 from ._deprecation import renamed
 
 #: Instances per block above which the mapped evaluations use two threads.
@@ -240,7 +241,7 @@ class SeparableNLP:
             rows = np.concatenate(g_rows)
             _, A = _assembly(rows, np.ones(rows.size))
             g = ca.mtimes(A, ca.vertcat(*g_vals))
-            if not np.array_equal(np.unique(rows), np.arange(M)):
+            if not np.array_equal(unique(rows), np.arange(M)):
                 raise ValueError("every constraint row must receive at least one block output")
         else:
             g = ca.MX(0, 1)

@@ -12,15 +12,20 @@ whose rate constants are one parameter of the trajectory, and the cost is a sum 
 
 from __future__ import annotations
 
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from ocpkit import FreeParameter, MultiPhase, OptimalControlProblem, State
 
 from ..paths import problem_data_dir
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 
 def gasoil_measurements() -> pd.DataFrame:
     """The measurement table: columns ``t``, ``y1``, ``y2`` (with its provenance in the file's header)."""
+    import pandas as pd  # here, not at import: the other problems need no pandas
+
     return pd.read_csv(problem_data_dir() / "cops_gasoil.csv", comment="#")
 
 

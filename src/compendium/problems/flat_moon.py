@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import root
 
 from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
 
@@ -131,6 +130,8 @@ class LinearTangentSolution:
 def linear_tangent_solution(tol: float = 1e-14, thrust_to_weight: float | None = None) -> LinearTangentSolution:
     """Solve the three terminal conditions for (tan theta_0, c, tf) with scipy's MINPACK hybrid method
     (``thrust_to_weight``: another ratio than the data file's)."""
+    from scipy.optimize import root  # here, not at import: posing the problem needs no SciPy
+
     k = flat_moon_constants()
     g = k["g"]
     a = k["a"] if thrust_to_weight is None else float(thrust_to_weight) * g

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from .._arrays import unique
 from ..errors import SolverError
 from ..nodes import cubic_hermite
 from ..problem import FreeFinalTime
@@ -780,7 +781,7 @@ class ArcTrajectory(Trajectory):
         flat = t.ravel()
         arc = np.clip(np.searchsorted(self.breakpoints, flat, side="right") - 1, 0, len(self._pieces) - 1)
         out = np.empty((flat.size, self._pieces[0][1].shape[1]))
-        for k in np.unique(arc):
+        for k in unique(arc):
             sel = np.flatnonzero(arc == k)
             tk, Y, D, _ = self._pieces[k]
             i = np.clip(np.searchsorted(tk, flat[sel], side="right") - 1, 0, tk.size - 2)
@@ -805,7 +806,7 @@ class ArcTrajectory(Trajectory):
         nu = self.problem.nu
         U, M = np.empty((flat.size, nu)), np.empty(flat.size)
         n = self._n
-        for k in np.unique(arc):
+        for k in unique(arc):
             sel = np.flatnonzero(arc == k)
             f = self._pieces[k][3]
             w = y[sel, 2 * n : -1]

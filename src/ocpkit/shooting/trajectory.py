@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._arrays import unique
 from ..nodes import quintic_hermite
 from ..trajectory import Trajectory
 from .compiled import Integration
@@ -47,7 +48,7 @@ class ShootingTrajectory(Trajectory):
         mid = 0.5 * (Y[1:] + Y[:-1])
         self._modes = self._modes_at(mid)
         d0, d1, a0, a1 = (np.empty_like(Y[:-1]) for _ in range(4))
-        for m in np.unique(self._modes):
+        for m in unique(self._modes):
             sel = np.flatnonzero(self._modes == m)
             f, a = system.flow.map(sel.size), system.acceleration.map(sel.size)
             d0[sel] = np.asarray(f(Y[sel].T, m, P)).T
@@ -108,7 +109,7 @@ class ShootingTrajectory(Trajectory):
         Y = y.reshape(-1, y.shape[-1])
         modes = self._modes[i]
         out = np.empty((Y.shape[0], self.system.law.nu))
-        for m in np.unique(modes):
+        for m in unique(modes):
             sel = np.flatnonzero(modes == m)
             out[sel] = np.asarray(self.system.control.map(sel.size)(Y[sel].T, m, self._P)).T
         return out.reshape(shape + (out.shape[-1],))

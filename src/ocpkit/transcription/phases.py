@@ -34,6 +34,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from .._arrays import unique
 from .._deprecation import renamed
 from ..names import Named, NamedParameters, UnknownName, call
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP
@@ -820,7 +821,7 @@ class MultiPhaseSolution(Trajectory):
         self.problem = first
         self.t0 = self.phases[0].t0
         self.tf = self.phases[-1].tf
-        self.breakpoints = np.unique(np.concatenate([p.breakpoints for p in self.phases]))
+        self.breakpoints = unique(np.concatenate([p.breakpoints for p in self.phases]))
         self._uniform = all(
             (p.problem.state_names, p.problem.control_names) == (first.state_names, first.control_names)
             for p in self.phases
@@ -858,7 +859,7 @@ class MultiPhaseSolution(Trajectory):
         k = self._phase_of(flat)
         dim = getattr(self.phases[0], what)(np.array([self.phases[0].t0])).shape[-1]
         out = np.empty((flat.size, dim))
-        for j in np.unique(k):
+        for j in unique(k):
             ph = self.phases[j]
             sel = k == j
             out[sel] = getattr(ph, what)(np.clip(flat[sel], ph.t0, ph.tf))
@@ -882,7 +883,7 @@ class MultiPhaseSolution(Trajectory):
             j: self.phases[j]._sample(
                 expr, np.clip(flat[k == j], self.phases[j].t0, self.phases[j].tf), self.parameters
             )
-            for j in np.unique(k)
+            for j in unique(k)
         }
         first = next(iter(parts.values()))
         out = np.empty((flat.size,) + first.shape[1:])

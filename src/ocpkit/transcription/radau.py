@@ -26,6 +26,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from .._arrays import unique
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..problem import OptimalControlProblem, unwrap_periodic
@@ -164,7 +165,7 @@ class Radau(Transcription):
 
     def _collocation_weights(self) -> np.ndarray:
         """LGR weights on [-1, 1] of every collocation point, in layout order."""
-        weights = {int(n): lgr_weights(lgr_nodes(int(n))) for n in np.unique(self.counts)}  # one per degree
+        weights = {int(n): lgr_weights(lgr_nodes(int(n))) for n in unique(self.counts)}  # one per degree
         return np.concatenate([weights[int(n)] for n in self.counts])
 
     # -- NLP blocks ---------------------------------------------------------------------
@@ -176,7 +177,7 @@ class Radau(Transcription):
         blocks = []
 
         # D X on the scaled variables: a shift cancels exactly, whatever the rounding of D's row sums
-        for n in np.unique(self.counts):
+        for n in unique(self.counts):
             which = np.flatnonzero(self.counts == n)
             D = lgr_differentiation_matrix(self.tau[which[0]])
             z = ca.SX.sym("z", nx * (n + 1))
