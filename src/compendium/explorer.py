@@ -203,6 +203,7 @@ class TranscriptionFamily:
             self.choice_defaults[name] = label
         self._build, self.note, self.keep_built = build, note, max(1, int(keep_built))
         self._built: OrderedDict = OrderedDict()
+        self._loops: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per built transcription
         self._lock = threading.Lock()
         if transcription is not None:
             self._built[()] = transcription
@@ -229,6 +230,23 @@ class TranscriptionFamily:
                 self._built.popitem(last=False)
         return built
 
+    def _loop(self, transcription):
+        """The transcription's solve loop (:meth:`~ocpkit.Transcription.loop`: a solve at the IPOPT call's cost,
+        the same result as ``solve``), made once per transcription; None where the solve options ask for more
+        than one IPOPT solve of one mesh."""
+        options = dict(self.solve_options)
+        if options.pop("error_threshold", None) is not None or options.pop("mesh_tolerance", None) is not None:
+            return None
+        if not set(options) <= {"ipopt_options", "allow_acceptable", "raise_on_failure"}:
+            return None
+        with self._lock:
+            loop = self._loops.get(transcription)
+            if loop is None:
+                loop = self._loops[transcription] = transcription.loop(
+                    options.get("ipopt_options"), allow_acceptable=options.get("allow_acceptable", False)
+                )
+        return loop
+
     def parameters(self) -> Mapping[str, float]:
         """The problem's parameters and their own values (those of the default choices' transcription)."""
         problem = self.transcription().problem
@@ -249,7 +267,11 @@ class TranscriptionFamily:
         where it fails."""
         transcription = self.transcription(labels)
         with _solving(transcription):  # one solve of a transcription at a time, among explorers
-            solution = transcription.solve(start, parameters=dict(values), **self.solve_options)
+            loop = self._loop(transcription)
+            if loop is None:  # options a loop does not take (a mesh refinement, an error threshold)
+                solution = transcription.solve(start, parameters=dict(values), **self.solve_options)
+            else:
+                solution = loop(dict(values), guess=start).solution
         if not solution.converged:  # (raise_on_failure is forced, but a solution that says so is never drawn)
             raise SolverError("IPOPT", solution.status, solution.iterations)
         return solution

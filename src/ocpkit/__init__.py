@@ -15,7 +15,17 @@ from .problem import (
 from .scaling import autoscale
 from .solution import Reintegration, Solution
 from .trajectory import Trajectory
-from .transcription import HLGL, Link, MultiPhase, MultiPhaseSolution, MultiRateHLGL, Radau, Transcription
+from .transcription import (
+    HLGL,
+    Link,
+    LoopResult,
+    MultiPhase,
+    MultiPhaseSolution,
+    MultiRateHLGL,
+    Radau,
+    SolveLoop,
+    Transcription,
+)
 
 __version__ = "0.3.0.dev0"
 
@@ -29,6 +39,7 @@ __all__ = [
     "Guess",
     "HLGL",
     "Link",
+    "LoopResult",
     "MultiPhase",
     "MultiPhaseSolution",
     "MultiRateHLGL",
@@ -36,6 +47,7 @@ __all__ = [
     "Radau",
     "Reintegration",
     "Solution",
+    "SolveLoop",
     "SolverError",
     "State",
     "Trajectory",

@@ -23,16 +23,22 @@ _local = threading.local()
 
 def flat_moon_transcription(segments: int) -> HLGL:
     """The flat-moon ascent with its thrust-to-weight ratio as a parameter, built once per thread."""
+    return _flat_moon(segments)[0]
+
+
+def _flat_moon(segments: int):
+    """The transcription and its solve loop (:meth:`ocpkit.Transcription.loop`), once per thread."""
     cache = _local.__dict__.setdefault("flat_moon", {})
     if segments not in cache:
-        cache[segments] = HLGL(flat_moon_ascent(thrust_as_parameter=True), segments).build()
+        tr = HLGL(flat_moon_ascent(thrust_as_parameter=True), segments)
+        cache[segments] = (tr, tr.loop())
     return cache[segments]
 
 
 def flat_moon_point(thrust_to_weight: float, segments: int = 20) -> dict:
-    """Minimum time to orbit at one thrust-to-weight ratio, against the linear-tangent closed form."""
-    tr = flat_moon_transcription(segments)
-    sol = tr.solve(parameters={"thrust_to_weight": thrust_to_weight}, error_threshold=None)
+    """Minimum time to orbit at one thrust-to-weight ratio, against the linear-tangent closed form (solved by the
+    worker's loop, :meth:`ocpkit.Transcription.loop`: the same result as ``solve`` from the default guess)."""
+    sol = _flat_moon(segments)[1]({"thrust_to_weight": thrust_to_weight}).solution
     exact = linear_tangent_solution(thrust_to_weight=thrust_to_weight)
     return {
         "tf_s": sol.tf,

@@ -2,6 +2,7 @@
 
 from .base import Transcription
 from .hlgl import HLGL
+from .loop import LoopResult, SolveLoop
 from .mesh import Mesh
 from .multirate import MultiRateHLGL, state_partition
 from .phases import Link, MultiPhase, MultiPhaseSolution
@@ -10,11 +11,13 @@ from .radau import Radau
 __all__ = [
     "HLGL",
     "Link",
+    "LoopResult",
     "Mesh",
     "MultiPhase",
     "MultiPhaseSolution",
     "MultiRateHLGL",
     "Radau",
+    "SolveLoop",
     "Transcription",
     "state_partition",
 ]

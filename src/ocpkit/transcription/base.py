@@ -272,6 +272,23 @@ class Transcription(session.SolveSession, ABC):
             pr = pr.fix_parameters(g["parameters"])
         return pr, g["t0"], g["tf"]
 
+    # -- what a solve loop (ocpkit.transcription.loop) asks of a mesh ------------------------------------------
+    def _parameter_slots(self) -> dict[str, np.ndarray]:
+        """Per problem parameter, the NLP indices its value is pinned at (by both bounds, unscaled)."""
+        g = self.global_indices()
+        return {name: g[k : k + 1] for k, name in enumerate(self.problem.parameters)}
+
+    def _parameter_defaults(self) -> dict[str, float]:
+        return {name: float(value) for name, value in self.problem.parameters.items()}
+
+    def _objective_scale(self) -> float:
+        return float(self.problem.objective_scale)
+
+    def _time_span(self, w) -> tuple[float, float]:
+        """``(t0, tf)`` of a scaled NLP vector."""
+        values = self.global_values(w)
+        return values["t0"], values["tf"]
+
     def _stack_bounds(self, parts, parameters=None) -> tuple[np.ndarray, np.ndarray]:
         """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds
         (the parameters pinned to :meth:`parameter_values`)."""

@@ -602,6 +602,35 @@ class MultiPhase(session.SolveSession):
         for ph in self.phases:
             ph.parameter_values(self._phase_parameters(ph, parameters))
 
+    def _parameter_slots(self) -> dict[str, np.ndarray]:
+        """Per parameter name, its NLP indices in every phase that has it (one value for all of them)."""
+        slots: dict[str, list] = {}
+        for k, ph in enumerate(self.phases):
+            for name, index in ph._parameter_slots().items():
+                slots.setdefault(name, []).append(self.variable_offsets[k] + index)
+        return {name: np.concatenate(parts) for name, parts in slots.items()}
+
+    def _parameter_defaults(self) -> dict[str, float]:
+        """Each parameter's value, the first phase's that has it (a solve pins every phase's to a given value)."""
+        values: dict[str, float] = {}
+        for ph in self.phases:
+            for name, value in ph._parameter_defaults().items():
+                values.setdefault(name, value)
+        return values
+
+    def _objective_scale(self) -> float:
+        return self.objective_scale
+
+    def _time_span(self, w) -> tuple[float, float]:
+        """``(t0, tf)`` of a scaled NLP vector: the first phase's start and the last phase's end (as listed)."""
+        w = np.asarray(w, dtype=float).ravel()
+        first, last = self.phases[0], self.phases[-1]
+        o0, o1 = int(self.variable_offsets[0]), int(self.variable_offsets[-1])
+        return (
+            first._time_span(w[o0 : o0 + first.n_variables])[0],
+            last._time_span(w[o1 : o1 + last.n_variables])[1],
+        )
+
     def _constraint_bounds(self):
         lo, hi = zip(*(ph._constraint_bounds() for ph in self.phases))
         z = np.zeros(self.n_link_rows - self.n_linkage_rows)

@@ -132,6 +132,18 @@ class SolveSession:
             parameters=parameters,
         )
 
+    def loop(self, ipopt_options: dict | None = None, *, allow_acceptable: bool = False, raise_on_failure: bool = True):
+        """A :class:`~ocpkit.transcription.loop.SolveLoop` of this mesh: many solves (parameter values, starts) at
+        the cost of the IPOPT call, each result's Solution built only when asked for.
+
+        ``loop(parameters, guess=None)`` returns a :class:`~ocpkit.transcription.loop.LoopResult` (the NLP's
+        arrays, the objective, IPOPT's status and iterations; ``.solution`` the full Solution), equal to
+        ``solve(guess, parameters=parameters, error_threshold=None)`` with the same options, to the last bit.
+        """
+        from .loop import SolveLoop
+
+        return SolveLoop(self, ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure)
+
 
 def solve(
     meshed,
@@ -165,19 +177,24 @@ def solve(
         solution = meshed._solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         if error_threshold is not None and solution.converged:
             meshed._warn_if_inaccurate(solution, error_threshold)
-    # how it was solved, for a re-solve of the same NLP (ocpkit.indirect re-solves from an extremal)
+    record_solve(meshed, solution, ipopt_options, allow_acceptable)
+    return solution
+
+
+def record_solve(meshed, solution, ipopt_options, allow_acceptable: bool) -> None:
+    """Record on ``solution.raw`` how it was solved: ``solve_options``, for a re-solve of the same NLP
+    (ocpkit.indirect re-solves from an extremal), and ``linear_solver``, the linear algebra it ran with (a
+    refinement's last mesh: the solution's own)."""
     if isinstance(getattr(solution, "raw", None), dict):
         solution.raw["solve_options"] = {
             "ipopt_options": dict(ipopt_options or {}),
             "allow_acceptable": allow_acceptable,
         }
-        # the linear algebra it ran with (a refinement's last mesh: the solution's own)
         mesh = solution.raw.get("transcription", meshed)
         solution.raw["linear_solver"] = linear_solver(mesh.effective_ipopt_options(ipopt_options))
         for phase in getattr(solution, "phases", ()):  # a multi-phase solution's phases: the one NLP's
             if isinstance(getattr(phase, "raw", None), dict):
                 phase.raw["linear_solver"] = solution.raw["linear_solver"]
-    return solution
 
 
 def solve_once(
