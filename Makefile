@@ -143,11 +143,14 @@ lab: setup
 
 bench: setup
 	$(PY) benchmarks/bench_hlgl.py
+	$(PY) benchmarks/bench_scale.py
+	$(PY) benchmarks/bench_evaluations.py
 	$(PY) benchmarks/bench_multirate.py
 	$(PY) benchmarks/bench_fast_slow.py
 	$(PY) benchmarks/bench_radau.py
 	$(PY) benchmarks/bench_orderings.py
 	$(PY) benchmarks/bench_delta3.py
+	$(PY) benchmarks/bench_fatrop.py
 	$(PY) benchmarks/bench_shooting.py
 	$(PY) benchmarks/bench_orbit_transfer.py
 	$(PY) benchmarks/bench_constraints.py

@@ -12,17 +12,13 @@ integration, switching handling included, runs in C.
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import shutil
-import subprocess
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 
+from .. import _ccompile
+from .._ccompile import CFLAGS, cache_dir  # noqa: F401 (their home before)
 from .._deprecation import renamed_argument
 from .hamiltonian import HamiltonianSystem
 from .strategies import SWITCHING_MODES
@@ -36,63 +32,16 @@ _STATUS = {
     5: "switching root not found",
 }
 _SOURCE = Path(__file__).with_name("dopri5.c")
-CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99"]
-
-
-def cache_dir() -> Path:
-    """Where compiled libraries are kept: ``OCPKIT_CACHE_DIR``, else ``<user cache>/ocpkit/shooting``.
-
-    The user cache is ``$XDG_CACHE_HOME`` or ``~/.cache`` (the XDG convention, which
-    Linux and most Unix tools follow).
-    """
-    env = os.environ.get("OCPKIT_CACHE_DIR")
-    if env:
-        path = Path(env)
-    else:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-        path = Path(base) / "ocpkit" / "shooting"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def _compiler() -> str:
-    cc = os.environ.get("CC", "gcc")
-    if shutil.which(cc) is None:
-        raise RuntimeError(f"the C compiler {cc!r} was not found; the shooting engine needs one: install gcc or set CC")
-    return cc
 
 
 def generate_c(system: HamiltonianSystem) -> str:
     """C source of the system's functions (CasADi code generation)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        name = "ocp_generated.c"
-        gen = ca.CodeGenerator(name, {"casadi_int": "long long", "casadi_real": "double", "with_header": False})
-        for fun in system.compiled_functions():
-            gen.add(fun)
-        gen.generate(tmp + os.sep)
-        return (Path(tmp) / name).read_text()
+    return _ccompile.generate_c(system.compiled_functions())
 
 
 def build_library(system: HamiltonianSystem) -> Path:
-    """Compile (or reuse from the cache) the integrator for ``system``; returns the library path."""
-    generated = generate_c(system)
-    integrator = _SOURCE.read_text()
-    cc = _compiler()
-    source = "\n".join([generated, integrator, cc, " ".join(CFLAGS), ca.__version__])
-    key = hashlib.sha256(source.encode()).hexdigest()[:20]
-    lib = cache_dir() / f"ocp_{key}.so"
-    if lib.exists():
-        return lib
-    with tempfile.TemporaryDirectory() as tmp:
-        gen_path = Path(tmp) / "ocp_generated.c"
-        gen_path.write_text(generated)
-        out = Path(tmp) / lib.name
-        cmd = [cc, *CFLAGS, "-o", str(out), str(_SOURCE), str(gen_path), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise RuntimeError(f"compiling the shooting integrator failed:\n{' '.join(cmd)}\n{proc.stderr[-4000:]}")
-        shutil.move(str(out), lib)  # atomic within one file system, so concurrent builds cannot see half a file
-    return lib
+    """Compile (or reuse from the cache, :func:`cache_dir`) the integrator for ``system``; returns the library path."""
+    return _ccompile.shared_library("ocp", generate_c(system), [_SOURCE], purpose="the shooting integrator")
 
 
 @dataclass

@@ -123,6 +123,11 @@ class Transcription(session.SolveSession, ABC):
     #: IPOPT options this scheme prefers over :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (user options win).
     ipopt_defaults: dict = {}
 
+    #: Whether the NLP's Jacobian and Hessian blocks are compiled to C (:mod:`ocpkit._compiled_blocks`): ``"auto"``
+    #: (where one evaluation is large and a C compiler is found), True or False; set it on the object before the
+    #: NLP is built (a refined mesh decides again with ``"auto"``).
+    compile: str | bool = "auto"
+
     def __init__(self, problem: OptimalControlProblem):
         if not isinstance(problem, OptimalControlProblem):
             raise TypeError(f"expected an OptimalControlProblem, got {type(problem).__name__}")
@@ -432,7 +437,8 @@ class Transcription(session.SolveSession, ABC):
         """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
         if self._nlp is None:
             t = time.perf_counter()
-            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks() + self._constraint_blocks())
+            blocks = self._blocks() + self._constraint_blocks()
+            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, blocks, compile=self.compile)
             self._nlp_build_s = time.perf_counter() - t
         return self
 

@@ -155,6 +155,9 @@ class MultiPhase(session.SolveSession):
         have a cost.
     """
 
+    #: Whether the one NLP's Jacobian and Hessian blocks are compiled to C (:attr:`Transcription.compile`).
+    compile: str | bool = "auto"
+
     def __init__(
         self,
         phases: Sequence[Transcription] | Mapping[str, Transcription],
@@ -575,7 +578,7 @@ class MultiPhase(session.SolveSession):
         if self._nlp is None:
             t = time.perf_counter()
             self._blocks = self._phase_blocks() + self._link_blocks()
-            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks)
+            self._nlp = SeparableNLP(self.n_variables, self.n_constraints, self._blocks, compile=self.compile)
             self.build_s = time.perf_counter() - t
         return self
 
