@@ -12,7 +12,7 @@ per row) goes to both solvers with the same start, tolerance 1e-10. Both must re
 relative) and ocpkit's own HLGL solve of the problem. Writes ``build/bench/fatrop.csv``.
 
 Measured here (2 cores, one run each, ``--segments 100 1000 3000 5000``): FATROP's solve over IPOPT's is 0.64 at
-100 segments (0.016 s against 0.025 s), 1.06 at 1000 (12 iterations against 10), 1.18 at 3000 and 1.63 at 5000
+100 segments (0.016 s against 0.025 s; 0.59 in another run), 1.06 at 1000 (12 iterations against 10), 1.18 at 3000 and 1.63 at 5000
 (2.54 s against 1.55 s: 0.21 s an iteration against 0.14 s), and CasADi's FATROP interface takes 33 s to build at
 3000 stages and 99 s at 5000 (IPOPT's 7 and 11 s on the same SX graph, which ocpkit's blocks build in 0.1 s). FATROP
 wins only where a solve already takes milliseconds and loses at scale, where it was wanted; so it is not made a

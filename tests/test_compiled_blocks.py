@@ -1,5 +1,7 @@
 """Derivative blocks compiled to C equal the interpreted ones to the last bit; the assembly sums as before."""
 
+from pathlib import Path
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -55,13 +57,16 @@ def test_a_compiled_solve_is_the_interpreted_one():
 def test_auto_compiles_large_nlps_only():
     small = HLGL(lunar_ascent(), 20)
     assert small.nlp.compiled is None  # below AUTO_INSTRUCTIONS
-    large = HLGL(lunar_ascent(), 1000)
+    mid = HLGL(lunar_ascent(), 500)  # 2.9 million instructions, but fewer than 1000 instances: not repaid
+    assert mid.nlp.compiled is None
+    large = HLGL(lunar_ascent(), 1500)
     assert large.nlp.compiled is not None
 
 
 def test_a_missing_or_failing_compiler(monkeypatch, tmp_path):
     monkeypatch.setenv("OCPKIT_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(cb, "AUTO_INSTRUCTIONS", 0)
+    monkeypatch.setattr(cb, "AUTO_EVALUATIONS", 1e9)
     monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
     tr = HLGL(lunar_ascent(), 100)
     assert tr.nlp.compiled is None  # auto: interpreted, silently
@@ -95,3 +100,51 @@ def test_assembly_sums_each_key_in_the_entries_order(seed):
         expected[int(keys[j])] += weights[j] * values[j]
     assert ukeys.tolist() == sorted(expected)
     assert np.array_equal(got, np.array([expected[k] for k in ukeys.tolist()]))
+
+
+def test_a_choice_of_compile_survives_refinement():
+    """``compile`` set on the object holds on every mesh of a refinement from it (here False on meshes "auto"
+    would compile)."""
+    from ocpkit import _compiled_blocks
+
+    tr = HLGL(lunar_ascent(), 1500)
+    tr.compile = False
+    solution = tr.solve(mesh_tolerance=1e-3, max_mesh_iterations=2)
+    last = solution.raw["transcription"]
+    assert last.compile is False and last.nlp.compiled is None
+    assert _compiled_blocks._normalised(np.True_) is True and _compiled_blocks._normalised(0) is False
+
+
+def test_a_broken_library_in_the_cache_is_compiled_again(monkeypatch, tmp_path):
+    """A library cut short in the cache (written by another process, never loaded here) is compiled again."""
+    import subprocess
+    import sys
+
+    monkeypatch.setenv("OCPKIT_CACHE_DIR", str(tmp_path))
+    code = (
+        "from ocpkit import HLGL\nfrom compendium.problems import lunar_ascent\n"
+        "tr = HLGL(lunar_ascent(), 100)\ntr.compile = True\nprint(tr.nlp.compiled)"
+    )
+    library = Path(
+        subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.strip()
+    )
+    broken = tmp_path / "broken"
+    broken.write_bytes(library.read_bytes()[:100])
+    broken.replace(library)  # a new file under the name (a loaded library is never written in place)
+    again = HLGL(lunar_ascent(), 100)
+    again.compile = True
+    assert again.nlp.compiled == library and library.stat().st_size > 1000
+    assert not list(tmp_path.glob("*.partial"))
+
+
+def test_a_compiled_multiphase_solve_is_the_interpreted_one(compile_small_blocks):
+    from test_phases import leg
+
+    solutions = []
+    for compile in (False, True):
+        mp = MultiPhase([HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 100), HLGL(leg(0.5, 1.0, final=(1.0, 0.0)), 100)])
+        mp.compile = compile
+        solutions.append(mp.solve(error_threshold=None))
+        assert (mp.nlp.compiled is not None) == compile
+    assert np.array_equal(solutions[0].raw["w"], solutions[1].raw["w"])
+    assert solutions[1].objective == pytest.approx(6.0, rel=1e-9)

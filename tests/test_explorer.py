@@ -414,3 +414,28 @@ def test_a_shooting_family_gets_all_its_values_and_a_failed_integration_is_a_fai
     other = dataclasses.replace(first)  # equal, but not the family's own
     with pytest.raises(ValueError, match="starts from its own first result"):
         ExploreSession(family, {"thrust_N": (1.0, 10.0)}, first=other)
+
+
+def test_an_evicted_choice_takes_its_loop_with_it():
+    """A family keeps a solve loop per built transcription; evicted from the last ``keep_built``, both go."""
+    import gc
+    import weakref
+
+    from ocpkit import HLGL
+
+    from compendium.explorer import TranscriptionFamily
+    from compendium.problems import lunar_ascent
+
+    family = TranscriptionFamily(
+        build=lambda segments: HLGL(lunar_ascent(thrust_as_parameter=True), segments),
+        choices={"segments": [4, 6, 8]},
+        keep_built=1,
+    )
+    first = family.transcription({"segments": 4})
+    family.attempt({"a": 3.0}, {"segments": 4}, None, {})
+    assert len(family._loops) == 1
+    gone = weakref.ref(first)
+    del first
+    family.transcription({"segments": 6})
+    gc.collect()
+    assert gone() is None and not family._loops

@@ -86,8 +86,48 @@ def test_bad_input_is_named(lunar):
 def test_a_failed_solve_is_loud_and_keeps_the_last_iterate():
     tr = HLGL(flat_moon_ascent(), 10)
     with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded") as caught:
-        tr.loop({"max_iter": 2})()
+        tr.loop(ipopt_options={"max_iter": 2})()
     assert caught.value.result is not None and not caught.value.result.converged
-    quiet = tr.loop({"max_iter": 2}, raise_on_failure=False)()
+    quiet = tr.loop(ipopt_options={"max_iter": 2}, raise_on_failure=False)()
     assert not quiet.converged and quiet.status == "Maximum_Iterations_Exceeded" and quiet.iterations == 2
     assert quiet.solution.converged is False
+
+
+def test_linked_phases_keep_each_phases_value_of_a_parameter_not_given():
+    """Phase 1 holds k = 1, phase 2 k = 3, and both a gain c: a loop given c alone leaves each phase's k, as solve."""
+
+    def leg(t0, tf, k, initial=(None, None), final=(None, None)):
+        return OptimalControlProblem(
+            f"leg_{t0}",
+            [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
+            [Control("u")],
+            lambda x, u, t, p: [x["v"], p["k"] * p["c"] * u["u"]],
+            t0=t0,
+            tf=tf,
+            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+            parameters={"k": k, "c": 1.0},
+        )
+
+    mp = MultiPhase([HLGL(leg(0.0, 0.5, 1.0, initial=(0.0, 0.0)), 4), HLGL(leg(0.5, 1.0, 3.0, final=(1.0, 0.0)), 4)])
+    loop = mp.loop()
+    for given in (None, {"c": 2.0}, {"k": 2.0}):
+        result, solution = loop(given), mp.solve(parameters=given, error_threshold=None)
+        assert np.array_equal(result.w, solution.raw["w"]) and result.objective == solution.objective
+    assert loop({"c": 2.0}).parameters == {"k": None, "c": 2.0}  # the phases' k differ: None, not one of them
+    assert loop({"k": 2.0}).parameters == {"k": 2.0, "c": 1.0}
+    assert [p.problem.parameters["k"] for p in loop({"c": 2.0}).solution.phases] == [1.0, 3.0]
+
+
+def test_a_result_of_another_transcriptions_loop_is_interpolated(lunar):
+    coarse = HLGL(lunar_ascent(thrust_as_parameter=True), 8).loop()({"a": 2.5})
+    result = lunar.loop()({"a": 2.5}, guess=coarse)
+    solution = lunar.solve(coarse.solution, parameters={"a": 2.5}, error_threshold=None)
+    assert np.array_equal(result.w, solution.raw["w"]) and result.converged
+
+
+def test_the_loops_parameters_are_its_own(lunar):
+    loop = lunar.loop()
+    loop().parameters["a"] = 99.0
+    assert loop().parameters["a"] == lunar.problem.parameters["a"]
+    with pytest.raises(TypeError, match="parameters must be a mapping"):
+        loop([])

@@ -203,7 +203,7 @@ class TranscriptionFamily:
             self.choice_defaults[name] = label
         self._build, self.note, self.keep_built = build, note, max(1, int(keep_built))
         self._built: OrderedDict = OrderedDict()
-        self._loops: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per built transcription
+        self._loops: dict = {}  # per built transcription (by id), dropped with it
         self._lock = threading.Lock()
         if transcription is not None:
             self._built[()] = transcription
@@ -227,7 +227,8 @@ class TranscriptionFamily:
         with self._lock:
             built = self._built.setdefault(key, built)
             while len(self._built) > self.keep_built:
-                self._built.popitem(last=False)
+                _, evicted = self._built.popitem(last=False)
+                self._loops.pop(id(evicted), None)  # its loop holds it: dropped together
         return built
 
     def _loop(self, transcription):
@@ -240,11 +241,16 @@ class TranscriptionFamily:
         if not set(options) <= {"ipopt_options", "allow_acceptable", "raise_on_failure"}:
             return None
         with self._lock:
-            loop = self._loops.get(transcription)
-            if loop is None:
-                loop = self._loops[transcription] = transcription.loop(
-                    options.get("ipopt_options"), allow_acceptable=options.get("allow_acceptable", False)
-                )
+            loop = self._loops.get(id(transcription))
+        if loop is None or loop.meshed is not transcription:
+            # built outside the family's lock (the NLP, IPOPT, perhaps a compilation); the first one built is kept
+            built = transcription.loop(
+                ipopt_options=options.get("ipopt_options"), allow_acceptable=options.get("allow_acceptable", False)
+            )
+            with self._lock:
+                loop = self._loops.get(id(transcription))
+                if loop is None or loop.meshed is not transcription:
+                    loop = self._loops[id(transcription)] = built
         return loop
 
     def parameters(self) -> Mapping[str, float]:

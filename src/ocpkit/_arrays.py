@@ -10,7 +10,8 @@ def unique(values) -> np.ndarray:
 
     NumPy 2.4's ``np.unique`` imports ``numpy.ma`` on its first plain call (about 20 ms, once per process), which
     is most of what separates a short solve by ocpkit from the same NLP in plain CasADi; this sort-and-compare
-    does not.
+    does not. Unlike ``np.unique`` it keeps every NaN (NaN differs from itself); its callers' values are integers
+    and finite numbers.
     """
     a = np.sort(np.asarray(values).ravel())
     if a.size == 0:

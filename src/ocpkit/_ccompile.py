@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 import tempfile
@@ -19,7 +20,11 @@ from pathlib import Path
 
 import casadi as ca
 
-CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99"]
+#: ``-ffp-contract=off``: no fused multiply-adds, so compiled code computes what CasADi's virtual machine does
+CFLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-ffp-contract=off"]
+
+#: Generated C larger than this is compiled with ``-O1`` (gcc's time at ``-O2`` grows faster than the code's speed)
+LARGE_SOURCE_BYTES = 200_000
 
 
 def cache_dir() -> Path:
@@ -57,7 +62,9 @@ def generate_c(functions, name: str = "ocp_generated.c") -> str:
 def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpkit's C code") -> Path:
     """The library of ``generated`` C (and of the files ``sources``), compiled once and then found in the cache.
 
-    Raises RuntimeError naming the compiler where it is missing or fails (``purpose``: what was compiled).
+    Raises RuntimeError naming the compiler where it is missing or fails (``purpose``: what was compiled). The
+    library is written next to its final name and renamed onto it (``os.replace``, atomic), so a process never sees
+    half a library, and one already loaded by another process is never overwritten in place.
     """
     cc = compiler()
     if cc is None:
@@ -66,7 +73,12 @@ def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpk
             "gcc or set CC"
         )
     sources = [Path(s) for s in sources]
-    key_text = "\n".join([generated, *(s.read_text() for s in sources), cc, " ".join(CFLAGS), ca.__version__])
+    flags = list(CFLAGS)
+    if len(generated) > LARGE_SOURCE_BYTES:
+        flags[0] = "-O1"
+    key_text = "\n".join(
+        [generated, *(s.read_text() for s in sources), cc, " ".join(flags), ca.__version__, platform.machine()]
+    )
     key = hashlib.sha256(key_text.encode()).hexdigest()[:20]
     lib = cache_dir() / f"{prefix}_{key}.so"
     if lib.exists():
@@ -74,10 +86,23 @@ def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpk
     with tempfile.TemporaryDirectory() as tmp:
         gen_path = Path(tmp) / f"{prefix}_generated.c"
         gen_path.write_text(generated)
-        out = Path(tmp) / lib.name
-        cmd = [cc, *CFLAGS, "-o", str(out), *(str(s) for s in sources), str(gen_path), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise RuntimeError(f"compiling {purpose} failed:\n{' '.join(cmd)}\n{proc.stderr[-4000:]}")
-        shutil.move(str(out), lib)  # atomic within one file system, so concurrent builds cannot see half a file
+        fd, partial = tempfile.mkstemp(prefix=f".{lib.stem}.", suffix=".partial", dir=lib.parent)
+        os.close(fd)
+        try:
+            cmd = [cc, *flags, "-o", partial, *(str(s) for s in sources), str(gen_path), "-lm"]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise RuntimeError(f"compiling {purpose} failed:\n{' '.join(cmd)}\n{proc.stderr[-4000:]}")
+            os.replace(partial, lib)
+        finally:
+            if os.path.exists(partial):
+                os.unlink(partial)
     return lib
+
+
+def discard(lib: Path) -> None:
+    """Remove a cached library that does not load (a broken file), so that the next call compiles it again."""
+    try:
+        os.unlink(lib)
+    except FileNotFoundError:
+        pass

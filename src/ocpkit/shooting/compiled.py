@@ -100,7 +100,12 @@ class CompiledSystem:
     def __init__(self, system: HamiltonianSystem):
         self.system = system
         self.library_path = build_library(system)
-        lib = ctypes.CDLL(str(self.library_path))
+        try:
+            lib = ctypes.CDLL(str(self.library_path))
+        except OSError:  # a broken file in the cache: compiled again, once
+            _ccompile.discard(self.library_path)
+            self.library_path = build_library(system)
+            lib = ctypes.CDLL(str(self.library_path))
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")

@@ -124,8 +124,8 @@ class Transcription(session.SolveSession, ABC):
     ipopt_defaults: dict = {}
 
     #: Whether the NLP's Jacobian and Hessian blocks are compiled to C (:mod:`ocpkit._compiled_blocks`): ``"auto"``
-    #: (where one evaluation is large and a C compiler is found), True or False; set it on the object before the
-    #: NLP is built (a refined mesh decides again with ``"auto"``).
+    #: (where one evaluation is large, the compilation is repaid and a C compiler is found), True or False; set it on
+    #: the object before its NLP is built (the meshes of a refinement from it keep it).
     compile: str | bool = "auto"
 
     def __init__(self, problem: OptimalControlProblem):

@@ -7,7 +7,8 @@ A loop over many parameter values (a continuation, a sweep, the explorer's slide
 bounds are computed once and each call writes only the parameters' entries; IPOPT is called with the arrays as
 they are; the result is the NLP's arrays, and the :class:`~ocpkit.Solution` is built only when it is asked for
 (:attr:`LoopResult.solution`, then kept). Results are those of ``solve()`` from the same start, to the last bit:
-the same NLP, the same IPOPT instances (the transcription's own, one per set of options), the same bounds.
+the same NLP, the same bounds, IPOPT with the same options (a transcription's own instances, one per set of
+options; linked phases keep one instance, so their loop makes its own).
 
 Modelled on CasADi's ``nlpsol`` as a function and rockit's ``to_function``: parameters and a start in, arrays
 out; unlike them, the result can become the full solution of the transcription it came from.
@@ -45,7 +46,8 @@ class LoopResult:
     converged : bool
         ``Solve_Succeeded`` (or ``Solved_To_Acceptable_Level`` where the loop allows it) with a finite iterate.
     parameters : dict
-        The problem's parameters as solved with (every one of them, by name).
+        The problem's parameters as solved with, by name (linked phases that hold one name at different values, and
+        were not given one: None; the :attr:`solution`'s phases have each one's).
     """
 
     def __init__(self, loop, w, lam_g, lam_w, objective, status, iterations, solve_s, converged, parameters, stats):
@@ -82,7 +84,7 @@ class LoopResult:
             iterations=self.iterations,
             solve_s=self.solve_s,
             success=self.converged,
-            stats=dict(self._stats),
+            stats={k: v for k, v in self._stats.items() if isinstance(v, (bool, int, float, str))},
         )
 
     def __repr__(self) -> str:
@@ -96,7 +98,7 @@ class SolveLoop:
     """Solve one transcription (or :class:`~ocpkit.MultiPhase`) for many parameter values and starts.
 
     ``loop = tr.loop()`` builds the NLP and its two IPOPT instances (a cold start and :data:`~ocpkit.nlp.WARM_START`)
-    once; ``loop(parameters, guess=None)`` solves:
+    once; ``loop(parameters, guess=None)`` solves (``guess`` by keyword, as ``solve``'s options):
 
     - ``parameters``: new values of some of the problem's parameters by name (the others keep the problem's);
     - ``guess``: None (the transcription's default start), a :class:`LoopResult` of this loop or a Solution of
@@ -106,14 +108,17 @@ class SolveLoop:
     A failed solve raises :class:`~ocpkit.SolverError` naming IPOPT's status, with the last iterate's Solution
     as ``error.result``; with ``raise_on_failure=False`` the :class:`LoopResult` says ``converged=False``.
     No error estimate is computed (``solve(error_threshold=None)``); ask the result's :attr:`~LoopResult.solution`.
-    A loop is not shared between threads (IPOPT instances are not): build one per thread.
+
+    A loop solves with its mesh object's IPOPT instances (a :class:`~ocpkit.Transcription` keeps one per set of
+    options, shared with its ``solve``; a :class:`~ocpkit.MultiPhase` makes the loop's own), and an IPOPT instance
+    must not run in two threads at once: give each thread its own transcription, and its loop.
     """
 
     def __init__(
         self,
         meshed,
-        ipopt_options: Mapping | None = None,
         *,
+        ipopt_options: Mapping | None = None,
         allow_acceptable: bool = False,
         raise_on_failure: bool = True,
     ):
@@ -131,12 +136,12 @@ class SolveLoop:
         self._zero_w, self._zero_g = np.zeros(self._lbw.size), np.zeros(self._lbg.size)
         self._start = None  # the default start, computed when first needed
 
-    def __call__(self, parameters: Mapping | None = None, guess=None) -> LoopResult:
-        values = self._parameters(parameters)
+    def __call__(self, parameters: Mapping | None = None, *, guess=None) -> LoopResult:
+        given = self._parameters(parameters)
         lbw, ubw = self._lbw, self._ubw
-        if values is not self._defaults:
+        if given:  # only the names given: the others keep their values (each phase's own, for linked phases)
             lbw, ubw = lbw.copy(), ubw.copy()
-            for name, value in values.items():
+            for name, value in given.items():
                 lbw[self._slots[name]] = ubw[self._slots[name]] = value
         solver, w0, lam_w0, lam_g0 = self._start_of(guess, lbw, ubw)
         t = time.perf_counter()
@@ -158,7 +163,7 @@ class SolveLoop:
             int(stats.get("iter_count", -1)),
             solve_s,
             converged,
-            values,
+            {**self._defaults, **given},
             stats,
         )
         if not converged and (self.raise_on_failure or not np.isfinite(w).all()):
@@ -170,21 +175,21 @@ class SolveLoop:
     _no_p = np.zeros(0)
 
     def _parameters(self, parameters) -> dict:
-        """Every parameter's value by name (the defaults object itself when none is given)."""
-        if not parameters:
-            return self._defaults
+        """The values given, by name, checked (empty where none is given)."""
+        if parameters is None:
+            return {}
         if not isinstance(parameters, Mapping):
             raise TypeError(f"parameters must be a mapping of names to values, got {type(parameters).__name__}")
         unknown = [k for k in parameters if k not in self._defaults]
         if unknown:
             raise KeyError(f"unknown parameters {sorted(unknown)}; {self.meshed.label} has {sorted(self._defaults)}")
-        values = dict(self._defaults)
+        given = {}
         for name, value in parameters.items():
             value = float(value)
             if not np.isfinite(value):
                 raise ValueError(f"parameter {name!r} must be finite, got {value!r}")
-            values[name] = value
-        return values
+            given[name] = value
+        return given
 
     def _start_of(self, guess, lbw, ubw):
         """The IPOPT instance, start vector and multipliers for ``guess`` (the module docstring)."""

@@ -613,12 +613,16 @@ class MultiPhase(session.SolveSession):
                 slots.setdefault(name, []).append(self.variable_offsets[k] + index)
         return {name: np.concatenate(parts) for name, parts in slots.items()}
 
-    def _parameter_defaults(self) -> dict[str, float]:
-        """Each parameter's value, the first phase's that has it (a solve pins every phase's to a given value)."""
-        values: dict[str, float] = {}
+    def _parameter_defaults(self) -> dict[str, float | None]:
+        """Each parameter's value where its phases agree, None where they hold it at different values (a value
+        given to a solve pins every phase's)."""
+        values: dict[str, float | None] = {}
         for ph in self.phases:
             for name, value in ph._parameter_defaults().items():
-                values.setdefault(name, value)
+                if name in values and values[name] != value:
+                    values[name] = None
+                else:
+                    values.setdefault(name, value)
         return values
 
     def _objective_scale(self) -> float:

@@ -132,17 +132,19 @@ class SolveSession:
             parameters=parameters,
         )
 
-    def loop(self, ipopt_options: dict | None = None, *, allow_acceptable: bool = False, raise_on_failure: bool = True):
+    def loop(self, *, ipopt_options: dict | None = None, allow_acceptable: bool = False, raise_on_failure: bool = True):
         """A :class:`~ocpkit.transcription.loop.SolveLoop` of this mesh: many solves (parameter values, starts) at
         the cost of the IPOPT call, each result's Solution built only when asked for.
 
-        ``loop(parameters, guess=None)`` returns a :class:`~ocpkit.transcription.loop.LoopResult` (the NLP's
+        ``loop(parameters, guess=...)`` returns a :class:`~ocpkit.transcription.loop.LoopResult` (the NLP's
         arrays, the objective, IPOPT's status and iterations; ``.solution`` the full Solution), equal to
         ``solve(guess, parameters=parameters, error_threshold=None)`` with the same options, to the last bit.
         """
         from .loop import SolveLoop
 
-        return SolveLoop(self, ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure)
+        return SolveLoop(
+            self, ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure
+        )
 
 
 def solve(
@@ -333,6 +335,8 @@ def solve_refined(meshed, guess, tolerance: float, max_iterations: int, options:
                     transcription = transcription.refine(errors, target)
             except Exception as exc:  # noqa: BLE001
                 raise _refinement_failure(exc, iteration, transcription, best, history, "refining") from exc
+            if "compile" in vars(meshed):  # the user's choice, set on the object: every mesh keeps it
+                transcription.compile = meshed.compile
             if _same_mesh(transcription, solution.raw["transcription"]):
                 transcription = solution.raw["transcription"]  # the solved one, which the solution belongs to
                 parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
