@@ -66,7 +66,7 @@ def test_auto_compiles_large_nlps_only():
 def test_a_missing_or_failing_compiler(monkeypatch, tmp_path):
     monkeypatch.setenv("OCPKIT_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(cb, "AUTO_INSTRUCTIONS", 0)
-    monkeypatch.setattr(cb, "AUTO_EVALUATIONS", 1e9)
+    monkeypatch.setattr(cb, "AUTO_INSTANCES", 0)
     monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
     tr = HLGL(lunar_ascent(), 100)
     assert tr.nlp.compiled is None  # auto: interpreted, silently

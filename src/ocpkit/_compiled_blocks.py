@@ -28,14 +28,12 @@ import numpy as np
 #: from about 1000) ...
 AUTO_INSTRUCTIONS = 2_000_000
 
-#: ... and where :data:`AUTO_EVALUATIONS` evaluations save more than the compilation costs, once per machine: gcc
-#: takes about :data:`COMPILE_S_PER_INSTRUCTION` seconds per instruction of the functions compiled (the lunar
-#: ascent's HLGL block, 5935 instructions: 0.7-1.3 s; the orbit transfer's, 1.2 MB of C: 7 s at ``-O1``), and an
-#: evaluation saves about :data:`SAVED_S_PER_INSTRUCTION` per instruction interpreted. So a block is compiled from
-#: about 1000 instances whatever its size: a large block is not compiled for a short mesh.
-AUTO_EVALUATIONS = 100
-COMPILE_S_PER_INSTRUCTION = 1.5e-4
-SAVED_S_PER_INSTRUCTION = 1.5e-9
+#: ... and where a hundred evaluations save more than the compilation costs, once per machine: gcc takes about
+#: 1.5e-4 s per instruction of the functions compiled (the lunar ascent's HLGL block, 5935 instructions: 0.7-1.3 s;
+#: the orbit transfer's, 1.2 MB of C: 7 s at ``-O1``), and an evaluation saves about 1.5e-9 s per instruction
+#: interpreted, so the blocks' instances must number at least 1.5e-4 / (100 x 1.5e-9) = 1000 on average (weighted
+#: by their instructions): a large block is not compiled for a short mesh.
+AUTO_INSTANCES = 1000
 
 #: Blocks with fewer instances stay interpreted (a Mayer term, a boundary constraint): compiling them saves nothing.
 MIN_INSTANCES = 64
@@ -90,8 +88,9 @@ def compiled_maps(blocks, derivatives, compile: str | bool = "auto") -> BlockMap
     CasADi SX function or None; ``jac`` of the values and the Jacobian) into one cached library, as ``compile``
     asks:
 
-    - ``"auto"``: where a C compiler is found and one evaluation interprets at least :data:`AUTO_INSTRUCTIONS`
-      instructions; a compilation that fails warns (:class:`CompilationWarning`) and the NLP stays interpreted;
+    - ``"auto"``: where a C compiler is found, one evaluation interprets at least :data:`AUTO_INSTRUCTIONS`
+      instructions and the blocks have :data:`AUTO_INSTANCES` instances on average (the compilation is repaid);
+      a compilation that fails warns (:class:`CompilationWarning`) and the NLP stays interpreted;
     - True: always (blocks of at least :data:`MIN_INSTANCES` instances); a missing or failing compiler raises;
     - False: never.
     """
@@ -109,8 +108,7 @@ def compiled_maps(blocks, derivatives, compile: str | bool = "auto") -> BlockMap
     from . import _ccompile  # (subprocess and tempfile: not at import time)
 
     if compile == "auto":
-        size = sum(fun.n_instructions() for fun in chosen)
-        repaid = AUTO_EVALUATIONS * SAVED_S_PER_INSTRUCTION * work >= COMPILE_S_PER_INSTRUCTION * size
+        repaid = work >= AUTO_INSTANCES * sum(fun.n_instructions() for fun in chosen)
         if work < AUTO_INSTRUCTIONS or not repaid or _ccompile.compiler() is None:
             return BlockMaps({}, None)
     names = [fun.name() for fun in chosen]
