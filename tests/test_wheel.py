@@ -102,3 +102,42 @@ def test_wheel_solves_from_a_fresh_environment(wheel, tmp_path):
     proc = subprocess.run([str(python), "-c", SCRIPT], cwd=work, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.strip().endswith("ok")
+
+
+def test_wheel_metadata_describes_the_library(wheel):
+    """The wheel's metadata: a licence expression, authors, classifiers, the typed marker, and a long description
+    of the library alone (not the compendium's make targets and notebooks)."""
+    import email
+    import zipfile
+
+    archive = zipfile.ZipFile(wheel)
+    names = archive.namelist()
+    assert "ocpkit/py.typed" in names
+    (meta_name,) = [n for n in names if n.endswith(".dist-info/METADATA")]
+    meta = email.message_from_string(archive.read(meta_name).decode())
+    assert meta["License-Expression"] == "BSD-3-Clause"
+    assert meta["Author"] == "the ocpkit compendium authors"
+    classifiers = meta.get_all("Classifier")
+    assert "Typing :: Typed" in classifiers and "Programming Language :: Python :: 3.11" in classifiers
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    description = meta.get_payload()
+    assert description.startswith("# ocpkit") and "make " not in description and "notebooks/" not in description
+
+
+def test_the_long_descriptions_example_runs_as_printed(tmp_path):
+    """docs/ocpkit.md (the wheel's long description) shows the README's library example and its output: it runs,
+    from a folder outside the repository, and prints what it shows."""
+    import re
+
+    from test_readme import _same_print
+
+    text = (REPO / "docs" / "ocpkit.md").read_text()
+    code, printed = (
+        re.findall(r"```python\n(.*?)```", text, flags=re.S)[0],
+        re.findall(r"prints\n\n```\n(.*?)```", text, flags=re.S)[0],
+    )
+    readme = (REPO / "README.md").read_text()
+    assert code in readme, "the same example as the README's library section"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert not _same_print(proc.stdout, printed)
