@@ -1,8 +1,9 @@
 # Reproducible research compendium for optimal control.
 #   make reproduce   set up, execute every notebook headless, regenerate figures/ data/derived/ and the HTML report
 #   make test        set up, lint, run the unit tests and nbval over the notebooks, compare their outputs with the
-#                    published record (figures/, data/derived/)
+#                    published record (figures/, data/derived/), and build the documentation site (make docs)
 #   make lab         JupyterLab on the repository, on the compendium's kernel (as root too)
+#   make docs        the documentation site (build/docs/index.html)
 #   make bench       timing benchmarks (tables in build/bench/)
 #   make store       re-execute the notebooks in place (refresh the outputs nbval compares against)
 
@@ -17,7 +18,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
-.PHONY: setup reproduce notebooks report test lint unit nbval guard lab bench store clean
+.PHONY: setup reproduce notebooks report test lint unit nbval guard docs lab bench store clean
 
 # -- setup ---------------------------------------------------------------------------------------------------------
 # environment.txt is resolved for Python 3.11. PYTHON_MIN is the oldest 3.11 it is installed and tested on: Debian
@@ -88,7 +89,14 @@ notebooks: setup
 report: notebooks
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-test: lint unit nbval guard
+test: lint unit nbval guard docs
+
+# the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
+# into build/docs/index.html; every warning is an error (a broken cross-reference, a docstring that does not parse)
+docs: setup
+	rm -rf build/docs
+	$(PY) -m sphinx -W --keep-going -q -b html docs build/docs
+	@echo "the documentation site: build/docs/index.html"
 
 lint: setup
 	$(VENV)/bin/ruff check .

@@ -1,4 +1,4 @@
-"""Single-phase optimal control problems.
+"""Single-phase optimal control problems::
 
     minimise    phi(x(t0), x(tf), t0, tf) + integral_{t0}^{tf} L(x, u, t) dt
     subject to  dx/dt = f(x, u, t)
@@ -491,6 +491,8 @@ class OptimalControlProblem:
     t0 : float or :class:`FreeInitialTime`
         A free initial time must lie below every admissible final time.
 
+    Notes
+    -----
     The functions are :attr:`functions` (``f``, ``L``, ``phi`` with ``P`` last);
     :meth:`dynamics`, :meth:`lagrange` and :meth:`mayer` evaluate them with this
     problem's parameter values, on numbers or CasADi symbols.

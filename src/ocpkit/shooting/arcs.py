@@ -324,7 +324,7 @@ class ArcFlows:
 @dataclass
 class ArcResult:
     """A multiple-shooting run over arcs: ``z`` the unknowns (layout :attr:`ArcShooting.layout`),
-    ``residual``/``norm`` S and |S|, ``times`` the arcs' bounds (t0, junctions, tf), ``converged``, ``message``,
+    ``residual``/``norm`` S and ``|S|``, ``times`` the arcs' bounds (t0, junctions, tf), ``converged``, ``message``,
     ``n_shooting`` and ``n_jacobian`` the effort, ``cpu_s`` its process time, ``objective``, ``trajectory`` (an
     :class:`ArcTrajectory`; None where the last iterate cannot be integrated), ``multipliers`` of the boundary
     equalities and ``arcs`` the :class:`ArcType` of each arc."""

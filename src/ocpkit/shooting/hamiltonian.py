@@ -12,7 +12,7 @@ the number of thresholds below ``q``. On each mode the flow
 ``phi_mode(y) = (f(x, u_mode), -dH/dx(x, p, u_mode))``, ``y = (x, p)``, is smooth.
 
 :func:`control_law` derives the law from the problem's Hamiltonian for the standard
-cases, assuming (and checking numerically) the form
+cases, assuming (and checking numerically) the form::
 
     H = H0(x, p) + psi(x, p) . u + w(x, p) |u| + b(x, p) |u|^2
 
@@ -153,19 +153,24 @@ def control_law(
     ----------
     problem : OptimalControlProblem
         Autonomous; its running cost (0 without one) and dynamics give H (parameters stay symbolic).
-    control_set : ``"box"`` (each control within its bounds, which must contain 0) or
-        ``"ball"`` (``|u| <= radius``): the law is derived (see the module docstring);
-        or a callable ``u_star``: a law of your own (below).
+    control_set : str or callable
+        ``"box"`` (each control within its bounds, which must contain 0) or ``"ball"``
+        (``|u| <= radius``): the law is derived (see the module docstring); or a callable
+        ``u_star``: a law of your own (Notes).
     regularized : bool
         False: bang-off-bang (the quadratic coefficient ``b`` must vanish; a box control
         needs finite bounds). True: saturated linear law for ``b >= 0``, valid for every
         homotopy parameter including the L1 end, where its linear regimes have zero width;
         an unbounded side of a box is never saturated (then ``b > 0`` is required).
+    radius : float
+        The radius of the ``"ball"`` control set.
 
+    Notes
+    -----
     A law of your own, ``control_law(problem, u_star)``: ``u_star(x, p)`` -- or
     ``u_star(x, p, params)`` to receive the problem's parameters by name, as its dynamics
     do (:mod:`ocpkit.names`) -- is called once, on CasADi columns ``x`` and ``p`` of ``nx``
-    symbols each (named by the states: ``x["m"]``, ``p["m"]``), and returns the minimising control
+    symbols each (named by the states: ``x["m"]``, ``p["m"]``), and returns the minimising control::
 
         u*(x, p) = argmin_{u in U} H(x, p, u)
 

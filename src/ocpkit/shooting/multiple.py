@@ -38,8 +38,8 @@ from .trajectory import ShootingTrajectory
 @dataclass
 class MultipleShootingResult:
     """A multiple-shooting run: ``z`` the single shooting's unknowns at the solution, ``nodes`` the interior nodes'
-    ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``residual`` R and ``norm`` |R|;
-    ``terminal`` the norm of the single shooting's conditions S at tf (the slides' |S|) and ``continuity`` the
+    ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``residual`` R and ``norm`` ``|R|``;
+    ``terminal`` the norm of the single shooting's conditions S at tf (the slides' ``|S|``) and ``continuity`` the
     largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether
     ``norm <= stol``; the solver's ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the
     ``objective``, the ``switchings`` and integration ``steps`` summed over the segments, and the segments'
@@ -137,7 +137,7 @@ class MultipleShooting:
                 f"{self.segments} segments of {self.n} unknowns each make {self.nz} unknowns, more than the "
                 f"{MAX_UNKNOWNS} whose dense Jacobian this Newton iteration factorises; use fewer segments"
             )
-        #: the continuity rows' weights, 1 / (1 + |y_k|) at the start of the last :meth:`solve` (relative defects:
+        #: the continuity rows' weights, ``1 / (1 + |y_k|)`` at the start of the last :meth:`solve` (relative defects:
         #: costates of thousands and states of order one weigh alike), fixed during a solve and kept after it, so
         #: that :meth:`evaluate` and :meth:`noise` measure the solved function
         self.weights = np.ones((self.segments - 1, self.n))

@@ -56,7 +56,7 @@ class ShootingResult:
 
     ``z`` the unknowns (per state its initial costate, or its initial value where free; ``tf`` the final time),
     ``p0`` the initial costates (0 for a free initial state), ``free_parameters`` the solved free parameters,
-    ``residual`` and ``norm`` S(z) and |S|, ``converged`` whether ``norm <= stol``,
+    ``residual`` and ``norm`` S(z) and ``|S|``, ``converged`` whether ``norm <= stol``,
     ``message`` the solver's own, ``n_shooting`` / ``n_jacobian`` / ``n_integrations``
     the effort, ``cpu_s`` the process time of the solve, ``objective`` the cost of the
     final trajectory, ``parameters`` the problem parameters, ``integration`` the
@@ -132,7 +132,7 @@ def residual_noise(residual, jacobian, z, *, samples: int = 12, relative: float 
 
     The median of ``|S(z + dz) - S(z) - J dz|`` over random ``dz`` of relative size ``relative``, with ``(S(z), J)
     = jacobian(z)`` exact (variational): what is left once the smooth response is removed is the discontinuity of
-    S (step-size decisions, switchings crossing step ends, arcs located or missed). A root-finder cannot push |S|
+    S (step-size decisions, switchings crossing step ends, arcs located or missed). A root-finder cannot push ``|S|``
     below it but by luck. ``residual(z)`` evaluates S alone.
     """
     z = np.asarray(z, dtype=float)
@@ -399,7 +399,7 @@ class Shooting:
         xtol: float | None = None,
         factor: float | None = None,
     ) -> ShootingResult:
-        """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with |S| and counts) on failure.
+        """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with ``|S|`` and counts) on failure.
 
         Converged means ``|S| <= stol`` at the returned point, whatever MINPACK's own
         status (which stops on ``xtol`` and can stall at a residual of 1e-16 or
@@ -408,7 +408,7 @@ class Shooting:
         source does), also when the integration at the last iterate fails (then its
         ``integration`` is None and ``message`` says why). ``solver``: ``"hybr"``
         (MINPACK with its defaults), ``"newton"`` (damped Newton; a Jacobian every
-        iteration, until |S| stops decreasing below ``stol`` or ``maxfev`` evaluations),
+        iteration, until ``|S|`` stops decreasing below ``stol`` or ``maxfev`` evaluations),
         or a root-solver object holding its own options (:mod:`ocpkit.shooting.strategies`:
         ``MinpackHybrid(xtol=..., factor=...)``). ``xtol`` and ``factor`` here are
         deprecated (MINPACK's options, which other solvers ignored). With the variational

@@ -116,10 +116,10 @@ class MinpackHybrid:
 
 @dataclass(frozen=True)
 class DampedNewton:
-    """Least-squares Newton steps, halved until |S|^2 decreases (Armijo, c = 1e-4).
+    """Least-squares Newton steps, halved until ``|S|^2`` decreases (Armijo, c = 1e-4).
 
-    Stops at the first |S| <= 1e-15, when no step length down to 2^-14 decreases |S|
-    (the integrator's noise floor, or a failure far from a solution), when |S| is
+    Stops at the first ``|S|`` <= 1e-15, when no step length down to 2^-14 decreases ``|S|``
+    (the integrator's noise floor, or a failure far from a solution), when ``|S|`` is
     below ``stol`` and the last step gained less than a factor 10, or after
     ``maxfev`` shooting-function evaluations. Returns the best point seen.
     """
