@@ -498,6 +498,22 @@ class OptimalControlProblem:
     problem's parameter values, on numbers or CasADi symbols.
     """
 
+    # what the constructor sets (the object is immutable: object.__setattr__ in __init__)
+    name: str
+    description: str
+    states: tuple[State, ...]
+    controls: tuple[Control, ...]
+    objective_scale: float
+    initial_time: FreeInitialTime | None
+    t0: float
+    tf: float | FreeFinalTime
+    parameters: dict[str, float]
+    free_parameters: tuple[FreeParameter, ...]
+    path_constraints: tuple[Constraint, ...]
+    boundary_constraints: tuple[Constraint, ...]
+    functions: ProblemFunctions
+    _spec: dict
+
     def __init__(
         self,
         name: str,
