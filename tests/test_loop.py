@@ -2,8 +2,9 @@
 
 import numpy as np
 import pytest
+from _problems import fixed_gain_leg
 
-from ocpkit import HLGL, Control, MultiPhase, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import HLGL, MultiPhase, Radau, SolverError
 from ocpkit.transcription.loop import LoopResult
 
 from compendium.problems import flat_moon_ascent, lunar_ascent
@@ -48,19 +49,9 @@ def test_another_meshs_solution_is_interpolated(lunar):
 def test_radau_and_linked_phases_with_one_parameter_in_both():
     """The gain k of x'' = k u, named by both phases: one value pins both (J = 6 / k^2), as ``solve`` does."""
 
-    def gain(t0, tf, initial=(None, None), final=(None, None)):
-        return OptimalControlProblem(
-            f"gain_{t0}",
-            [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
-            [Control("u")],
-            lambda x, u, t, p: [x["v"], p["k"] * u["u"]],
-            t0=t0,
-            tf=tf,
-            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-            parameters={"k": 1.0},
-        )
-
-    mp = MultiPhase([Radau(gain(0.0, 0.5, initial=(0.0, 0.0)), 4, 3), HLGL(gain(0.5, 1.0, final=(1.0, 0.0)), 4)])
+    mp = MultiPhase(
+        [Radau(fixed_gain_leg(0.0, 0.5, initial=(0.0, 0.0)), 4, 3), HLGL(fixed_gain_leg(0.5, 1.0, final=(1.0, 0.0)), 4)]
+    )
     loop = mp.loop()
     slots = mp._parameter_slots()["k"]
     assert slots.size == 2
@@ -96,19 +87,10 @@ def test_a_failed_solve_is_loud_and_keeps_the_last_iterate():
 def test_linked_phases_keep_each_phases_value_of_a_parameter_not_given():
     """Phase 1 holds k = 1, phase 2 k = 3, and both a gain c: a loop given c alone leaves each phase's k, as solve."""
 
-    def leg(t0, tf, k, initial=(None, None), final=(None, None)):
-        return OptimalControlProblem(
-            f"leg_{t0}",
-            [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
-            [Control("u")],
-            lambda x, u, t, p: [x["v"], p["k"] * p["c"] * u["u"]],
-            t0=t0,
-            tf=tf,
-            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-            parameters={"k": k, "c": 1.0},
-        )
-
-    mp = MultiPhase([HLGL(leg(0.0, 0.5, 1.0, initial=(0.0, 0.0)), 4), HLGL(leg(0.5, 1.0, 3.0, final=(1.0, 0.0)), 4)])
+    first = fixed_gain_leg(0.0, 0.5, initial=(0.0, 0.0), parameters={"k": 1.0, "c": 1.0})
+    mp = MultiPhase(
+        [HLGL(first, 4), HLGL(fixed_gain_leg(0.5, 1.0, final=(1.0, 0.0), parameters={"k": 3.0, "c": 1.0}), 4)]
+    )
     loop = mp.loop()
     for given in (None, {"c": 2.0}, {"k": 2.0}):
         result, solution = loop(given), mp.solve(parameters=given, error_threshold=None)

@@ -3,6 +3,7 @@
 import casadi as ca
 import numpy as np
 import pytest
+from _problems import fixed_gain_leg
 
 from ocpkit import HLGL, Control, FreeFinalTime, Link, MultiPhase, OptimalControlProblem, Radau, State
 
@@ -343,19 +344,9 @@ def test_linked_phases_have_the_one_solve_session():
 def test_linked_phases_take_new_parameter_values_without_rebuilding():
     """A fixed parameter named by both phases (the gain k of x'' = k u) takes new values per solve: J = 6 / k^2."""
 
-    def gain(t0, tf, initial=(None, None), final=(None, None)):
-        return OptimalControlProblem(
-            f"gain_{t0}",
-            [State("x", initial=initial[0], final=final[0]), State("v", initial=initial[1], final=final[1])],
-            [Control("u")],
-            lambda x, u, t, p: [x["v"], p["k"] * u["u"]],
-            t0=t0,
-            tf=tf,
-            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-            parameters={"k": 1.0},
-        )
-
-    mp = MultiPhase([HLGL(gain(0.0, 0.5, initial=(0.0, 0.0)), 4), HLGL(gain(0.5, 1.0, final=(1.0, 0.0)), 4)])
+    mp = MultiPhase(
+        [HLGL(fixed_gain_leg(0.0, 0.5, initial=(0.0, 0.0)), 4), HLGL(fixed_gain_leg(0.5, 1.0, final=(1.0, 0.0)), 4)]
+    )
     assert mp.solve().objective == pytest.approx(6.0, rel=1e-9)
     solver = mp.solver()
     doubled = mp.solve(parameters={"k": 2.0})

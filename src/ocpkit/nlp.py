@@ -476,6 +476,12 @@ class NLPResult:
 ACCEPTABLE = "Solved_To_Acceptable_Level"
 
 
+def succeeded(status: str, w: np.ndarray, allow_acceptable: bool = False) -> bool:
+    """An IPOPT solve's success: ``Solve_Succeeded`` (or ``Solved_To_Acceptable_Level`` with ``allow_acceptable``)
+    with a finite iterate ``w``."""
+    return (status == "Solve_Succeeded" or (allow_acceptable and status == ACCEPTABLE)) and bool(np.isfinite(w).all())
+
+
 def solve_nlp(
     solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: bool = False, lam_w0=None, lam_g0=None
 ) -> NLPResult:
@@ -501,7 +507,7 @@ def solve_nlp(
     status = stats.get("return_status", "unknown")
     iters = int(stats.get("iter_count", -1))
     w = np.asarray(res["x"]).ravel()
-    ok = (status == "Solve_Succeeded" or (allow_acceptable and status == ACCEPTABLE)) and bool(np.all(np.isfinite(w)))
+    ok = succeeded(status, w, allow_acceptable)
     return NLPResult(
         w=w,
         objective=float(res["f"]),

@@ -22,8 +22,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import SolverError
-from ..nlp import ACCEPTABLE, WARM_START, NLPResult, failure_hint
+from ..nlp import WARM_START, NLPResult, succeeded
+from .base import settle
 
 
 class LoopResult:
@@ -150,9 +150,7 @@ class SolveLoop:
         stats = solver.stats()
         status = stats.get("return_status", "unknown")
         w = out[0].full().ravel()
-        converged = (status == "Solve_Succeeded" or (self.allow_acceptable and status == ACCEPTABLE)) and bool(
-            np.isfinite(w).all()
-        )
+        converged = succeeded(status, w, self.allow_acceptable)
         result = LoopResult(
             self,
             w,
@@ -167,9 +165,7 @@ class SolveLoop:
             stats,
         )
         if not converged and (self.raise_on_failure or not np.isfinite(w).all()):
-            finite = bool(np.isfinite(w).all())
-            detail = failure_hint(status) if finite else "the last iterate is not finite"
-            raise SolverError("IPOPT", status, result.iterations, detail, result=result.solution if finite else None)
+            settle(result.nlp_result(), lambda _: result.solution, raise_on_failure=True)  # raises, as solve() does
         return result
 
     _no_p = np.zeros(0)
