@@ -20,7 +20,7 @@ release = version = "0.3.0.dev0"
 
 extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
-exclude_patterns = ["_build", "ocpkit.md", "**/.ipynb_checkpoints"]
+exclude_patterns = ["_build", "_generated", "ocpkit.md", "**/.ipynb_checkpoints"]
 
 myst_enable_extensions = ["dollarmath", "amsmath"]
 myst_heading_anchors = 3
@@ -32,10 +32,19 @@ napoleon_google_docstring = False
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 
+# Every cross-reference must resolve (make docs passes -n, nitpicky, with -W). Names of the libraries ocpkit builds
+# on are not documented here (no network for intersphinx at build time), so references to them are not checked.
+nitpick_ignore_regex = [
+    ("py:.*", r"(numpy|np|casadi|ca|scipy|pandas|pd|matplotlib|collections|typing|abc|warnings|pathlib|os)(\..*)?"),
+    ("py:.*", r"(ndarray|callable|optional|Path|ArrayLike|NDArray|Callable|Sequence|Mapping|Iterable)"),
+]
+
 html_theme = "pydata_sphinx_theme"
 html_title = "ocpkit"
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
 html_show_sourcelink = False
+html_static_path = ["_static"]
+html_css_files = ["site.css"]
 
 
 def _copy_notebooks(app) -> None:
@@ -47,5 +56,54 @@ def _copy_notebooks(app) -> None:
         shutil.copy2(notebook, target / notebook.name)
 
 
+def _write_tables(app) -> None:
+    import sys
+
+    sys.path.insert(0, str(HERE))
+    from _tables import write_tables
+
+    write_tables(HERE / "_generated")
+
+
+def _public_alias(app, env, node, contnode):
+    """Resolve a reference to a name by where ocpkit exports it (``ocpkit.Solution``, ``ocpkit.shooting.Shooting``,
+    ``ocpkit.Solution.linear_solver``) to where it is documented (``ocpkit.solution.Solution...``); a bare name
+    (``Solution``, ``Transcription.solve``) likewise, from the module whose docstring names it."""
+    import importlib
+
+    if node.get("refdomain") != "py":
+        return None
+    target = node["reftarget"]
+    starts = [target] if target.startswith("ocpkit") else [f"{m}.{target}" for m in (node.get("py:module"), "ocpkit")]
+    domain = env.get_domain("py")
+    for dotted in filter(None, starts):
+        parts = dotted.split(".")
+        for split in range(len(parts) - 1, 0, -1):
+            try:
+                obj = importlib.import_module(".".join(parts[:split]))
+            except ImportError:
+                continue
+            path = [".".join(parts[:split])]
+            try:
+                for part in parts[split:]:
+                    owner = obj
+                    obj = getattr(obj, part)
+                    if isinstance(obj, type) or callable(obj) and hasattr(obj, "__qualname__"):
+                        path = [obj.__module__, obj.__qualname__]
+                    else:
+                        path = [getattr(owner, "__module__", path[0]), getattr(owner, "__qualname__", ""), part]
+            except AttributeError:
+                break
+            real = ".".join(p for p in path if p)
+            for role in ("class", "func", "meth", "attr", "obj", "data", "mod"):
+                found = domain.resolve_xref(env, node["refdoc"], app.builder, role, real, node, contnode)
+                if found is not None:
+                    return found
+            break
+    return None
+
+
 def setup(app):
+    app.connect("missing-reference", _public_alias)
     app.connect("builder-inited", _copy_notebooks)
+    app.connect("builder-inited", _write_tables)

@@ -1,32 +1,123 @@
-"""The documentation site's sources (docs/): its examples are the tested ones, and it lists every notebook.
+"""The documentation site's sources (docs/): every example runs and prints what its page shows, every notebook is
+on a results page, and the commands a page gives work on a fresh clone.
 
-``make docs`` (run by ``make test``) builds the site with warnings as errors; these tests check what the build
-cannot: that a page's code example is one a test runs, and that no notebook is left out of the results.
+``make docs`` (run by ``make test``) builds the site with warnings as errors and every cross-reference checked
+(Sphinx's nitpicky mode); these tests check what the build cannot.
 """
 
+from __future__ import annotations
+
+import json
+import os
 import re
-from pathlib import Path
+import subprocess
 
-REPO = Path(__file__).resolve().parents[1]
-DOCS = REPO / "docs"
+import pytest
+from _examples import DOCS, REPO, examples, run_session, same_print, section
+
+PAGES = sorted(p for p in DOCS.rglob("*.md") if not p.relative_to(DOCS).parts[0].startswith("_"))
+WITH_EXAMPLES = [page for page in PAGES if examples(page.read_text())]
+LIBRARY_ALONE = {"stating-a-problem.md", "constraints-parameters-phases.md", "indirect.md", "ocpkit.md"}
 
 
-def _python_blocks(path: Path) -> list[str]:
-    return re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S)
+@pytest.mark.parametrize("page", WITH_EXAMPLES, ids=[str(p.relative_to(DOCS)) for p in WITH_EXAMPLES])
+def test_every_example_on_the_site_runs_and_prints_what_its_page_shows(page, tmp_path):
+    """A page's examples run in order, as a reader would paste them, from a folder outside the repository; each
+    prints what the page shows after it."""
+    cases = examples(page.read_text())
+    if page.name in LIBRARY_ALONE:
+        assert all("compendium" not in code for code, _ in cases), f"{page.name} is about the library alone"
+    printed, stderr = run_session([code for code, _ in cases], tmp_path)
+    assert printed is not None, f"{page.relative_to(DOCS)}:\n{stderr[-3000:]}"
+    for k, ((_, shown), out) in enumerate(zip(cases, printed)):
+        if shown is not None:
+            assert same_print(out, shown) == [], f"{page.relative_to(DOCS)}, example {k}"
 
 
-def test_every_python_example_on_the_site_is_run_by_a_test():
-    """The site's examples are the README's library example, which tests/test_readme.py runs and checks (and
-    tests/test_wheel.py from the long description)."""
-    readme = (REPO / "README.md").read_text()
-    tested = _python_blocks(DOCS / "ocpkit.md")
-    assert tested and all(block in readme for block in tested)
-    for page in DOCS.rglob("*.md"):
-        for block in _python_blocks(page):
-            assert block in tested, f"{page.relative_to(REPO)} has an example no test runs"
+def test_the_examples_are_found():
+    """The runner above sees the pages' examples (a change of fence syntax would otherwise skip them silently)."""
+    names = {page.name for page in WITH_EXAMPLES}
+    assert {"stating-a-problem.md", "constraints-parameters-phases.md", "indirect.md", "many-solves.md"} <= names
+    shown = [printed for page in WITH_EXAMPLES for _, printed in examples(page.read_text()) if printed is not None]
+    assert len(shown) >= 4
+
+
+def test_the_first_example_matches_the_exact_cost():
+    """J = 3/8 - sqrt(3)/12: the saturated-linear control u = 0.5 sat((t - 1.5) / sigma), sigma^2 = 3/4."""
+    code, _ = examples((DOCS / "guide" / "stating-a-problem.md").read_text())[0]
+    namespace: dict = {}
+    exec(compile(code, "stating-a-problem.md", "exec"), namespace)  # noqa: S102
+    exact = 3 / 8 - 3**0.5 / 12
+    assert abs(namespace["indirect"].objective - exact) < 1e-9
+    for name in ("hlgl", "radau"):
+        assert abs(namespace[name].objective - exact) < 1e-5, name
+
+
+def test_the_printed_example_is_compared_by_class_not_digit_for_digit():
+    shown = "ShootingTrajectory J = 0.23066243, re-integration error 1.2e-15"
+    assert same_print("ShootingTrajectory J = 0.23066243, re-integration error 1.1e-15", shown) == []
+    assert same_print("ShootingTrajectory J = 0.23066243, re-integration error 8.0e-16", shown) == []
+    assert same_print("ShootingTrajectory J = 0.23067243, re-integration error 1.2e-15", shown)  # 4e-5 relative
+    assert same_print("ShootingTrajectory J = 0.23066243, re-integration error 1.2e-05", shown)
+
+
+def test_the_one_call_example_reaches_the_reference_junctions():
+    """The Goddard rocket with a speed limit: bang, singular, boundary and off arcs at OptimalControl.jl's
+    junctions (the page's printed values are those of data/paper/goddard_control_toolbox.csv to 1e-9)."""
+    import pandas as pd
+
+    code, printed = next(e for e in examples((DOCS / "guide" / "indirect.md").read_text()) if "to_extremal(" in e[0])
+    shown = dict(line.split(": ", 1) for line in printed.strip().splitlines())
+    reference = pd.read_csv(REPO / "data" / "paper" / "goddard_control_toolbox.csv", comment="#")
+    reference = reference.set_index("quantity")["value"]
+    junctions = [float(v) for v in shown["junctions and t_f"].split(", ")]
+    for value, name in zip(junctions, ("t1", "t2", "t3", "tf")):
+        assert abs(value - reference[name]) < 1e-9, name
 
 
 def test_the_results_list_every_notebook():
-    listed = set(re.findall(r"_notebooks/(\S+)", (DOCS / "results.md").read_text()))
-    notebooks = {p.stem for p in (REPO / "notebooks").glob("*.ipynb")}
-    assert listed == notebooks
+    listed = set()
+    for page in (DOCS / "results").glob("*.md"):
+        listed |= set(re.findall(r"_notebooks/(\S+)", page.read_text()))
+    assert listed == {p.stem for p in (REPO / "notebooks").glob("*.ipynb")}
+
+
+def test_every_generated_table_is_on_a_page():
+    import sys
+
+    sys.path.insert(0, str(DOCS))
+    try:
+        from _tables import TABLES
+    finally:
+        sys.path.remove(str(DOCS))
+    text = "".join(page.read_text() for page in PAGES)
+    assert [name for name in TABLES if f"_generated/{name}.md" not in text] == []
+
+
+def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
+    """Both commands, as printed, in a fresh clone: they work, and the published record stays as it was."""
+    text = section(DOCS / "guide" / "notebooks-and-lab.md", "One notebook with other parameters")
+    commands = re.findall(r"```sh\n(.*?)```", text, flags=re.S)
+    assert len(commands) == 2 and all("segments 40" in c for c in commands)
+    clone = tmp_path / "clone"
+    subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
+    (clone / ".venv").symlink_to(REPO / ".venv")  # what `make setup` would build, shared
+    env = {k: v for k, v in os.environ.items() if k != "OCPKIT_OUTPUT_DIR"} | {"OCPKIT_ROOT": str(clone)}
+    for command in commands:
+        proc = subprocess.run(command, shell=True, cwd=clone, env=env, capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, f"{command}\n{proc.stderr[-3000:]}"
+    run_dir = clone / "build" / "runs" / "01_lunar_ascent" / "segments-40"
+    assert (run_dir / "01_lunar_ascent.ipynb").is_file(), "the runner's executed notebook, beside its figures"
+    assert (clone / "build" / "lunar_40.ipynb").is_file()
+    record = json.loads((run_dir / "data" / "derived" / "runs" / "01_lunar_ascent.json").read_text())
+    assert record["parameters"]["segments"] == 40 and record["published_parameters"] is False
+    assert json.loads((run_dir / "data" / "derived" / "lunar_ascent_summary.json").read_text())["segments"] == 40
+    assert (run_dir / "figures" / "figure6_theta.png").is_file()
+    status = subprocess.run(
+        ["git", "status", "--porcelain", "--", "figures", "data", "notebooks", "src"],
+        cwd=clone,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert status == "", f"the published record changed:\n{status}"

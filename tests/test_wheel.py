@@ -122,22 +122,3 @@ def test_wheel_metadata_describes_the_library(wheel):
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     description = meta.get_payload()
     assert description.startswith("# ocpkit") and "make " not in description and "notebooks/" not in description
-
-
-def test_the_long_descriptions_example_runs_as_printed(tmp_path):
-    """docs/ocpkit.md (the wheel's long description) shows the README's library example and its output: it runs,
-    from a folder outside the repository, and prints what it shows."""
-    import re
-
-    from test_readme import _same_print
-
-    text = (REPO / "docs" / "ocpkit.md").read_text()
-    code, printed = (
-        re.findall(r"```python\n(.*?)```", text, flags=re.S)[0],
-        re.findall(r"prints\n\n```\n(.*?)```", text, flags=re.S)[0],
-    )
-    readme = (REPO / "README.md").read_text()
-    assert code in readme, "the same example as the README's library section"
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    assert not _same_print(proc.stdout, printed)

@@ -1,0 +1,95 @@
+"""Code examples in Markdown (the README, the documentation site): found, run as printed, compared with what the
+page shows by the reproducibility contract's classes."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+DOCS = REPO / "docs"
+
+_BLOCK = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
+
+
+def examples(text: str) -> list[tuple[str, str | None]]:
+    """Each ``python`` block of ``text`` with what the page says it prints: the next block if it has no language
+    and only "prints" (or nothing) stands between them, else None."""
+    blocks = [(m.group(1), m.group(2), m.start(), m.end()) for m in _BLOCK.finditer(text)]
+    out = []
+    for k, (language, code, _, end) in enumerate(blocks):
+        if language != "python":
+            continue
+        printed = None
+        if k + 1 < len(blocks) and blocks[k + 1][0] == "":
+            between = text[end : blocks[k + 1][2]].strip()
+            if between in ("", "prints"):
+                printed = blocks[k + 1][1]
+        out.append((code, printed))
+    return out
+
+
+def section(path: Path, title: str) -> str:
+    """The text of the section headed ``title`` (any level) in ``path``, up to the next heading of its level or
+    above; lines inside code blocks (a ``#`` comment) are not headings."""
+    lines = path.read_text().splitlines(keepends=True)
+    fenced, start, level = False, None, 0
+    for k, line in enumerate(lines):
+        if line.startswith("```"):
+            fenced = not fenced
+        heading = re.match(r"(#+) (.*)\n?$", line) if not fenced else None
+        if heading and start is None and heading.group(2) == title:
+            start, level = k, len(heading.group(1))
+        elif heading and start is not None and len(heading.group(1)) <= level:
+            return "".join(lines[start:k])
+    assert start is not None, f"{path.relative_to(REPO)} has no section {title!r}"
+    return "".join(lines[start:])
+
+
+def same_print(printed: str, shown: str) -> list[str]:
+    """Differences of what an example printed from what the page shows, by the contract's classes: the words
+    exactly, a re-integration error by its magnitude (rounding noise below 1e-12), every other number converged."""
+    from compendium.contract import Converged, Error, text_differences
+
+    out = []
+    a, b = printed.strip().splitlines(), shown.strip().splitlines()
+    if len(a) != len(b):
+        return [f"{len(a)} lines printed, {len(b)} shown"]
+    for x, y in zip(a, b):
+        (x0, _, x1), (y0, _, y1) = x.partition("re-integration error"), y.partition("re-integration error")
+        out += text_differences(" ".join(x0.split()), " ".join(y0.split()), Converged())
+        out += text_differences(x1.strip(), y1.strip(), Error(floor=1e-12))
+    return out
+
+
+_SESSION = """
+import contextlib, io, json, sys
+blocks = json.loads(sys.stdin.read())
+namespace, printed = {"__name__": "__main__"}, []
+for k, code in enumerate(blocks):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, f"<example {k}>", "exec"), namespace)
+    printed.append(out.getvalue())
+    sys.stderr.write(f"example {k} done\\n")
+sys.stdout.write(json.dumps(printed))
+"""
+
+
+def run_session(blocks: list[str], folder: Path) -> tuple[list[str] | None, str]:
+    """A page's examples run in order in one namespace (a later example may use an earlier one's names), by this
+    Python in ``folder`` (outside the repository), as a reader would paste them: what each printed (None if one
+    failed) and the process's stderr."""
+    import json
+
+    proc = subprocess.run(
+        [sys.executable, "-c", _SESSION],
+        input=json.dumps(blocks),
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    return (json.loads(proc.stdout) if proc.returncode == 0 else None), proc.stderr
