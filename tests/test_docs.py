@@ -121,3 +121,25 @@ def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
         check=True,
     ).stdout
     assert status == "", f"the published record changed:\n{status}"
+
+
+def test_the_api_reference_documents_every_public_module_and_name():
+    """Every public module of ocpkit has its page section (an automodule), and every name ocpkit and
+    ocpkit.shooting export is documented there with a docstring."""
+    import importlib
+    import pkgutil
+
+    import ocpkit
+    import ocpkit.shooting
+
+    documented = set(re.findall(r"automodule:: (\S+)", "".join(p.read_text() for p in (DOCS / "api").glob("*.md"))))
+    modules = {m.name for m in pkgutil.walk_packages(ocpkit.__path__, "ocpkit.")}
+    public = {m for m in modules if not any(part.startswith("_") for part in m.split("."))}
+    packages = {m for m in public if hasattr(importlib.import_module(m), "__path__")}
+    assert sorted(public - packages - documented) == []
+    for package in (ocpkit, ocpkit.shooting):
+        for name in package.__all__:
+            obj = getattr(package, name)
+            if isinstance(obj, (type, type(len))) or callable(obj):
+                assert obj.__module__ in documented, f"{package.__name__}.{name}"
+                assert (obj.__doc__ or "").strip(), f"{package.__name__}.{name} has no docstring"
