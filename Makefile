@@ -86,14 +86,16 @@ reproduce: notebooks report
 notebooks: setup
 	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
 
-report: notebooks
+# the executed notebooks as an HTML report (src/compendium/report.py), readable offline: equations in MathJax's TeX
+# fonts (make mathjax), figures inline, no request leaves the machine
+report: notebooks mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
 test: lint unit nbval guard docs
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
 # into build/docs/index.html; every warning is an error (a broken cross-reference, a docstring that does not parse)
-docs: setup
+docs: setup mathjax
 	rm -rf build/docs
 	$(PY) -m sphinx -W --keep-going -q -b html docs build/docs
 	@echo "the documentation site: build/docs/index.html"
@@ -131,9 +133,36 @@ chromium:
 	  test -x $(CHROMIUM_BIN) || { echo "chromium: apt-get finished, but there is no $(CHROMIUM_BIN)" >&2; exit 1; }; \
 	fi
 
-# tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above)
+# MathJax 2 and its TeX web fonts for the report's equations offline (src/compendium/mathjax.py): nothing to do when
+# they are installed, else Debian's libjs-mathjax and fonts-mathjax from apt-get, as root or via sudo. Where neither
+# works this says so and goes on: the report then takes jupyter-server-mathjax's STIX-Web fonts (and says so too),
+# and under `make unit` the report's font test fails (OCPKIT_REQUIRE_BROWSER, as for Chromium above).
+MATHJAX_DIR := /usr/share/javascript/mathjax
+.PHONY: mathjax
+mathjax:
+	@set -e; \
+	if [ -f $(MATHJAX_DIR)/MathJax.js ] && [ -f $(MATHJAX_DIR)/fonts/HTML-CSS/TeX/woff/MathJax_Main-Regular.woff ]; \
+	then :; \
+	else \
+	  how="the report's equations fall back to jupyter-server-mathjax's STIX-Web fonts (Debian: apt-get install"; \
+	  how="$$how libjs-mathjax fonts-mathjax)"; \
+	  if ! command -v apt-get >/dev/null 2>&1; then \
+	    echo "mathjax: no MathJax with TeX fonts in $(MATHJAX_DIR), and no apt-get here to install it: $$how"; exit 0; \
+	  elif [ "$$(id -u)" = 0 ]; then as=; \
+	  elif command -v sudo >/dev/null 2>&1; then as=sudo; \
+	  else echo "mathjax: no MathJax with TeX fonts in $(MATHJAX_DIR); apt-get can install it as root only, this is" \
+	            "user $$(id -un) and there is no sudo: $$how"; exit 0; \
+	  fi; \
+	  echo "mathjax: none installed: apt-get installs Debian's libjs-mathjax and fonts-mathjax$${as:+ (with sudo)}"; \
+	  $$as apt-get update -q; \
+	  $$as env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends libjs-mathjax fonts-mathjax; \
+	  test -f $(MATHJAX_DIR)/MathJax.js || { echo "mathjax: apt-get finished, but there is no $(MATHJAX_DIR)" >&2; exit 1; }; \
+	fi
+
+# tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above); tests/test_report.py
+# builds the report of the stored notebooks (nbval keeps no executed notebooks to build it from) and opens it there
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
-unit: setup chromium
+unit: setup chromium mathjax
 	$(PY) -m pytest tests/
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones

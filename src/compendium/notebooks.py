@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import html
-import json
 import re
 import sys
 from pathlib import Path
@@ -390,77 +388,12 @@ def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False
     return folder, publishes
 
 
-def _title(nb) -> str:
-    for cell in nb.cells:
-        if cell.cell_type == "markdown":
-            for line in cell.source.splitlines():
-                if line.startswith("#"):
-                    return line.lstrip("#").strip()
-    return "untitled"
-
-
-def install_mathjax(output: Path) -> str:
-    """Copy MathJax (the ``jupyter-server-mathjax`` package's files) into ``output/mathjax``; its URL, relative.
-
-    The report's equations then render offline, without the CDN nbconvert links by default.
-    """
-    import shutil
-
-    import jupyter_server_mathjax
-
-    source = Path(jupyter_server_mathjax.__file__).parent / "static"
-    target = output / "mathjax"
-    if not (target / "MathJax.js").is_file():
-        shutil.copytree(source, target, dirs_exist_ok=True)
-    return "mathjax/MathJax.js?config=TeX-AMS-MML_HTMLorMML-full,Safe"
-
-
 def build_report(executed: str | Path, output: str | Path) -> Path:
-    """Convert every executed notebook in ``executed`` to HTML (figures inline, MathJax served from the report's
-    own folder) and write an index linking them."""
-    import nbformat
-    from nbconvert import HTMLExporter
+    """The HTML report of every executed notebook in ``executed``, written into ``output``; the index's path
+    (:func:`compendium.report.build_report`)."""
+    from .report import build_report as build
 
-    executed, output = Path(executed), Path(output)
-    notebooks = sorted(executed.glob("*.ipynb"))
-    if not notebooks:
-        raise FileNotFoundError(f"no executed notebooks in {executed}")
-    output.mkdir(parents=True, exist_ok=True)
-    exporter = HTMLExporter(mathjax_url=install_mathjax(output))
-    rows = []
-    for nb_path in notebooks:
-        nb = nbformat.read(str(nb_path), as_version=4)
-        nb.metadata.pop("widgets", None)  # their state: the views go, and its embedding script is on the network
-        for cell in nb.cells:
-            if cell.cell_type == "code":
-                cell.outputs = static_views(cell.outputs)
-        body, _ = exporter.from_notebook_node(nb)
-        target = output / f"{nb_path.stem}.html"
-        target.write_text(body, encoding="utf-8")
-        failed = any(
-            o.get("output_type") == "error" for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
-        )
-        params = nb.metadata.get("papermill", {}).get("parameters", {})
-        rows.append((target.name, _title(nb), nb_path.name, "failed" if failed else "ok", params))
-    items = "\n".join(
-        f'<tr><td><a href="{html.escape(href)}">{html.escape(title)}</a></td>'
-        f"<td><code>{html.escape(src)}</code></td><td>{status}</td>"
-        f"<td><code>{html.escape(json.dumps(params))}</code></td></tr>"
-        for href, title, src, status, params in rows
-    )
-    index = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>ocpkit compendium report</title>
-<style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}td,th{{padding:.3em .8em;text-align:left}}</style>
-</head><body>
-<h1>Optimal-control compendium: executed notebooks</h1>
-<p>Every notebook below was executed headless by papermill (<code>make reproduce</code>).
-Figures are in <code>figures/</code>, derived tables in <code>data/derived/</code>.</p>
-<table><tr><th>notebook</th><th>source</th><th>status</th><th>parameters</th></tr>
-{items}
-</table></body></html>
-"""
-    (output / "index.html").write_text(index, encoding="utf-8")
-    return output / "index.html"
+    return build(executed, output)
 
 
 def _parse_value(text: str):
