@@ -44,7 +44,15 @@ html_title = "ocpkit"
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
 html_show_sourcelink = False
 html_static_path = ["_static"]
+
+# MathJax 2 served from the site itself with its TeX web fonts (compendium.mathjax, the report's too; Debian's
+# libjs-mathjax and fonts-mathjax, which `make mathjax` installs): no request leaves the machine. The tree is copied
+# into _static/mathjax when the build finishes; the URL is relative to _static.
+mathjax_path = "mathjax/MathJax.js?config=local/ocpkit"
+# myst-nb marks a notebook's sections tex2jax_ignore and its math (and outputs) as classes to process again
+mathjax2_config = {"tex2jax": {"processClass": "tex2jax_process|mathjax_process|math|output_area"}}
 html_css_files = ["site.css"]
+html_favicon = "_static/favicon.svg"  # also spares the browser a request for /favicon.ico
 
 
 def _copy_notebooks(app) -> None:
@@ -103,7 +111,17 @@ def _public_alias(app, env, node, contnode):
     return None
 
 
+def _copy_mathjax(app, exception) -> None:
+    if exception is None and app.builder.format == "html":
+        from compendium.mathjax import copy_mathjax
+
+        url = copy_mathjax(Path(app.outdir) / "_static" / "mathjax")
+        if url != mathjax_path:
+            raise RuntimeError(f"compendium.mathjax serves {url}, the site asks for {mathjax_path}")
+
+
 def setup(app):
+    app.connect("build-finished", _copy_mathjax)
     app.connect("missing-reference", _public_alias)
     app.connect("builder-inited", _copy_notebooks)
     app.connect("builder-inited", _write_tables)

@@ -1,0 +1,89 @@
+"""The documentation site in headless Chromium: built from docs/ as `make docs` builds it, served from 127.0.0.1,
+each page with its title and contents, equations typeset by the site's own MathJax in the TeX web fonts, figures
+loaded, and not one request off the machine."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+from _browser import FONTCONFIG, Recorder, served
+from _examples import DOCS, REPO
+from test_lab import needs_chromium
+
+from compendium import mathjax
+
+#: done once the page has loaded and MathJax (where the page has math) has typeset it and its fonts are in
+_SHOWN = """(async () => {
+  if (document.readyState !== 'complete') return {done: false, state: 'loading'};
+  const hub = window.MathJax && MathJax.Hub;
+  const pending = document.querySelectorAll('.math').length;
+  if (pending && (!hub || !hub.queue || hub.queue.pending || hub.queue.running
+                  || !document.querySelectorAll('.MathJax_CHTML').length)) {
+    return {done: false, state: 'MathJax not done'};
+  }
+  await document.fonts.ready;
+  const faces = {};
+  document.fonts.forEach(f => { faces[f.family.replace(/"/g, '')] = f.status; });
+  const toc = Array.from(document.querySelectorAll('#pst-page-toc-nav a[href^="#"]'));
+  return {done: true, title: document.title, h1: (document.querySelector('h1') || {}).textContent || '',
+          math: document.querySelectorAll('.MathJax_CHTML').length, raw: pending, faces,
+          errors: document.querySelectorAll('.MathJax_Error, .mjx-merror, .merror').length,
+          contents: toc.map(a => !!document.getElementById(decodeURIComponent(a.hash.slice(1)))),
+          images: Array.from(document.images).filter(i => !i.src.endsWith('.svg'))
+                       .map(i => i.complete && i.naturalWidth)};
+})()"""
+
+PAGES = {
+    "getting-started.html": {"contents": 3},
+    "api/transcriptions.html": {"contents": 5},
+    "results/desai-conway.html": {"contents": 2, "images": 0},
+    "_notebooks/04_shooting_validation.html": {"contents": 3, "math": 10, "images": 3},
+}
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    out = tmp_path_factory.mktemp("site")
+    proc = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", str(DOCS), str(out)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return out
+
+
+@needs_chromium
+def test_pages_of_the_site_in_chromium(site, tmp_path, monkeypatch):
+    if not mathjax.find_mathjax().tex_fonts:
+        pytest.skip("no MathJax 2 with TeX fonts (make mathjax); tests/test_report.py says so")
+    (tmp_path / "fonts").mkdir()
+    (tmp_path / "fonts" / "fonts.conf").write_text(FONTCONFIG.format(cache=tmp_path / "fonts" / "cache"))
+    monkeypatch.setenv("FONTCONFIG_FILE", str(tmp_path / "fonts" / "fonts.conf"))
+    shown = {}
+    with served(site) as base:
+        recorder = Recorder(tmp_path / "profile", tmp_path / "chromium.log")
+        browser = recorder.browser
+        try:
+            browser.call("Network.enable")
+            for page in PAGES:
+                browser.call("Page.navigate", url=base + page)
+                shown[page] = browser.poll(_SHOWN, 30, f"{page} shown")
+        finally:
+            browser.close()
+    for page, expected in PAGES.items():
+        got = shown[page]
+        assert got["h1"].strip().rstrip("#").strip() in got["title"] and "ocpkit" in got["title"], (page, got)
+        assert len(got["contents"]) >= expected["contents"] and all(got["contents"]), (page, got["contents"])
+        assert got["errors"] == 0 and got["math"] >= expected.get("math", 0), (page, got["math"])
+        assert got["math"] >= got["raw"], f"{page}: {got['raw']} equations, {got['math']} typeset"
+        assert len(got["images"]) >= expected.get("images", 0) and all(got["images"]), (page, got["images"])
+    assert shown["_notebooks/04_shooting_validation.html"]["faces"].get("MJXc-TeX-main-Rw") == "loaded"
+    requests = recorder.requests()
+    assert any(url.startswith(f"{base}_static/mathjax/fonts/HTML-CSS/TeX/woff/MathJax_Main") for url in requests)
+    assert [url for url in requests if not url.startswith((base, "data:", "about:blank"))] == []
+    assert recorder.failures() == []
