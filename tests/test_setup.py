@@ -752,8 +752,13 @@ def test_unit_gets_chromium_first_and_requires_the_browser_tests(tmp_path):
     chromium = tmp_path / "chromium"
     chromium.write_text("#!/bin/sh\n")
     chromium.chmod(0o755)
+    mathjax = tmp_path / "mathjax"  # installed, as far as make mathjax looks: its recipe does nothing
+    (mathjax / "fonts" / "HTML-CSS" / "TeX" / "woff").mkdir(parents=True)
+    (mathjax / "MathJax.js").write_text("")
+    (mathjax / "fonts" / "HTML-CSS" / "TeX" / "woff" / "MathJax_Main-Regular.woff").write_text("")
     for args, expected in (((), "1"), (("OCPKIT_REQUIRE_BROWSER=0",), "0")):
-        result = _make(project, "unit", f"PY={py}", f"CHROMIUM_BIN={chromium}", *args, env=_env(tmp_path))
+        made = (f"PY={py}", f"CHROMIUM_BIN={chromium}", f"MATHJAX_DIR={mathjax}")
+        result = _make(project, "unit", *made, *args, env=_env(tmp_path))
         assert result.returncode == 0, result.stderr
         assert report.read_text() == expected
     dry = _make(project, "-n", "unit", f"PY={py}", "CHROMIUM_BIN=/nonexistent", env=_env(tmp_path)).stdout
