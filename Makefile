@@ -103,6 +103,7 @@ docs: setup mathjax
 lint: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(PY) -m mypy  # src/ocpkit, configured in pyproject.toml
 
 # Headless Chromium for the browser tests of tests/test_lab.py: nothing to do when one is installed (the names the
 # tests look for), else Debian's chromium and chromium-driver (/usr/bin/chromium) from apt-get, as root or via sudo.

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def unique(values) -> np.ndarray:
+
+def unique(values: ArrayLike) -> np.ndarray:
     """The sorted distinct entries of ``values`` (flattened), as ``np.unique(values)``.
 
     NumPy 2.4's ``np.unique`` imports ``numpy.ma`` on its first plain call (about 20 ms, once per process), which

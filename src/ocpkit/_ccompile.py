@@ -16,6 +16,7 @@ import platform
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
 import casadi as ca
@@ -49,7 +50,7 @@ def compiler() -> str | None:
     return cc if shutil.which(cc) is not None else None
 
 
-def generate_c(functions, name: str = "ocp_generated.c") -> str:
+def generate_c(functions: Iterable[ca.Function], name: str = "ocp_generated.c") -> str:
     """C source of CasADi ``functions`` (code generation, 64-bit integers, no header)."""
     with tempfile.TemporaryDirectory() as tmp:
         gen = ca.CodeGenerator(name, {"casadi_int": "long long", "casadi_real": "double", "with_header": False})
@@ -59,7 +60,9 @@ def generate_c(functions, name: str = "ocp_generated.c") -> str:
         return (Path(tmp) / name).read_text()
 
 
-def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpkit's C code") -> Path:
+def shared_library(
+    prefix: str, generated: str, sources: Iterable[str | os.PathLike[str]] = (), purpose: str = "ocpkit's C code"
+) -> Path:
     """The library of ``generated`` C (and of the files ``sources``), compiled once and then found in the cache.
 
     Raises RuntimeError naming the compiler where it is missing or fails (``purpose``: what was compiled). The
@@ -72,12 +75,13 @@ def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpk
             f"the C compiler {os.environ.get('CC', 'gcc')!r} was not found; compiling {purpose} needs one: install "
             "gcc or set CC"
         )
-    sources = [Path(s) for s in sources]
+    paths = [Path(s) for s in sources]
     flags = list(CFLAGS)
     if len(generated) > LARGE_SOURCE_BYTES:
         flags[0] = "-O1"
     key_text = "\n".join(
-        [generated, *(s.read_text() for s in sources), cc, " ".join(flags), ca.__version__, platform.machine()]
+        # (casadi sets __version__ at import; its stub omits it)
+        [generated, *(s.read_text() for s in paths), cc, " ".join(flags), ca.__version__, platform.machine()]  # type: ignore[attr-defined]
     )
     key = hashlib.sha256(key_text.encode()).hexdigest()[:20]
     lib = cache_dir() / f"{prefix}_{key}.so"
@@ -89,7 +93,7 @@ def shared_library(prefix: str, generated: str, sources=(), purpose: str = "ocpk
         fd, partial = tempfile.mkstemp(prefix=f".{lib.stem}.", suffix=".partial", dir=lib.parent)
         os.close(fd)
         try:
-            cmd = [cc, *flags, "-o", partial, *(str(s) for s in sources), str(gen_path), "-lm"]
+            cmd = [cc, *flags, "-o", partial, *(str(s) for s in paths), str(gen_path), "-lm"]
             proc = subprocess.run(cmd, capture_output=True, text=True)
             if proc.returncode != 0:
                 raise RuntimeError(f"compiling {purpose} failed:\n{' '.join(cmd)}\n{proc.stderr[-4000:]}")

@@ -19,9 +19,16 @@ are the same.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from .nlp import Block
 
 #: ``compile="auto"`` compiles an NLP's derivative blocks where one evaluation of them interprets at least this
 #: many SX instructions (with the rule below: the flat moon's HLGL from about 2300 segments, the lunar ascent's
@@ -57,7 +64,7 @@ def interpreted_map(fun: ca.Function, count: int) -> ca.Function:
 class BlockMaps:
     """Maps the blocks' functions over their instances: compiled where :func:`compiled_maps` compiled them."""
 
-    def __init__(self, externals: dict, library):
+    def __init__(self, externals: dict[str, ca.Function], library: Path | None) -> None:
         self.externals = externals
         #: the compiled library's path, or None where nothing is compiled
         self.library = library
@@ -73,7 +80,7 @@ class BlockMaps:
         return compiled.map(count, "serial")  # a compiled block is faster serial than on two threads
 
 
-def _normalised(compile) -> str | bool:
+def _normalised(compile: Any) -> str | bool:
     """``"auto"``, True or False from what a user may set (``np.True_``, 0 or 1 included)."""
     if isinstance(compile, str):
         if compile == "auto":
@@ -83,7 +90,9 @@ def _normalised(compile) -> str | bool:
     raise ValueError(f"compile must be 'auto', True or False, got {compile!r}")
 
 
-def compiled_maps(blocks, derivatives, compile: str | bool = "auto") -> BlockMaps:
+def compiled_maps(
+    blocks: Sequence[Block], derivatives: Sequence[Sequence[Any]], compile: str | bool = "auto"
+) -> BlockMaps:
     """Compile the derivative functions of ``blocks`` (``derivatives``: per block ``(jac, hess, ...)``, each a
     CasADi SX function or None; ``jac`` of the values and the Jacobian) into one cached library, as ``compile``
     asks:

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import warnings
+from typing import TypeVar
+
+_T = TypeVar("_T")
 
 
 def renamed(old: str, new: str, stacklevel: int = 3) -> None:
@@ -12,7 +15,9 @@ def renamed(old: str, new: str, stacklevel: int = 3) -> None:
     )
 
 
-def renamed_argument(old: str, new: str, old_value, new_value, default, where: str, stacklevel: int = 4):
+def renamed_argument(
+    old: str, new: str, old_value: _T | None, new_value: _T | None, default: _T, where: str, stacklevel: int = 4
+) -> _T:
     """The value of an argument renamed from ``old`` to ``new`` in ``where``: ``new_value`` unless the deprecated
     ``old_value`` is given (then a DeprecationWarning); both given is a TypeError."""
     if old_value is None:

@@ -22,11 +22,21 @@ Radau intervals), so their accuracy compares directly.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ._arrays import unique
 from .nodes import lgr_estimate_points
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .problem import ConstraintSet, OptimalControlProblem
+    from .solution import Solution
+    from .trajectory import Trajectory
+    from .transcription.phases import MultiPhaseSolution
 
 #: Estimate points per interval when a scheme does not say (above the degree of HLGL's quintic states)
 DEFAULT_ESTIMATE_POINTS = 8
@@ -36,7 +46,9 @@ class AccuracyWarning(UserWarning):
     """A solve succeeded but its estimated discretisation error exceeds the threshold asked for."""
 
 
-def interval_errors(trajectory, points=None, breakpoints=None) -> np.ndarray:
+def interval_errors(
+    trajectory: Trajectory, points: ArrayLike | None = None, breakpoints: ArrayLike | None = None
+) -> np.ndarray:
     """The relative state error estimate on each interval between ``breakpoints`` (module docstring).
 
     ``points``: LGR points per interval (an int, or one per interval); default
@@ -72,7 +84,12 @@ def interval_errors(trajectory, points=None, breakpoints=None) -> np.ndarray:
 SWITCH_SAMPLES, SWITCH_BAND = 64, 1e-3
 
 
-def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, band: float = SWITCH_BAND):
+def control_switches(
+    trajectory: Trajectory,
+    breakpoints: ArrayLike | None = None,
+    samples: int = SWITCH_SAMPLES,
+    band: float = SWITCH_BAND,
+) -> list[np.ndarray]:
     """Where a bounded control switches inside each interval: cuts (fractions in (0, 1)) around it, or none.
 
     A bang-bang switch or the junction of a bound arc with an interior (singular, or
@@ -138,7 +155,12 @@ def control_switches(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES
     return out
 
 
-def path_junctions(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, band: float = SWITCH_BAND):
+def path_junctions(
+    trajectory: Trajectory,
+    breakpoints: ArrayLike | None = None,
+    samples: int = SWITCH_SAMPLES,
+    band: float = SWITCH_BAND,
+) -> list[np.ndarray]:
     """Where a path constraint becomes active or inactive inside each interval: cuts (fractions in (0, 1)) around
     it, or none.
 
@@ -180,7 +202,12 @@ def path_junctions(trajectory, breakpoints=None, samples: int = SWITCH_SAMPLES, 
 
 
 def warn_if_inaccurate(
-    label: str, errors: np.ndarray, breakpoints: np.ndarray, threshold: float | None, hint=None, stacklevel: int = 3
+    label: str,
+    errors: np.ndarray,
+    breakpoints: np.ndarray,
+    threshold: float | None,
+    hint: Callable[[], str] | None = None,
+    stacklevel: int = 3,
 ) -> None:
     """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``
     (``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint` of the solution;
@@ -205,7 +232,9 @@ def warn_if_inaccurate(
 PATH_SAMPLES = 16
 
 
-def flown_objective(trajectory, tol: float | None = None, *, rtol: float | None = None, atol: float | None = None):
+def flown_objective(
+    trajectory: Trajectory, tol: float | None = None, *, rtol: float | None = None, atol: float | None = None
+) -> float:
     """The cost the trajectory's admissible control achieves: the dynamics and the running cost integrated together
     from ``x(t0)``, ``J = phi(x(t0), x(t_f), t0, t_f) + int L``, restarting at every breakpoint, where the control
     may jump or kink (:func:`ocpkit.flight.fly`: CVODES at ``tol``, default :data:`ocpkit.flight.TOLERANCE`).
@@ -222,7 +251,9 @@ def flown_objective(trajectory, tol: float | None = None, *, rtol: float | None 
     return float(fly(trajectory, TOLERANCE if tol is None else tol).objective)
 
 
-def path_violation_table(trajectory, breakpoints=None, samples: int = PATH_SAMPLES):
+def path_violation_table(
+    trajectory: Trajectory, breakpoints: ArrayLike | None = None, samples: int = PATH_SAMPLES
+) -> tuple[list[str], np.ndarray | None, np.ndarray | None]:
     """The violation of each path constraint expression between the scheme's points, per interval.
 
     On each interval the state interpolant and the admissible control are sampled at ``samples`` interior
@@ -241,7 +272,7 @@ def path_violation_table(trajectory, breakpoints=None, samples: int = PATH_SAMPL
     return list(cs.labels), np.nan_to_num(v, nan=np.inf), s
 
 
-def _path_samples(trajectory, bp: np.ndarray, samples: int):
+def _path_samples(trajectory: Trajectory, bp: np.ndarray, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """The path constraints' values ``G`` (K, samples, n_expr) at ``samples`` midpoints ``s`` of every interval
     between ``bp``, on the state interpolant and the admissible control; ``(s, G)``."""
     K = bp.size - 1
@@ -251,11 +282,17 @@ def _path_samples(trajectory, bp: np.ndarray, samples: int):
     U = trajectory.control(t).reshape(K * samples, -1)
     problem = trajectory.problem
     P = problem.parameter_vector() if problem.parameters else np.zeros(0)
-    G = np.asarray(problem.functions.path.function.map(K * samples)(X.T, U.T, t.reshape(1, -1), P)).T
+    path = cast("ConstraintSet", problem.functions.path)  # the callers' problems have path constraints
+    G = np.asarray(path.function.map(K * samples)(X.T, U.T, t.reshape(1, -1), P)).T
     return s, G.reshape(K, samples, -1)
 
 
-def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES, table=None):
+def path_violations(
+    trajectory: Trajectory,
+    breakpoints: ArrayLike | None = None,
+    samples: int = PATH_SAMPLES,
+    table: tuple[list[str], np.ndarray | None, np.ndarray | None] | None = None,
+) -> tuple[list[str], np.ndarray, np.ndarray]:
     """The largest violation of each path constraint between the scheme's points, in units of its scale
     (:func:`path_violation_table`, or its result ``table``). Returns ``(labels, worst, where)``: the expressions' labels, their largest
     violation (``(n_expr,)``) and, per interval, the position in (0, 1) of its worst violation with its size
@@ -268,12 +305,16 @@ def path_violations(trajectory, breakpoints=None, samples: int = PATH_SAMPLES, t
         return [], np.zeros(0), np.full((K, 2), np.nan)
     v = V.max(axis=2)  # (K, samples): the worst expression
     j = np.argmax(v, axis=1)
-    where = np.stack([s[j], v[np.arange(K), j]], axis=1)
+    where = np.stack([cast(np.ndarray, s)[j], v[np.arange(K), j]], axis=1)  # (s: given with V)
     where[where[:, 1] <= 0, 0] = np.nan
     return labels, V.max(axis=(0, 1)), where
 
 
-def path_cost_sensitivity(solution, breakpoints=None, table=None) -> float:
+def path_cost_sensitivity(
+    solution: Solution,
+    breakpoints: ArrayLike | None = None,
+    table: tuple[list[str], np.ndarray | None, np.ndarray | None] | None = None,
+) -> float:
     """How much better a cost the NLP can claim through its path constraints' violations between its points:
     ``sum_k sum_e |mu_ke| v_ke scale_e``, the multiplier of expression ``e`` at path point ``k`` (a discrete
     measure, :attr:`~ocpkit.Solution.path_multipliers`, in cost per unit of the constraint) times the largest
@@ -289,6 +330,7 @@ def path_cost_sensitivity(solution, breakpoints=None, table=None) -> float:
     bp = np.asarray(solution.breakpoints if breakpoints is None else breakpoints, dtype=float)
     K = bp.size - 1
     _, V, _ = path_violation_table(solution, bp) if table is None else table
+    V = cast(np.ndarray, V)  # a table of a problem with path constraints (cs above)
     worst = V.max(axis=1) * np.asarray(cs.scale, dtype=float)  # (K, n_expr), in the constraints' units
     right = np.clip(np.searchsorted(bp, times, side="right") - 1, 0, K - 1)
     left = np.clip(np.searchsorted(bp, times, side="left") - 1, 0, K - 1)  # the interval ending at a breakpoint
@@ -313,7 +355,10 @@ class Accuracy:
       (:func:`path_violations`), in units of the constraint's scale.
     """
 
-    def __init__(self, solution):
+    solution: Solution | MultiPhaseSolution
+    path: dict[str, float]
+
+    def __init__(self, solution: Solution) -> None:
         self.solution = solution
         self.state = float(solution.interval_errors.max())
         self.objective_nlp = float(solution.objective)
@@ -365,7 +410,7 @@ class MultiPhaseAccuracy(Accuracy):
     ``max(|J|, objective_scale * 1e-3)``. ``phases``: each phase's :class:`Accuracy`.
     """
 
-    def __init__(self, solution):
+    def __init__(self, solution: MultiPhaseSolution) -> None:  # (not Accuracy's: the phases' parts combined)
         self.solution = solution
         self.phases = [p.accuracy for p in solution.phases]
         self.state = max(a.state for a in self.phases)
@@ -388,7 +433,7 @@ class MultiPhaseAccuracy(Accuracy):
                 self.path[label] = max(self.path.get(label, 0.0), value)
 
 
-def warn_if_path_violated(label: str, solution, threshold: float | None, stacklevel: int = 3) -> None:
+def warn_if_path_violated(label: str, solution: Solution, threshold: float | None, stacklevel: int = 3) -> None:
     """Warn (:class:`AccuracyWarning`) naming each path constraint violated between the scheme's points by more
     than ``threshold`` (in units of its scale; :func:`path_violations`)."""
     if threshold is None or solution.problem.functions.path is None:
@@ -407,7 +452,7 @@ def warn_if_path_violated(label: str, solution, threshold: float | None, stackle
 # -- singular arcs --------------------------------------------------------------------------------------------------
 
 
-def linear_controls(problem) -> list[str]:
+def linear_controls(problem: OptimalControlProblem) -> list[str]:
     """The controls that enter the dynamics and the running cost affinely (``df/du`` and ``dL/du`` do not depend on
     ``u``): their Hamiltonian is affine, so on an interior arc they are singular. (An L1 cost ``|u|`` is not
     affine: its derivative ``sign(u)`` depends on ``u``, and its "off" arc is determined, not singular.)"""
@@ -428,7 +473,7 @@ def linear_controls(problem) -> list[str]:
     return out
 
 
-def singular_arcs(trajectory, samples: int = 2001, share: float = 0.02) -> list[tuple[str, float, float]]:
+def singular_arcs(trajectory: Trajectory, samples: int = 2001, share: float = 0.02) -> list[tuple[str, float, float]]:
     """For each control that enters linearly (:func:`linear_controls`), where it is singular: ``(name, t_start,
     t_end)`` from its first to its last sample off its bounds (by more than ``share`` of its range), when that
     stretch is longer than 2 % of the horizon, touches at least 3 mesh intervals, and the control is off its bounds
@@ -458,7 +503,7 @@ def singular_arcs(trajectory, samples: int = 2001, share: float = 0.02) -> list[
     return out
 
 
-def singular_arc_hint(trajectory) -> str:
+def singular_arc_hint(trajectory: Trajectory) -> str:
     """A sentence naming the singular arcs of a trajectory (:func:`singular_arcs`) and the regularisation to try,
     or the empty string."""
     try:
@@ -482,7 +527,7 @@ def singular_arc_hint(trajectory) -> str:
 PERIODS = (2 * np.pi, 360.0)
 
 
-def undeclared_periodic_controls(trajectory) -> list[tuple[str, float]]:
+def undeclared_periodic_controls(trajectory: Trajectory) -> list[tuple[str, float]]:
     """The controls that are angles in all but name: not declared periodic (:attr:`~ocpkit.Control.period`), while
     the dynamics and the running cost do not change when the control moves by a whole period (:data:`PERIODS`,
     tried at the trajectory's own node values, to 1e-9), and the control's values move by more than half a period
@@ -497,7 +542,7 @@ def undeclared_periodic_controls(trajectory) -> list[tuple[str, float]]:
     P = problem.parameter_vector() if problem.parameters else np.zeros(0)
     n = t.size
 
-    def rates(U):
+    def rates(U: np.ndarray) -> np.ndarray:
         out = [np.asarray(problem.f.map(n)(X.T, U.T, t.reshape(1, -1), P))]
         if problem.L is not None:
             out.append(np.asarray(problem.L.map(n)(X.T, U.T, t.reshape(1, -1), P)))
@@ -519,7 +564,7 @@ def undeclared_periodic_controls(trajectory) -> list[tuple[str, float]]:
     return found
 
 
-def periodic_control_hint(trajectory) -> str:
+def periodic_control_hint(trajectory: Trajectory) -> str:
     """A sentence naming the controls of :func:`undeclared_periodic_controls` and how to declare them, or ``""``."""
     try:
         found = undeclared_periodic_controls(trajectory)
@@ -536,7 +581,7 @@ def periodic_control_hint(trajectory) -> str:
     )
 
 
-def refinement_hint(trajectory) -> str:
+def refinement_hint(trajectory: Trajectory) -> str:
     """What to try when a solution cannot be refined to a tolerance: the singular arcs (:func:`singular_arc_hint`)
     and the undeclared angles (:func:`periodic_control_hint`) it shows, or ``""``."""
     return "; ".join(h for h in (singular_arc_hint(trajectory), periodic_control_hint(trajectory)) if h)

@@ -5,10 +5,17 @@ Differences between two solutions are :meth:`ocpkit.trajectory.Trajectory.differ
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def convergence_order(segments, errors) -> float:
+    from .trajectory import Trajectory
+
+
+def convergence_order(segments: ArrayLike, errors: ArrayLike) -> float:
     """Least-squares slope ``p`` of ``log(error) = c - p log(segments)``.
 
     A scheme whose error falls like ``h^p = (1/n)^p`` has order ``p``. Points
@@ -23,7 +30,7 @@ def convergence_order(segments, errors) -> float:
     return float(-slope)
 
 
-def total_variation(trajectory, control: str | int = 0, n: int = 2001) -> float:
+def total_variation(trajectory: Trajectory, control: str | int = 0, n: int = 2001) -> float:
     """Total variation ``sum |u(t_{k+1}) - u(t_k)|`` of one admissible control on ``n`` equally spaced times.
 
     A measure of chattering: a control that oscillates between mesh points on a singular arc

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class SolverError(RuntimeError):
     """An NLP or shooting solve did not converge.
@@ -22,9 +24,9 @@ class SolverError(RuntimeError):
         iterations: int | None = None,
         detail: str = "",
         unit: str = "iterations",
-        result=None,
-        best=None,
-    ):
+        result: Any = None,
+        best: Any = None,
+    ) -> None:
         self.solver = solver
         self.status = status
         self.iterations = iterations
@@ -32,7 +34,8 @@ class SolverError(RuntimeError):
         self.best = best
         self.detail = detail
         self.unit = unit
-        self.mesh_history = []  # a refinement's meshes before the failure (set by refinement; empty otherwise)
+        # a refinement's meshes before the failure (set by refinement; empty otherwise)
+        self.mesh_history: list[Any] = []
         msg = f"{solver} failed with status {status!r}"
         if iterations is not None:
             msg += f" after {iterations} {unit}"

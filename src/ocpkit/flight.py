@@ -24,10 +24,17 @@ faster; Adams is chosen over BDF, which needs a tolerance a hundred times tighte
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 from numpy.polynomial import chebyshev
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .problem import ProblemFunctions
+    from .trajectory import Trajectory
 
 #: Chebyshev points per interval at least (a transcription's control polynomial has a lower degree)
 CONTROL_POINTS = 17
@@ -46,7 +53,7 @@ class Flight:
     tolerance: float
 
 
-def fly(trajectory, tol: float = TOLERANCE, x0=None) -> Flight:
+def fly(trajectory: Trajectory, tol: float = TOLERANCE, x0: ArrayLike | None = None) -> Flight:
     """Fly the trajectory's admissible control from its initial state, or from ``x0`` (module docstring). Raises
     RuntimeError when the integration fails (a state that leaves the dynamics' domain, or the step count
     exceeded)."""
@@ -94,7 +101,7 @@ def fly(trajectory, tol: float = TOLERANCE, x0=None) -> Flight:
     return Flight(final_state=xf, running_cost=running, objective=mayer + running, tolerance=tol)
 
 
-def _control_series(trajectory, stops: np.ndarray) -> np.ndarray:
+def _control_series(trajectory: Trajectory, stops: np.ndarray) -> np.ndarray:
     """Chebyshev coefficients ``(K, n, nu)`` of the control on each interval between ``stops``: the trajectory's own
     polynomial (its raw interpolant, before the projection onto the bounds, which :func:`fly` applies), or where
     it has none, its control as given."""
@@ -114,7 +121,7 @@ def _control_series(trajectory, stops: np.ndarray) -> np.ndarray:
     return np.einsum("ij,kjl->kil", np.linalg.inv(chebyshev.chebvander(xi, n - 1)), U)
 
 
-def _integrator(functions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.Function:
+def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.Function:
     """The CVODES integrator of one interval (module docstring), built once per problem functions, series length
     ``n`` and tolerance. Its parameter vector: ``a, b - a``, the series (``n`` coefficients per control), the
     controls' lower and upper bounds and periods (0: not periodic), the state scales, the cost scale, ``P``."""
@@ -128,7 +135,7 @@ def _integrator(functions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.
     lower, upper, period = ca.SX.sym("lower", nu), ca.SX.sym("upper", nu), ca.SX.sym("period", nu)
     x_scale, J_scale, P = ca.SX.sym("x_scale", nx), ca.SX.sym("J_scale"), ca.SX.sym("P", nP)
     xi = 2.0 * s - 1.0
-    u = []
+    columns = []
     for j in range(nu):
         b1, b2 = ca.SX(0), ca.SX(0)
         for k in range(n - 1, 0, -1):  # Clenshaw
@@ -136,8 +143,8 @@ def _integrator(functions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.
         v = xi * b1 - b2 + series[0, j]
         span = ca.if_else(period[j] > 0, period[j], 1.0)
         v = ca.if_else(period[j] > 0, v - span * ca.floor((v - lower[j]) / span), v)
-        u.append(ca.fmin(ca.fmax(v, lower[j]), upper[j]))
-    u = ca.vertcat(*u) if u else ca.SX(0, 1)
+        columns.append(ca.fmin(ca.fmax(v, lower[j]), upper[j]))
+    u = ca.vertcat(*columns) if columns else ca.SX(0, 1)
     t, x = a + h * s, z * x_scale
     rate = functions.f(x, u, t, P) / x_scale
     cost = functions.L(x, u, t, P) / J_scale if functions.L is not None else ca.SX(0)
@@ -147,7 +154,12 @@ def _integrator(functions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.
         "t": s,
         "ode": h * ca.vertcat(rate, cost),
     }
-    options = {"abstol": tol, "reltol": tol, "max_num_steps": 200000, "linear_multistep_method": "adams"}
+    options: dict[str, float | str] = {
+        "abstol": tol,
+        "reltol": tol,
+        "max_num_steps": 200000,
+        "linear_multistep_method": "adams",
+    }
     cache[key] = ca.integrator("ocpkit_flight", "cvodes", dae, 0.0, 1.0, options)
     return cache[key]
 

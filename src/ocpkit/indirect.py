@@ -29,7 +29,9 @@ parameter through the birth and death of arcs.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -37,6 +39,14 @@ import numpy as np
 from .errors import SolverError
 from .monotone import as_terminal
 from .structure import Structure, control_structure
+
+if TYPE_CHECKING:
+    from .problem import OptimalControlProblem
+    from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
+    from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
+    from .solution import Solution
+    from .trajectory import Trajectory
+    from .transcription import Transcription
 
 
 @dataclass(frozen=True)
@@ -90,22 +100,22 @@ class Extremal:
     (``timings``: ``structure_s``, ``shooting_s``, ``confirm_s``), the ``direct`` solution the certificate compares
     with and, where that is a re-solve from the extremal, the ``first_direct`` one."""
 
-    trajectory: object
-    shooting: object
+    trajectory: Trajectory
+    shooting: ArcResult | ShootingResult | MultipleShootingResult
     structure: Structure
     certificate: Certificate
-    timings: dict = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
     #: the direct solution the certificate compares with: the one the chain started from, or, where the extremal
     #: differs from it, the same transcription re-solved from the extremal (``first_direct`` is then the first)
-    direct: object = None
-    first_direct: object = None
+    direct: Solution | None = None
+    first_direct: Solution | None = None
     #: how the shooting was solved: ``"arc shooting (K arcs)"``, ``"single shooting"``, or, where single shooting
     #: from the direct costates failed, ``"multiple shooting (K segments), then single shooting"`` or ``"multiple
     #: shooting (K segments)"`` (``shooting`` is then a :class:`~ocpkit.shooting.MultipleShootingResult`; :func:`_shoot`)
     route: str = ""
     #: the terminal equalities :func:`ocpkit.monotone.as_terminal` added for budgets (their multipliers' signs are
     #: certified)
-    budgets: list = field(default_factory=list)
+    budgets: list[str] = field(default_factory=list)
 
 
 METHODS = ("auto", "arcs", "switching")
@@ -115,15 +125,15 @@ COMPARISONS = ("objective_gap", "state_gap")
 
 
 def to_extremal(
-    solution,
+    solution: Solution,
     *,
-    problem=None,
+    problem: OptimalControlProblem | None = None,
     control_set: str = "box",
     tol: float = 1e-10,
     method: str = "auto",
     switching: str = "correction",
-    jacobian: str = "variational",
-    solver="hybr",
+    jacobian: str | Callable[..., tuple[np.ndarray, np.ndarray]] = "variational",
+    solver: str | Callable[..., tuple[np.ndarray, str]] = "hybr",
     strict: bool = True,
 ) -> Extremal:
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
@@ -171,8 +181,9 @@ def to_extremal(
     structure = control_structure(solution)
     detect_s = time.perf_counter() - start
     restated = problem is not None
-    statement = _restatement(solution, problem) if restated else _statement(solution)
-    base, budgets = statement, []
+    statement = _restatement(solution, problem) if problem is not None else _statement(solution)
+    base = statement
+    budgets: list[str] = []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
         statement, structure, budgets = as_terminal(statement, structure, solution)
     problem = statement
@@ -180,6 +191,8 @@ def to_extremal(
     if method == "auto":
         method = "switching" if control_set == "ball" else "arcs" if _needs_arcs(statement, structure) else "switching"
     start = time.perf_counter()
+    shooting: ArcShooting | Shooting
+    result: ArcResult | ShootingResult | MultipleShootingResult
     if method == "arcs":
         if statement.free_parameters:
             raise ValueError(
@@ -214,7 +227,7 @@ def to_extremal(
         shooting = Shooting(statement, law, switching=switching, jacobian=jacobian, rtol=accuracy, atol=accuracy)
         result, route = _shoot(shooting, solution, solver=solver, tol=tol)
     shoot_s = time.perf_counter() - start
-    trajectory = result.trajectory
+    trajectory = cast("Trajectory", result.trajectory)  # (a converged run has one)
     terminal = _terminal_multipliers(result, budgets)
     certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol, terminal=terminal)
     timings = {"structure_s": detect_s, "shooting_s": shoot_s}
@@ -261,12 +274,14 @@ class ExtremalPath:
     arc that died (``"arc ... shrank to zero"``) or ``"re-detected from a direct solve"``."""
 
     parameter: str
-    values: list
-    extremals: list
-    changes: list
+    values: list[float]
+    extremals: list[Extremal]
+    changes: list[tuple[float, str, str, str]]
 
 
-def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 1e-10, shortest: float = 1e-5):
+def follow_extremal(
+    extremal: Extremal, parameter: str, values: Sequence[float], *, tol: float = 1e-10, shortest: float = 1e-5
+) -> ExtremalPath:
     """Continue an extremal of the arc method (:func:`to_extremal`) in a problem parameter over ``values``, through
     changes of its structure (issue 24, item 6).
 
@@ -281,7 +296,8 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
 
     if not isinstance(getattr(extremal.shooting, "arcs", None), list):
         raise ValueError("follow_extremal continues an extremal of the arc method (to_extremal(..., method='arcs'))")
-    statement = extremal.shooting.trajectory.shooting.problem
+    first = cast("ArcTrajectory", extremal.shooting.trajectory)  # (the arc method's)
+    statement = first.shooting.problem
     if parameter not in statement.parameters:
         raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")
     transcription = _transcription(extremal.direct)
@@ -290,24 +306,25 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
     base = statement.replace(
         boundary_constraints=[c for c in statement.boundary_constraints if c.name not in extremal.budgets]
     )
-    state = {
-        "shooting": extremal.shooting.trajectory.shooting,
+    state: dict[str, Any] = {
+        "shooting": first.shooting,
         "last": extremal,
         "direct": extremal.direct,
         "budgets": list(extremal.budgets),
     }
-    changes, solved = [], {}
+    changes: list[tuple[float, str, str, str]] = []
+    solved: dict[float, Extremal] = {}
 
-    def words(arcs) -> str:
+    def words(arcs: Sequence[ArcType]) -> str:
         return " | ".join(ArcShooting._name(a) for a in arcs)
 
-    def shoot(shooting, z, value):
+    def shoot(shooting: ArcShooting, z: np.ndarray, value: float) -> tuple[ArcResult, Trajectory, np.ndarray]:
         result = shooting.solve(z, {parameter: value}, tol=tol)
-        tr = result.trajectory
+        tr = cast("Trajectory", result.trajectory)  # (a converged run has one)
         spans = np.diff(tr.breakpoints)
         return result, tr, spans
 
-    def redetect(value, why):
+    def redetect(value: float, why: str) -> tuple[ArcShooting, ArcResult]:
         if transcription is None:
             raise SolverError("continuation", f"structure change at {value:.6g}", 0, f"{why}; no transcription")
         direct = transcription.solve(state["direct"], parameters={parameter: value}, error_threshold=None)
@@ -319,7 +336,7 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
         state["direct"], state["budgets"] = direct, budgets
         return shooting, result
 
-    def solve_at(value, z):
+    def solve_at(value: float, z: np.ndarray) -> ArcResult:
         shooting = state["shooting"]
         previous = state["last"].trajectory
         if z.size != shooting.nz:
@@ -330,7 +347,7 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
             if spans[dead] < shortest * (tr.tf - tr.t0) and len(spans) > 1:
                 arcs = [(k, a, b) for k, (a, b) in zip(shooting.kinds, zip(tr.breakpoints[:-1], tr.breakpoints[1:]))]
                 del arcs[dead]
-                merged = []
+                merged: list[tuple[ArcType, float, float]] = []
                 for kind, a, b in arcs:
                     if merged and merged[-1][0] == kind:
                         merged[-1] = (kind, merged[-1][1], b)
@@ -348,7 +365,7 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
                 raise SolverError("certificate", f"failed checks {certificate.failed}", 0, "", result=result)
         except (SolverError, ValueError) as exc:
             shooting, result = redetect(value, exc.status if isinstance(exc, SolverError) else str(exc))
-            tr = result.trajectory
+            tr = cast("Trajectory", result.trajectory)  # (a converged run has one)
             certificate = certify(
                 tr, result, None, None, tol=tol, terminal=_terminal_multipliers(result, state["budgets"])
             )
@@ -372,14 +389,14 @@ def follow_extremal(extremal: Extremal, parameter: str, values, *, tol: float = 
     return ExtremalPath(parameter, list(solved), list(solved.values()), changes)
 
 
-def _terminal_multipliers(result, budgets) -> dict:
+def _terminal_multipliers(result: Any, budgets: Sequence[str]) -> dict[str, float]:
     """The multipliers of the budgets' terminal equalities, by name: the last of the arc shooting's."""
     if not budgets:
         return {}
     return dict(zip(budgets, np.ravel(getattr(result, "multipliers", []))[-len(budgets) :]))
 
 
-def _needs_arcs(problem, structure: Structure) -> bool:
+def _needs_arcs(problem: OptimalControlProblem, structure: Structure) -> bool:
     """Whether only the arc method fits: a singular or boundary arc, constraints, or explicit time."""
     if any(a.kind in ("singular", "boundary") for a in structure.arcs):
         return True
@@ -389,12 +406,12 @@ def _needs_arcs(problem, structure: Structure) -> bool:
     return bool(ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t))
 
 
-def _transcription(solution):
+def _transcription(solution: Any) -> Transcription | None:
     """The transcription a direct solution came from (None for another trajectory)."""
     return (getattr(solution, "raw", {}) or {}).get("transcription")
 
 
-def _statement(solution):
+def _statement(solution: Solution) -> OptimalControlProblem:
     """The problem as stated by the user (with its free parameters free again), with the parameter values the
     solution was solved with (``solve(parameters=...)``), from a direct solution."""
     transcription = _transcription(solution)
@@ -406,7 +423,7 @@ def _statement(solution):
     return statement.replace(parameters=values) if values != dict(statement.parameters) else statement
 
 
-def _ball_radius(problem) -> float:
+def _ball_radius(problem: OptimalControlProblem) -> float:
     """The radius r of a ball control set: every control bounded by ``[-r, r]``, the same r."""
     radii = {float(c.upper) for c in problem.controls}
     for c in problem.controls:
@@ -422,7 +439,14 @@ def _ball_radius(problem) -> float:
     return radii.pop()
 
 
-def _resolved_from(solution, statement, trajectory, result, restated: bool, samples: int = 2001):
+def _resolved_from(
+    solution: Solution,
+    statement: OptimalControlProblem,
+    trajectory: Trajectory,
+    result: Any,
+    restated: bool,
+    samples: int = 2001,
+) -> Solution | None:
     """The direct solution's transcription re-solved from the extremal: its states and t_f, its controls (for a
     restated problem, the direct problem's controls fitted to them: :func:`_fitted_controls`) and its free
     parameters, at the parameter values of ``statement``, with the first solve's IPOPT options. None where the
@@ -447,7 +471,7 @@ def _resolved_from(solution, statement, trajectory, result, restated: bool, samp
         X = trajectory.state(t)[:, : problem.nx]  # the shooting's may have more (free parameters as states)
         V = _fitted_controls(solution, trajectory, t, X) if restated else trajectory.control(t)
 
-        def along(values):
+        def along(values: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
             return lambda time: np.interp(time, t, values)
 
         guess = Guess(
@@ -461,7 +485,7 @@ def _resolved_from(solution, statement, trajectory, result, restated: bool, samp
         return None
 
 
-def _fitted_controls(solution, trajectory, t, X) -> np.ndarray:
+def _fitted_controls(solution: Solution, trajectory: Trajectory, t: np.ndarray, X: np.ndarray) -> np.ndarray:
     """The direct problem's controls (rows: the times ``t``) that give the extremal's dynamics and running cost at
     its states ``X``: ``min sum |(f_d(x, v) - f(x, u)) / scale|^2 + (L_d(x, v) - L(x, u))^2`` within the controls'
     bounds, one small least-squares problem per time (block-separable), from the first direct solution's controls
@@ -491,7 +515,7 @@ def _fitted_controls(solution, trajectory, t, X) -> np.ndarray:
     return np.asarray(out["x"]).reshape(direct.nu, n, order="F").T
 
 
-def _restatement(solution, problem):
+def _restatement(solution: Solution, problem: OptimalControlProblem) -> OptimalControlProblem:
     """``problem`` checked against the direct solution's, each difference named: the same states (names, order,
     initial and final values), a fixed t0 and the same one, the same free or fixed final time (fixed: the same
     value), the same values of the parameters both name, and no free parameters; so that the direct costates are
@@ -518,7 +542,8 @@ def _restatement(solution, problem):
         )
     if problem.free_initial_time or direct.free_initial_time or not np.isclose(problem.t0, direct.t0, 1e-12, 0.0):
         raise ValueError(f"a restatement keeps a fixed t0: {problem.name!r} and {direct.name!r} differ")
-    if not problem.free_final_time and not np.isclose(float(problem.tf), float(direct.tf), 1e-12, 0.0):
+    tf, direct_tf = cast(float, problem.tf), cast(float, direct.tf)  # (compared where fixed)
+    if not problem.free_final_time and not np.isclose(float(tf), float(direct_tf), 1e-12, 0.0):
         raise ValueError(f"the final time is {problem.tf} in {problem.name!r} and {direct.tf} in {direct.name!r}")
     if problem.free_parameters or direct.free_parameters:
         raise ValueError(
@@ -534,7 +559,7 @@ def _restatement(solution, problem):
     return problem
 
 
-def _quadratic(problem) -> bool:
+def _quadratic(problem: OptimalControlProblem) -> bool:
     """Whether some control has a quadratic term in H (then the saturated linear law)."""
     from .shooting.hamiltonian import _extract
 
@@ -551,7 +576,9 @@ def _quadratic(problem) -> bool:
 SEGMENTS = (10, 20, 40, 80)
 
 
-def _shoot(shooting, solution, *, solver, tol: float):
+def _shoot(
+    shooting: Shooting, solution: Solution, *, solver: str | Callable[..., tuple[np.ndarray, str]], tol: float
+) -> tuple[ShootingResult | MultipleShootingResult, str]:
     """``(result, route)``: the switching method's shooting solved from the direct solution.
 
     Single shooting from the direct costates at t0 first. Where it fails (the flow from the estimated costates
@@ -597,7 +624,7 @@ def _shoot(shooting, solution, *, solver, tol: float):
     ) from failure
 
 
-def _nodes(multiple, solution, z0) -> np.ndarray:
+def _nodes(multiple: MultipleShooting, solution: Solution, z0: np.ndarray) -> np.ndarray:
     """Multiple shooting's unknowns from the direct solution: the single shooting's ``z0``, then at each interior
     node ``y = (x, p, J)``, the direct solution's states and costates there (a free parameter, a state of the
     shooting's problem: its solved value, and costate 0 as a start: it enters no flow, so its continuity is linear
@@ -614,7 +641,7 @@ def _nodes(multiple, solution, z0) -> np.ndarray:
     return np.concatenate([z0, np.hstack([X, L, np.zeros((t.size, 1))]).ravel()])
 
 
-def _unknowns(shooting, solution) -> np.ndarray:
+def _unknowns(shooting: Shooting, solution: Solution) -> np.ndarray:
     """The shooting's unknowns from the direct solution: per state of the shooting's problem its initial costate,
     or its initial value where free (a free parameter's, its solved value); then tf where free."""
     t0 = solution.t0
@@ -633,14 +660,14 @@ def _unknowns(shooting, solution) -> np.ndarray:
 
 
 def certify(
-    trajectory,
-    result,
-    direct=None,
+    trajectory: Trajectory,
+    result: ArcResult | ShootingResult | MultipleShootingResult,
+    direct: Solution | None = None,
     structure: Structure | None = None,
     tol: float = 1e-10,
     samples: int = 401,
-    first=None,
-    terminal: dict | None = None,
+    first: Solution | None = None,
+    terminal: Mapping[str, float] | None = None,
 ) -> Certificate:
     """The checks of an extremal (every one named; :class:`Certificate`):
 
@@ -702,7 +729,8 @@ def certify(
     changed = 1.0 + ca.fabs(at_v[1] - ham.L) + ca.sum1(ca.fabs(at_v[2] - ham.p * ham.f))
     against = ca.Function("against", [ham.x, ham.p, ham.u, v, ham.t, ham.P], [at_v[0], changed]).map(samples)
 
-    def lower_by(V):  # how much lower H is at the candidate controls V (columns), relative to what they change
+    # how much lower H is at the candidate controls V (columns), relative to what they change
+    def lower_by(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         H_v, denominator = (np.asarray(a).ravel() for a in against(X.T, L.T, U.T, V, t[None, :], Ps))
         return H_v, (H_star - H_v) / denominator
 
@@ -714,8 +742,8 @@ def certify(
         over = np.maximum(U[:, i] - c.upper, c.lower - U[:, i])
         violation = max(violation, float(np.max(over)) / span)
     for _, mapped in every:
-        c = np.asarray(mapped(X.T, U.T, t[None, :], Ps)).ravel()
-        violation = max(violation, float(np.max(c)) / max(1.0, float(np.ptp(c))))
+        values = np.asarray(mapped(X.T, U.T, t[None, :], Ps)).ravel()
+        violation = max(violation, float(np.max(values)) / max(1.0, float(np.ptp(values))))
     worst = 0.0
     law = getattr(getattr(trajectory, "system", None), "law", None)
     radius = getattr(law, "radius", None) if getattr(law, "control_set", None) == "ball" else None
@@ -728,7 +756,8 @@ def certify(
             worst = max(worst, float(np.max(lower_by(V)[1])))
     # the admissible set sampled control by control (41 values each, the others at the extremal's), and its corners
     # for up to 6 controls: H evaluations linear in the controls, not a grid exponential in them
-    lows, highs = [], []
+    lows: list[float] = []
+    highs: list[float] = []
     for i, c in enumerate(problem.controls):
         lo, hi = c.lower, c.upper
         if not (np.isfinite(lo) and np.isfinite(hi)):
@@ -736,8 +765,8 @@ def certify(
             lo, hi = float(U[:, i].min()) - span, float(U[:, i].max()) + span
         lows.append(lo)
         highs.append(hi)
-    trials = [(i, value) for i in range(problem.nu) for value in np.linspace(lows[i], highs[i], 41)]
-    corners = []
+    trials: list[Any] = [(i, value) for i in range(problem.nu) for value in np.linspace(lows[i], highs[i], 41)]
+    corners: list[Any] = []
     if radius is not None:  # the box around the ball is not admissible
         trials = []
     elif 1 < problem.nu <= 6:
@@ -749,18 +778,18 @@ def certify(
         else:
             V[:, :] = np.asarray(trial)[:, None]
         _, lower = lower_by(V)
-        for c in mixed:
-            lower[np.asarray(c(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = -np.inf  # not admissible
+        for g in mixed:
+            lower[np.asarray(g(X.T, V, t[None, :], Ps)).ravel() > 1e-9] = -np.inf  # not admissible
         worst = max(worst, float(np.max(lower)))
     ineq = [q.function(ham.x, ham.u, ham.t, ham.P) for q in inequalities(problem)]
     autonomous = not ca.depends_on(ca.vertcat(ham.f, ham.L, *ineq), ham.t)
     drift = float(np.max(np.abs(H_star - H_star[0])) / np.max(scale))
     kelley, sign = _arc_conditions(trajectory, t, X, L, P)
-    compared = []
+    compared: list[Check] = []
     if structure is not None:
         found = control_structure(trajectory)
 
-        def arcs(s, name):
+        def arcs(s: Structure, name: str) -> list[tuple[str, str | None]]:
             return [(a.kind, a.constraint) for a in s.arcs if a.control == name]
 
         same = all(arcs(found, n) == arcs(structure, n) for n in dict.fromkeys(a.control for a in structure.arcs))
@@ -810,7 +839,7 @@ def _ball_points(n: int, radius: float, directions: int = 200) -> np.ndarray:
     return np.vstack([np.zeros((1, n)), *(r * radius * unit for r in (0.25, 0.5, 0.75, 1.0))])
 
 
-def _rotations(U, radius: float, angle: float = 1e-3) -> list:
+def _rotations(U: np.ndarray, radius: float, angle: float = 1e-3) -> list[np.ndarray]:
     """The controls ``U`` (rows: samples) on the sphere ``|u| = radius`` turned by +-``angle`` towards each axis
     (projected on the sphere's tangent plane), as columns for the H map; zero controls stay. A thrust direction off
     the minimiser by ``theta`` lowers H to first order under one of these turns, which the ball's fixed sample
@@ -832,7 +861,9 @@ def _rotations(U, radius: float, angle: float = 1e-3) -> list:
     return out
 
 
-def _arc_conditions(trajectory, t, X, L, P) -> tuple[float, float]:
+def _arc_conditions(
+    trajectory: Trajectory, t: np.ndarray, X: np.ndarray, L: np.ndarray, P: np.ndarray
+) -> tuple[float, float]:
     """The Legendre-Clebsch violation on singular arcs and the multiplier's sign violation on boundary arcs of an
     arc-shooting extremal (0 for another trajectory, which has no such arcs)."""
     from .shooting.arcs import ArcTrajectory

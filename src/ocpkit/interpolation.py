@@ -7,7 +7,12 @@ without importing SciPy (``import ocpkit`` stays light: issue "many solves, fast
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 class PiecewisePolynomial:
@@ -17,13 +22,13 @@ class PiecewisePolynomial:
     not extrapolated: callers clip them (:class:`PiecewiseEvaluator`).
     """
 
-    def __init__(self, c: np.ndarray, x: np.ndarray):
+    def __init__(self, c: ArrayLike, x: ArrayLike) -> None:
         self.c = np.asarray(c, dtype=float)
         self.x = np.asarray(x, dtype=float)
         if self.c.ndim != 3 or self.c.shape[1] != self.x.size - 1:
             raise ValueError(f"coefficients of shape {self.c.shape} do not fit {self.x.size - 1} intervals")
 
-    def __call__(self, t) -> np.ndarray:
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         flat = t.ravel()
         i = np.clip(np.searchsorted(self.x, flat, side="right") - 1, 0, self.x.size - 2)
@@ -50,7 +55,7 @@ class PiecewisePolynomial:
         return PiecewisePolynomial(c2, self.x)
 
 
-def piecewise_polynomial(breaks: np.ndarray, monomial: np.ndarray) -> PiecewisePolynomial:
+def piecewise_polynomial(breaks: ArrayLike, monomial: np.ndarray) -> PiecewisePolynomial:
     """A vector-valued :class:`PiecewisePolynomial` from normalised monomial coefficients.
 
     Parameters
@@ -71,10 +76,10 @@ def piecewise_polynomial(breaks: np.ndarray, monomial: np.ndarray) -> PiecewiseP
 class PiecewiseEvaluator:
     """Callable ``t -> values`` with shape ``t.shape + (dim,)``, times clipped to the breakpoints."""
 
-    def __init__(self, poly: PiecewisePolynomial):
+    def __init__(self, poly: PiecewisePolynomial) -> None:
         self.poly = poly
 
-    def __call__(self, t) -> np.ndarray:
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         lo, hi = self.poly.x[0], self.poly.x[-1]
         return self.poly(np.clip(t, lo, hi))

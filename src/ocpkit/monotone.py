@@ -22,12 +22,16 @@ says that the budget binds, is checked (``terminal_multiplier_sign``).
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
 
-from .problem import Constraint
-from .structure import Structure, inequalities
+from .problem import Constraint, Control, OptimalControlProblem
+from .structure import Arc, Inequality, Structure, inequalities
+
+if TYPE_CHECKING:
+    from .trajectory import Trajectory
 
 #: how far from 0 a direct solution's ``c(x)``, relative to the constraint's range along it, may lie for the
 #: constraint to count as active; and the last share of the horizon over which it must be (a budget spent at the
@@ -35,7 +39,7 @@ from .structure import Structure, inequalities
 ACTIVE, FINAL = 1e-6, 0.01
 
 
-def monotone_constraints(problem) -> dict:
+def monotone_constraints(problem: OptimalControlProblem) -> dict[str, tuple[int, float]]:
     """``{name: (control index, value)}`` for each pure state constraint of ``problem`` that never decreases (module
     docstring) and whose ``Dc`` depends on one control: the control's value that holds ``Dc = 0``."""
     ham = problem.functions.hamiltonian
@@ -63,7 +67,9 @@ def monotone_constraints(problem) -> dict:
     return out
 
 
-def as_terminal(problem, structure: Structure, solution):
+def as_terminal(
+    problem: OptimalControlProblem, structure: Structure, solution: Trajectory
+) -> tuple[OptimalControlProblem, Structure, list[str]]:
     """``(problem, structure, converted)``: each non-decreasing state constraint (module docstring) that the direct
     ``solution`` ends on, active over the last :data:`FINAL` of the horizon at least, rewritten as the terminal
     equality ``<name>_at_tf``, and its boundary arcs in ``structure`` as bang arcs of the control that holds
@@ -93,7 +99,7 @@ def as_terminal(problem, structure: Structure, solution):
         added.append(_terminal(problem, ineq[name], f"{name.replace('.', '_')}_at_tf"))
     if not added:
         return problem, structure, []
-    merged = []
+    merged: list[Arc] = []
     for a in relabelled:
         last = merged[-1] if merged else None
         if last is not None and (last.control, last.kind, last.constraint) == (a.control, a.kind, a.constraint):
@@ -104,7 +110,7 @@ def as_terminal(problem, structure: Structure, solution):
     return restated, Structure(tuple(merged)), [c.name for c in added]
 
 
-def _bang(control, value: float) -> str | None:
+def _bang(control: Control, value: float) -> str | None:
     """The bang kind of a control held at ``value``, or None where ``value`` is inside its bounds."""
     span = max(1.0, float(control.upper - control.lower))
     for kind, bound in (("lower", control.lower), ("upper", control.upper)):
@@ -113,11 +119,11 @@ def _bang(control, value: float) -> str | None:
     return None
 
 
-def _terminal(problem, q, name: str) -> Constraint:
+def _terminal(problem: OptimalControlProblem, q: Inequality, name: str) -> Constraint:
     """``c(x(tf)) = 0`` for the pure state constraint ``q`` (its value at the final state and time)."""
     nu = problem.nu
 
-    def at_tf(x0, xf, t0, tf, p=None):
+    def at_tf(x0: ca.SX, xf: ca.SX, t0: ca.SX, tf: ca.SX, p: Any = None) -> ca.SX:
         P = p.column if p is not None and hasattr(p, "column") else ca.SX(0, 1)
         return q.function(xf, ca.SX.zeros(nu), tf, P)
 

@@ -21,8 +21,9 @@ when the problem has parameters.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -38,7 +39,10 @@ class UnknownName(KeyError):
 class Named(ca.SX):
     """A CasADi column vector whose entries also answer to names: ``x["h"]`` (see the module docstring)."""
 
-    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "variable"):
+    _names: tuple[str, ...]
+    _kind: str
+
+    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "variable") -> None:
         super().__init__(column)
         if len(names) != column.numel():
             raise ValueError(f"{len(names)} names for {column.numel()} {kind} entries")
@@ -49,28 +53,28 @@ class Named(ca.SX):
     def names(self) -> tuple[str, ...]:
         return self._names
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: Any) -> ca.SX:  # type: ignore[override]  # an entry is an SX (the stub says Self)
         if isinstance(key, str):
             if key not in self._names:
                 raise UnknownName(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self._names)}")
             return ca.SX.__getitem__(self, self._names.index(key))
         return ca.SX.__getitem__(self, key)
 
-    def __contains__(self, key) -> bool:
+    def __contains__(self, key: object) -> bool:
         return key in self._names
 
     def keys(self) -> tuple[str, ...]:
         return self._names
 
 
-class NamedParameters(dict):
+class NamedParameters(dict[str, Any]):
     """The parameters ``p`` of a problem's callables: a dict of CasADi symbols by name, as they always were
     (``p["k"]``, ``p.get("k")``, ``p.items()``), that also answers to positions (``p[0]``) and names an unknown name.
 
     (Not a :class:`Named` column: CasADi reads an SX subclass that iterates over its names as a list of them.)
     """
 
-    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "parameter"):
+    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "parameter") -> None:
         if len(names) != column.numel():
             raise ValueError(f"{len(names)} names for {column.numel()} {kind} entries")
         super().__init__((name, column[i]) for i, name in enumerate(names))
@@ -86,16 +90,16 @@ class NamedParameters(dict):
         """All of them as one CasADi column, in order."""
         return self._column
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: Any) -> Any:
         if isinstance(key, (int, np.integer, slice)) and not isinstance(key, bool):
-            return self._column[key]
+            return self._column[key]  # type: ignore[index]  # NumPy integers index too (the stub lists int)
         if key not in self:
             raise UnknownName(f"unknown {self._kind} {key!r}; the {self._kind}s are {list(self)}")
         return dict.__getitem__(self, key)
 
 
 @contextmanager
-def naming(what: str):
+def naming(what: str) -> Iterator[None]:
     """Say ``what`` asked for an unknown name (an :class:`UnknownName` from a view), chaining the original; any other
     error of the user's code goes through untouched."""
     try:
@@ -104,7 +108,7 @@ def naming(what: str):
         raise UnknownName(f"{what}: {exc}") from exc
 
 
-def takes_parameters(fn: Callable, inputs: int, what: str = "the callable") -> bool | None:
+def takes_parameters(fn: Callable[..., Any], inputs: int, what: str = "the callable") -> bool | None:
     """Whether ``fn`` takes the parameters after its ``inputs`` arguments: True when it needs them, False when it
     takes no more than its inputs, None when it may take them (a default value, ``*args``) or its signature cannot be
     read.
@@ -131,7 +135,7 @@ def takes_parameters(fn: Callable, inputs: int, what: str = "the callable") -> b
     return False
 
 
-def call(fn: Callable, inputs: Sequence, p, *, has_parameters: bool, what: str):
+def call(fn: Callable[..., Any], inputs: Sequence[Any], p: Any, *, has_parameters: bool, what: str) -> Any:
     """``fn(*inputs)``, or ``fn(*inputs, p)`` when it takes the parameters (:func:`takes_parameters`).
 
     One that may take them (``P=None``, ``*args``, an unreadable signature) gets them when the problem has parameters.

@@ -22,6 +22,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -34,6 +35,9 @@ from ._compiled_blocks import (  # noqa: F401 (THREAD_THRESHOLD: its home before
     interpreted_map,
 )
 from ._deprecation import renamed
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 DEFAULT_IPOPT_OPTIONS = {
     "print_level": 0,
@@ -143,7 +147,8 @@ class Block:
 
 
 def _nonzeros(expr: ca.SX) -> ca.SX:
-    return ca.vertcat(*expr.nonzeros()) if expr.nnz() else ca.SX(0, 1)
+    # (vertcat takes the SX entries nonzeros() returns; its stub lists matrices only)
+    return ca.vertcat(*expr.nonzeros()) if expr.nnz() else ca.SX(0, 1)  # type: ignore[call-overload]
 
 
 _map = interpreted_map  # (its name before)
@@ -202,7 +207,7 @@ def _column_major(shape: tuple[int, int], keys: np.ndarray) -> ca.Sparsity:
 class SeparableNLP:
     """An NLP ``min f(w) s.t. lbg <= g(w) <= ubg, lbw <= w <= ubw`` built from blocks."""
 
-    def __init__(self, n_variables: int, n_constraints: int, blocks: list[Block], compile: str | bool = "auto"):
+    def __init__(self, n_variables: int, n_constraints: int, blocks: list[Block], compile: str | bool = "auto") -> None:
         self.n_variables = int(n_variables)
         self.compile = compile
         self.n_constraints = int(n_constraints)
@@ -222,13 +227,22 @@ class SeparableNLP:
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", M)
 
-        f_terms, g_vals, g_rows, g_jac_vals = [], [], [], []
+        f_terms: list[ca.MX] = []
+        g_vals: list[ca.MX] = []
+        g_rows: list[np.ndarray] = []
+        g_jac_vals: list[ca.MX] = []
         hessian_instructions = 0
-        j_vals, j_rows, j_cols = [], [], []
-        h_vals, h_rows, h_cols, h_wts = [], [], [], []
+        j_vals: list[ca.MX | ca.DM] = []
+        j_rows: list[np.ndarray] = []
+        j_cols: list[np.ndarray] = []
+        h_vals: list[ca.MX] = []
+        h_rows: list[np.ndarray] = []
+        h_cols: list[np.ndarray] = []
+        h_wts: list[np.ndarray] = []
 
-        # the blocks' derivative functions, symbolically on one instance each
-        derivatives = []
+        # the blocks' derivative functions, symbolically on one instance each: (jac, hess, jac alone, rows and
+        # columns of the Jacobian's nonzeros, of the Hessian's)
+        derivatives: list[tuple[Any, ...]] = []
         for k, b in enumerate(self.blocks):
             nz, count = b.variables.shape
             z = ca.SX.sym("z", nz)
@@ -331,7 +345,7 @@ class SeparableNLP:
         self.hessian_instructions = int(hessian_instructions)
 
     # ------------------------------------------------------------------------------
-    def multiplier_estimate(self, w, lbw, ubw) -> tuple[np.ndarray, np.ndarray] | None:
+    def multiplier_estimate(self, w: ArrayLike, lbw: ArrayLike, ubw: ArrayLike) -> tuple[np.ndarray, np.ndarray] | None:
         """First-order multiplier estimates ``(lam_g, lam_w)`` at a point ``w`` (scaled, within its bounds), or
         None where they cost more than a solve would save.
 
@@ -390,7 +404,7 @@ class SeparableNLP:
         approximation = ip.get("hessian_approximation", "exact")
         if approximation not in ("exact", "limited-memory"):
             raise ValueError(f"hessian_approximation must be 'exact' or 'limited-memory', got {approximation!r}")
-        opts = {"ipopt": ip, "print_time": False, "jac_g": self.jac_g}
+        opts: dict[str, Any] = {"ipopt": ip, "print_time": False, "jac_g": self.jac_g}
         if approximation == "exact":
             opts["hess_lag"] = self.hess_lag
         return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
@@ -400,7 +414,7 @@ class SeparableNLP:
 NORMAL_MATRIX_BUDGET = 4_000_000
 
 
-def dense_columns(A, factor: float = 10.0, minimum: int = 64) -> np.ndarray:
+def dense_columns(A: Any, factor: float = 10.0, minimum: int = 64) -> np.ndarray:
     """Columns of a sparse ``A`` (m x n, CSC) with more than ``max(minimum, factor sqrt(m))`` nonzeros: the
     variables that couple a whole mesh (a free initial or final time, a free parameter). ``A A'`` would be
     dense through any of them (issue: a free t_f made the hang glider's 10,744 x 10,744 normal matrix full)."""
@@ -408,7 +422,13 @@ def dense_columns(A, factor: float = 10.0, minimum: int = 64) -> np.ndarray:
     return counts > max(minimum, factor * np.sqrt(A.shape[0]))
 
 
-def least_squares_multipliers(A, g, regularisation: float = 1e-12, budget: int | None = None, stats=None):
+def least_squares_multipliers(
+    A: Any,
+    g: ArrayLike,
+    regularisation: float = 1e-12,
+    budget: int | None = None,
+    stats: dict[str, Any] | None = None,
+) -> np.ndarray | None:
     """``lam`` minimising ``|A' lam + g|`` (``A``: m x n sparse, m <= n), or None if its normal matrix would
     hold more than ``budget`` nonzeros (default :data:`NORMAL_MATRIX_BUDGET`).
 
@@ -470,7 +490,7 @@ class NLPResult:
     iterations: int
     solve_s: float
     success: bool
-    stats: dict = field(repr=False, default_factory=dict)
+    stats: dict[str, Any] = field(repr=False, default_factory=dict)
 
 
 ACCEPTABLE = "Solved_To_Acceptable_Level"
@@ -483,7 +503,16 @@ def succeeded(status: str, w: np.ndarray, allow_acceptable: bool = False) -> boo
 
 
 def solve_nlp(
-    solver: ca.Function, w0, lbw, ubw, lbg, ubg, *, allow_acceptable: bool = False, lam_w0=None, lam_g0=None
+    solver: ca.Function,
+    w0: np.ndarray,
+    lbw: np.ndarray,
+    ubw: np.ndarray,
+    lbg: np.ndarray,
+    ubg: np.ndarray,
+    *,
+    allow_acceptable: bool = False,
+    lam_w0: np.ndarray | None = None,
+    lam_g0: np.ndarray | None = None,
 ) -> NLPResult:
     """Run IPOPT and return its last iterate; ``success`` says whether IPOPT succeeded.
 
@@ -500,7 +529,7 @@ def solve_nlp(
     if not np.all(np.isfinite(w0)):
         raise ValueError("the initial guess contains NaN or infinite values")
     t = time.perf_counter()
-    start = {} if lam_w0 is None else {"lam_x0": lam_w0, "lam_g0": lam_g0}
+    start: dict[str, Any] = {} if lam_w0 is None else {"lam_x0": lam_w0, "lam_g0": lam_g0}
     res = solver(x0=w0, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg, **start)
     elapsed = time.perf_counter() - t
     stats = solver.stats()
@@ -521,7 +550,17 @@ def solve_nlp(
     )
 
 
-def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int = 2000, ftol: float = 1e-12):
+def solve_nlp_slsqp(
+    nlp: SeparableNLP,
+    w0: ArrayLike,
+    lbw: ArrayLike,
+    ubw: ArrayLike,
+    lbg: ArrayLike,
+    ubg: ArrayLike,
+    *,
+    maxiter: int = 2000,
+    ftol: float = 1e-12,
+) -> NLPResult:
     """Solve with SciPy's SLSQP (Kraft's sequential least squares: an SQP method with a dense BFGS
     approximation of the Lagrangian Hessian, exact gradients from CasADi): the class of solver of the
     1990s-2000s trajectory-optimisation literature (NPSOL, SNOPT's dense cousins). Dense: for NLPs of a few
@@ -530,7 +569,7 @@ def solve_nlp_slsqp(nlp: SeparableNLP, w0, lbw, ubw, lbg, ubg, *, maxiter: int =
 
     f, grad, g = nlp.objective_function, nlp._objective_gradient, nlp.constraint_function
 
-    def jac(x):  # the NLP's own assembled Jacobian, densified for SLSQP
+    def jac(x: np.ndarray) -> np.ndarray:  # the NLP's own assembled Jacobian, densified for SLSQP
         return np.asarray(ca.DM(nlp.jac_g(x, [])[1]).full())
 
     lbg, ubg = np.asarray(lbg, dtype=float), np.asarray(ubg, dtype=float)

@@ -9,8 +9,12 @@ indexing: a segment runs from node ``i`` through the centre ``i+1`` to
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 SQRT21 = np.sqrt(21.0)
 
@@ -55,7 +59,7 @@ def hermite_quintic_matrix() -> np.ndarray:
     return np.linalg.inv(np.array(rows))
 
 
-def hermite_quintic_basis(s) -> np.ndarray:
+def hermite_quintic_basis(s: ArrayLike) -> np.ndarray:
     """Weights ``b(s)`` (shape ``s.shape + (6,)``) with ``p(s) = b(s) . (x_i, x_i', x_c, x_c', x_e, x_e')``.
 
     ``p`` is the quintic Hermite interpolant of :func:`hermite_quintic_matrix`;
@@ -225,7 +229,9 @@ def lgr_estimate_points(n: int) -> tuple[np.ndarray, np.ndarray]:
     return tau, integration_matrix(tau, np.append(tau, 1.0))
 
 
-def cubic_hermite(y0, d0, y1, d1, h, s):
+def cubic_hermite(
+    y0: np.ndarray, d0: np.ndarray, y1: np.ndarray, d1: np.ndarray, h: np.ndarray | float, s: np.ndarray | float
+) -> np.ndarray:
     """The cubic Hermite interpolant between ``(y0, dy/dt = d0)`` and ``(y1, d1)`` a step ``h`` apart, at the
     fraction ``s`` of the step: ``(1 + 2s)(1 - s)^2 y0 + s(1 - s)^2 h d0 + s^2(3 - 2s) y1 + s^2(s - 1) h d1``
     (fourth-order accurate in ``h``). Arrays broadcast: rows of points, ``h`` and ``s`` as columns."""
@@ -234,7 +240,16 @@ def cubic_hermite(y0, d0, y1, d1, h, s):
     return h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
 
 
-def quintic_hermite(y0, d0, a0, y1, d1, a1, h, s):
+def quintic_hermite(
+    y0: np.ndarray,
+    d0: np.ndarray,
+    a0: np.ndarray,
+    y1: np.ndarray,
+    d1: np.ndarray,
+    a1: np.ndarray,
+    h: np.ndarray | float,
+    s: np.ndarray | float,
+) -> np.ndarray:
     """The quintic Hermite interpolant between ``(y0, dy/dt = d0, d2y/dt2 = a0)`` and ``(y1, d1, a1)`` a step ``h``
     apart (two points with second derivatives; :func:`hermite_quintic_matrix` is HLGL's, three points with slopes), at the fraction ``s`` of the step (sixth-order accurate in ``h``; exact on polynomials of degree five):
     ``H0 y0 + H1 h d0 + H2 h^2 a0 + H3 h^2 a1 + H4 h d1 + H5 y1`` with ``H0 = 1 - 10s^3 + 15s^4 - 6s^5``,

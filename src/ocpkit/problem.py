@@ -25,14 +25,18 @@ One argument order throughout: ``f(x, u, t)``, ``L(x, u, t)``,
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, cast, overload
 
 import casadi as ca
 import numpy as np
 
 from .names import Named, NamedParameters, call
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 Bound = None | float | tuple[float, float]
 """A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
@@ -68,7 +72,17 @@ def fixed_value(spec: Bound) -> float | None:
     return lo if lo == hi else None
 
 
-def guess_function(spec: GuessSpec, what: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+@overload
+def guess_function(spec: None, what: str) -> None: ...
+
+
+@overload
+def guess_function(
+    spec: float | tuple[float, float] | list[float] | Callable[..., Any], what: str
+) -> Callable[[Any, Any], np.ndarray]: ...
+
+
+def guess_function(spec: GuessSpec | list[float], what: str) -> Callable[[Any, Any], np.ndarray] | None:
     """The one parser of :data:`GuessSpec`: a function ``(s, t) -> values`` of normalised and physical time.
 
     A constant is constant, ``(start, end)`` (a tuple or a two-element list) linear in
@@ -79,7 +93,7 @@ def guess_function(spec: GuessSpec, what: str) -> Callable[[np.ndarray, np.ndarr
         return None
     if callable(spec):
 
-        def from_callable(s, t):
+        def from_callable(s: Any, t: Any) -> np.ndarray:
             val = np.asarray(spec(t), dtype=float)
             if val.shape != np.shape(t):
                 raise ValueError(f"{what} returned shape {val.shape}, expected {np.shape(t)}")
@@ -103,20 +117,29 @@ class AffineScaling:
     scale: np.ndarray
 
     @classmethod
-    def of(cls, variables) -> AffineScaling:
+    def of(cls, variables: Sequence[Variable]) -> AffineScaling:
         """The scaling of a sequence of :class:`Variable`."""
         return cls(
             np.array([v.shift for v in variables], dtype=float), np.array([v.scale for v in variables], dtype=float)
         )
 
-    def subset(self, index) -> AffineScaling:
+    def subset(self, index: Sequence[int] | np.ndarray) -> AffineScaling:
         return AffineScaling(self.shift[index], self.scale[index])
 
-    def to_nlp(self, values):
+    def to_nlp(self, values: ArrayLike) -> np.ndarray:
         """Physical values (last axis = components) to NLP values."""
         return (np.asarray(values, dtype=float) - self.shift) / self.scale
 
-    def from_nlp(self, z):
+    @overload
+    def from_nlp(self, z: ca.SX) -> ca.SX: ...
+
+    @overload
+    def from_nlp(self, z: ca.MX) -> ca.MX: ...
+
+    @overload
+    def from_nlp(self, z: ArrayLike) -> np.ndarray: ...
+
+    def from_nlp(self, z: ca.SX | ca.MX | ArrayLike) -> ca.SX | ca.MX | np.ndarray:
         """NLP values to physical values; ``z`` may be a numpy array or a CasADi column."""
         if isinstance(z, (ca.SX, ca.MX)):
             if z.numel() == 0:
@@ -154,15 +177,15 @@ class Variable:
             raise ValueError(f"shift of {self.name!r} must be finite, got {self.shift}")
         guess_function(self.guess, f"guess of {self.name!r}")  # validates
 
-    def _default_guess(self):
+    def _default_guess(self) -> Callable[[Any, Any], np.ndarray]:
         """Midpoint of the bounds (or the finite bound, or 0), as a guess function."""
         return guess_function(_midpoint(self.lower, self.upper), self.name)
 
-    def guess_function(self):
+    def guess_function(self) -> Callable[[Any, Any], np.ndarray]:
         """This variable's guess as a function ``(s, t) -> values``."""
         return guess_function(self.guess, f"guess of {self.name!r}") or self._default_guess()
 
-    def guess_at(self, s: np.ndarray) -> np.ndarray:
+    def guess_at(self, s: ArrayLike) -> np.ndarray:
         """The guess at normalised times ``s`` in [0, 1] (not for callable guesses, which need physical times)."""
         return self.guess_function()(np.asarray(s, dtype=float), None)
 
@@ -209,13 +232,15 @@ class State(Variable):
         """The final value when it is fixed, else None."""
         return fixed_value(self.final)
 
-    def _default_guess(self):
+    def _default_guess(self) -> Callable[[Any, Any], np.ndarray]:
         """Linear from the fixed initial to the fixed final value (either alone: constant), else the bounds."""
         a, b = self.fixed_initial, self.fixed_final
-        if a is None and b is None:
-            return super()._default_guess()
-        a = b if a is None else a
-        b = a if b is None else b
+        if a is None:
+            if b is None:
+                return super()._default_guess()
+            a = b
+        elif b is None:
+            b = a
         return guess_function((a, b), self.name)
 
 
@@ -239,7 +264,7 @@ class Control(Variable):
             raise ValueError(f"period of {self.name!r} must be positive and finite, got {self.period!r}")
 
 
-def unwrap_periodic(values, controls, axis: int = 0) -> np.ndarray:
+def unwrap_periodic(values: ArrayLike, controls: Sequence[Control], axis: int = 0) -> np.ndarray:
     """``values`` (controls on the last axis) with every periodic control (:attr:`Control.period`) unwrapped along
     ``axis``: consecutive values differ by at most half a period (``numpy.unwrap``)."""
     values = np.array(values, dtype=float, copy=True)
@@ -296,7 +321,7 @@ class Constraint:
         return lo, hi
 
 
-def checked_constraints(given, kind: str) -> tuple[Constraint, ...]:
+def checked_constraints(given: Iterable[Constraint], kind: str) -> tuple[Constraint, ...]:
     """``given`` as a tuple of :class:`Constraint` with distinct names; a TypeError or ValueError naming ``kind``."""
     given = tuple(given)
     for c in given:
@@ -388,7 +413,8 @@ class FreeParameter(Variable):
 
     @property
     def guess_value(self) -> float:
-        return float(self.guess) if self.guess is not None else float(_midpoint(self.lower, self.upper))
+        # a number: __post_init__ refuses a callable or (start, end) guess
+        return float(cast(float, self.guess)) if self.guess is not None else float(_midpoint(self.lower, self.upper))
 
 
 @dataclass(frozen=True)
@@ -413,7 +439,7 @@ class ProblemFunctions:
         return Hamiltonian.of(self)
 
     @cached_property
-    def derived(self) -> dict:
+    def derived(self) -> dict[Any, Any]:
         """Functions built from these once and kept for every copy of the problem that shares them (e.g. the
         integrator of :func:`ocpkit.flight.fly`), keyed by what else they depend on."""
         return {}
@@ -512,19 +538,19 @@ class OptimalControlProblem:
     path_constraints: tuple[Constraint, ...]
     boundary_constraints: tuple[Constraint, ...]
     functions: ProblemFunctions
-    _spec: dict
+    _spec: dict[str, Any]
 
     def __init__(
         self,
         name: str,
         states: Sequence[State],
         controls: Sequence[Control],
-        dynamics: Callable,
+        dynamics: Callable[..., Any],
         *,
         t0: float | FreeInitialTime = 0.0,
         tf: float | FreeFinalTime,
-        mayer: Callable | None = None,
-        lagrange: Callable | None = None,
+        mayer: Callable[..., Any] | None = None,
+        lagrange: Callable[..., Any] | None = None,
         objective_scale: float = 1.0,
         description: str = "",
         parameters: Mapping[str, float] | None = None,
@@ -557,9 +583,10 @@ class OptimalControlProblem:
         set_(self, "controls", tuple(controls))
         if not self.states:
             raise ValueError("a problem needs at least one state")
-        for v, kind in [(s, State) for s in self.states] + [(c, Control) for c in self.controls]:
-            if not isinstance(v, kind):
-                raise TypeError(f"expected {kind.__name__}, got {v!r}")
+        expected: list[tuple[Variable, type[Variable]]] = [(s, State) for s in self.states]
+        for variable, kind in expected + [(c, Control) for c in self.controls]:
+            if not isinstance(variable, kind):
+                raise TypeError(f"expected {kind.__name__}, got {variable!r}")
         names = [v.name for v in self.states + self.controls]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
@@ -594,24 +621,24 @@ class OptimalControlProblem:
             set_(self, "tf", float(tf))
 
         values = {} if parameters is None else {str(k): float(v) for k, v in parameters.items()}
-        for k, v in values.items():
+        for k, value in values.items():
             if not k.isidentifier():
                 raise ValueError(f"parameter name must be an identifier, got {k!r}")
-            if not math.isfinite(v):
-                raise ValueError(f"parameter {k!r} must be finite, got {v}")
+            if not math.isfinite(value):
+                raise ValueError(f"parameter {k!r} must be finite, got {value}")
         set_(self, "parameters", values)
         free = tuple(free_parameters)
-        for v in free:
-            if not isinstance(v, FreeParameter):
-                raise TypeError(f"free_parameters must be FreeParameter objects, got {v!r}")
+        for parameter in free:
+            if not isinstance(parameter, FreeParameter):
+                raise TypeError(f"free_parameters must be FreeParameter objects, got {parameter!r}")
         clash = sorted({v.name for v in free} & set(values))
         names = [v.name for v in free]
         clash += sorted({n for n in names if names.count(n) > 1})
         if clash:
             raise ValueError(f"parameter names used twice (fixed and free, or free twice): {clash}")
         set_(self, "free_parameters", free)
-        for kind, given in (("path_constraints", path_constraints), ("boundary_constraints", boundary_constraints)):
-            set_(self, kind, checked_constraints(given, kind))
+        for which, given in (("path_constraints", path_constraints), ("boundary_constraints", boundary_constraints)):
+            set_(self, which, checked_constraints(given, which))
         if _functions is None:
             _functions = _build_functions(
                 self.nx,
@@ -629,10 +656,10 @@ class OptimalControlProblem:
             )
         set_(self, "functions", _functions)
 
-    def __setattr__(self, name, value):
+    def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"an OptimalControlProblem is immutable; use replace({name}=...)")
 
-    def replace(self, **changes) -> OptimalControlProblem:
+    def replace(self, **changes: Any) -> OptimalControlProblem:
         """A copy with some constructor arguments changed, e.g. ``parameters={"lam": 0.5}``.
 
         Parameter values given are merged into the current ones (an unknown name is
@@ -668,7 +695,7 @@ class OptimalControlProblem:
     def phi(self) -> ca.Function | None:
         return self.functions.phi
 
-    def parameter_vector(self, values=None) -> np.ndarray:
+    def parameter_vector(self, values: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The parameter vector ``P``: this problem's values, or ``values`` checked against them.
 
         ``values`` may be a vector (in the order of :attr:`parameters`) or a mapping of
@@ -716,14 +743,15 @@ class OptimalControlProblem:
         nx, nk = self.nx, len(self.free_parameters)
         fns = self.functions
 
-        def P(x, p):
+        def P(x: ca.SX, p: NamedParameters) -> ca.SX:
             return ca.vertcat(p.column, x[nx:])
 
-        def dynamics(x, u, t, p):
+        def dynamics(x: ca.SX, u: ca.SX, t: ca.SX, p: NamedParameters) -> ca.SX:
             return ca.vertcat(fns.f(x[:nx], u, t, P(x, p)), ca.DM.zeros(nk))
 
-        lagrange = None if fns.L is None else (lambda x, u, t, p: fns.L(x[:nx], u, t, P(x, p)))
-        mayer = None if fns.phi is None else (lambda x0, xf, t0, tf, p: fns.phi(x0[:nx], xf[:nx], t0, tf, P(xf, p)))
+        L, phi = fns.L, fns.phi
+        lagrange = None if L is None else (lambda x, u, t, p: L(x[:nx], u, t, P(x, p)))
+        mayer = None if phi is None else (lambda x0, xf, t0, tf, p: phi(x0[:nx], xf[:nx], t0, tf, P(xf, p)))
         states = [
             *self.states,
             *(
@@ -765,7 +793,7 @@ class OptimalControlProblem:
         values = [*self.parameter_vector(), *(v.guess_value for v in self.free_parameters)]
         return ca.DM(values) if values else ca.DM(0, 1)
 
-    def dynamics(self, x, u, t, P=None):
+    def dynamics(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """``f(x, u, t)`` with this problem's parameters, or ``P`` (numbers give a DM, CasADi symbols an expression).
 
         Here and below, ``P`` (default :attr:`_P`) is the full parameter vector: the fixed
@@ -774,28 +802,32 @@ class OptimalControlProblem:
         """
         return self.functions.f(x, u, t, self._P if P is None else P)
 
-    def lagrange(self, x, u, t, P=None):
+    def lagrange(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """``L(x, u, t)`` with this problem's parameters; 0 without a running cost."""
         return self.functions.L(x, u, t, self._P if P is None else P) if self.functions.L is not None else ca.DM(0)
 
-    def mayer(self, x0, xf, t0, tf, P=None):
+    def mayer(self, x0: Any, xf: Any, t0: Any, tf: Any, P: Any = None) -> Any:
         """``phi(x0, xf, t0, tf)`` with this problem's parameters; 0 without a Mayer term."""
         if self.functions.phi is None:
             return ca.DM(0)
         return self.functions.phi(x0, xf, t0, tf, self._P if P is None else P)
 
-    def path(self, x, u, t, P=None):
+    def path(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """The stacked path constraints ``g(x, u, t)`` with this problem's parameters (None without)."""
         c = self.functions.path
         return None if c is None else c.function(x, u, t, self._P if P is None else P)
 
-    def boundary(self, x0, xf, t0, tf, P=None):
+    def boundary(self, x0: Any, xf: Any, t0: Any, tf: Any, P: Any = None) -> Any:
         """The stacked boundary constraints ``psi(x0, xf, t0, tf)`` with this problem's parameters (None without)."""
         c = self.functions.boundary
         return None if c is None else c.function(x0, xf, t0, tf, self._P if P is None else P)
 
     def expression(
-        self, fn: Callable, kind: str = "running", what: str = "expression", extra_parameters: Sequence[str] = ()
+        self,
+        fn: Callable[..., Any],
+        kind: str = "running",
+        what: str = "expression",
+        extra_parameters: Sequence[str] = (),
     ) -> ca.Function:
         """A user expression of this problem's variables as a CasADi Function, the statement's callables' way.
 
@@ -888,11 +920,13 @@ class StatementSymbols:
     t0: ca.SX
     tf: ca.SX
     P: ca.SX
-    views: dict
-    p: Named
+    views: dict[str, list[Any]]
+    p: NamedParameters
 
     @classmethod
-    def of(cls, state_names, control_names, parameter_names) -> StatementSymbols:
+    def of(
+        cls, state_names: Sequence[str], control_names: Sequence[str], parameter_names: Sequence[str]
+    ) -> StatementSymbols:
         nx, nu = len(state_names), len(control_names)
         x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("t")
         x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
@@ -908,7 +942,7 @@ class StatementSymbols:
         plain = [self.x, self.u, self.t] if kind == "running" else [self.x0, self.xf, self.t0, self.tf]
         return [*plain, self.P]
 
-    def call(self, fn: Callable, kind: str, what: str, *, has_parameters: bool):
+    def call(self, fn: Callable[..., Any], kind: str, what: str, *, has_parameters: bool) -> Any:
         """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`)."""
         return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
 
@@ -916,17 +950,17 @@ class StatementSymbols:
 def _build_functions(
     nx: int,
     nu: int,
-    values: dict,
-    dynamics,
-    lagrange,
-    mayer,
+    values: dict[str, float],
+    dynamics: Callable[..., Any],
+    lagrange: Callable[..., Any] | None,
+    mayer: Callable[..., Any] | None,
     *,
     with_parameters: bool,
-    state_names,
-    control_names=None,
-    free_names=(),
-    path_constraints=(),
-    boundary_constraints=(),
+    state_names: Sequence[str],
+    control_names: Sequence[str] | None = None,
+    free_names: Sequence[str] = (),
+    path_constraints: Sequence[Constraint] = (),
+    boundary_constraints: Sequence[Constraint] = (),
 ) -> ProblemFunctions:
     """The problem's CasADi functions from the user's callables (called once, on named symbols: :mod:`ocpkit.names`)."""
     control_names = [f"u{k}" for k in range(nu)] if control_names is None else list(control_names)
@@ -934,14 +968,15 @@ def _build_functions(
     x, u, t, P = sym.x, sym.u, sym.t, sym.P
     x0, xf, s0, sf = sym.x0, sym.xf, sym.t0, sym.tf
 
-    def user(fn, kind, what):
+    def user(fn: Callable[..., Any], kind: str, what: str) -> Any:
         return sym.call(fn, kind, what, has_parameters=with_parameters)
 
     xdot = _column(user(dynamics, "running", "dynamics"), "dynamics")
     if xdot.shape != (nx, 1):
         raise ValueError(f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {list(state_names)}")
     f = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
-    L = phi = None
+    L: ca.Function | None = None
+    phi: ca.Function | None = None
     if lagrange is not None:
         expr = _column(user(lagrange, "running", "lagrange"), "lagrange")
         if expr.shape != (1, 1):
@@ -966,14 +1001,25 @@ def _build_functions(
     return ProblemFunctions(f, L, phi, path, boundary)
 
 
-def _constraint_set(kind: str, constraints, inputs, input_names, P, user) -> ConstraintSet | None:
+def _constraint_set(
+    kind: str,
+    constraints: Sequence[Constraint],
+    inputs: list[Any],
+    input_names: list[str],
+    P: Any,
+    user: Callable[[Callable[..., Any], str], Any],
+) -> ConstraintSet | None:
     """Compile constraints of one kind into one stacked function ``(inputs..., P) -> g`` and its bounds.
 
     ``user(fn, what)`` calls a constraint's callable on the named inputs (and the parameters if it takes them).
     """
     if not constraints:
         return None
-    exprs, lower, upper, scale, sizes = [], [], [], [], []
+    exprs: list[ca.SX] = []
+    lower: list[np.ndarray] = []
+    upper: list[np.ndarray] = []
+    scale: list[np.ndarray] = []
+    sizes: list[int] = []
     for c in constraints:
         what = f"{kind} constraint {c.name!r}"
         try:
@@ -1001,7 +1047,7 @@ def _constraint_set(kind: str, constraints, inputs, input_names, P, user) -> Con
     )
 
 
-def _column(expr, what: str) -> ca.SX:
+def _column(expr: Any, what: str) -> ca.SX:
     if isinstance(expr, np.ndarray):
         raise TypeError(
             f"{what} returned a numpy array: return CasADi expressions (ca.vertcat(...)) or a list of them; "
@@ -1035,8 +1081,8 @@ class Guess:
     """
 
     tf: float | None = None
-    states: Mapping[str, object] = field(default_factory=dict)
-    controls: Mapping[str, object] = field(default_factory=dict)
+    states: Mapping[str, GuessSpec] = field(default_factory=dict)
+    controls: Mapping[str, GuessSpec] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
 
     def parameter_values(self, problem: OptimalControlProblem) -> dict[str, float]:
@@ -1047,7 +1093,9 @@ class Guess:
             raise KeyError(f"guess names unknown free parameters {unknown}; free parameters are {names}")
         return {v.name: float(self.parameters.get(v.name, v.guess_value)) for v in problem.free_parameters}
 
-    def functions(self, problem: OptimalControlProblem):
+    def functions(
+        self, problem: OptimalControlProblem
+    ) -> tuple[float, Callable[[ArrayLike], np.ndarray], Callable[[ArrayLike], np.ndarray]]:
         """``(tf, states(t), controls(t))``: the guessed final time and the guess as functions of time."""
         tf = problem.tf_guess if self.tf is None else float(self.tf)
         t0 = problem.t0
@@ -1058,13 +1106,17 @@ class Guess:
             if unknown:
                 raise KeyError(f"guess names unknown {key} {unknown}; {key} are {names}")
 
-        def build(spec_map, variables):
+        def build(
+            spec_map: Mapping[str, GuessSpec], variables: Sequence[Variable]
+        ) -> Callable[[ArrayLike], np.ndarray]:
             parts = [
-                guess_function(spec_map[v.name], f"guess for {v.name!r}") if v.name in spec_map else v.guess_function()
+                guess_function(spec_map[v.name], f"guess for {v.name!r}") or v.guess_function()
+                if v.name in spec_map
+                else v.guess_function()
                 for v in variables
             ]
 
-            def fun(t):
+            def fun(t: ArrayLike) -> np.ndarray:
                 t = np.asarray(t, dtype=float)
                 s = (t - t0) / (tf - t0)
                 if not parts:

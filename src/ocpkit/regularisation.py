@@ -19,6 +19,7 @@ problem", JOTA 139, 2008; the L2-L1 homotopy of Martinon & Gergaud's minimum-fue
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from .problem import OptimalControlProblem
 
@@ -45,7 +46,7 @@ def penalise_control(
     scale = [problem.controls[i].scale for i in index]
     base = problem._spec["lagrange"]
 
-    def lagrange(x, u, t, *parameters):
+    def lagrange(x: Any, u: Any, t: Any, *parameters: Any) -> Any:
         penalty = sum(((u[i] - s) / c) ** 2 for i, s, c in zip(index, shift, scale))
         own = 0 if base is None else base(x, u, t, *parameters)
         return own + weight * penalty

@@ -23,26 +23,30 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .problem import Constraint, FreeFinalTime, Guess, OptimalControlProblem, Variable
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 __all__ = ["autoscale"]
 
 
-def _magnitude(values) -> float:
-    values = np.abs(np.asarray([v for v in np.ravel(values) if np.isfinite(v)], dtype=float))
-    return float(values.max()) if values.size else 0.0
+def _magnitude(values: ArrayLike) -> float:
+    finite = np.abs(np.asarray([v for v in np.ravel(values) if np.isfinite(v)], dtype=float))
+    return float(finite.max()) if finite.size else 0.0
 
 
-def _scaled_variable(v: Variable, samples: np.ndarray) -> Variable:
+def _scaled_variable(v: Variable, samples: ArrayLike) -> Variable:
     if v.scale != 1.0 or v.shift != 0.0:
         return v
     lo, hi = float(v.lower), float(v.upper)
     if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
         return dataclasses.replace(v, scale=hi - lo, shift=0.5 * (lo + hi))
-    ends = []
+    ends: list[float] = []
     for which in ("initial", "final"):
         spec = getattr(v, which, None)
         if spec is not None:
@@ -80,7 +84,7 @@ def autoscale(problem: OptimalControlProblem) -> OptimalControlProblem:
     states = [_scaled_variable(v, X[:, i]) for i, v in enumerate(problem.states)]
     controls = [_scaled_variable(v, U[:, i]) for i, v in enumerate(problem.controls)]
     free = [_scaled_variable(v, [v.guess_value]) for v in problem.free_parameters]
-    changes: dict = dict(states=states, controls=controls, free_parameters=free)
+    changes: dict[str, Any] = dict(states=states, controls=controls, free_parameters=free)
     changes["path_constraints"] = [_scaled_constraint(c) for c in problem.path_constraints]
     changes["boundary_constraints"] = [_scaled_constraint(c) for c in problem.boundary_constraints]
     for key, value in (("tf", problem.tf), ("t0", problem.initial_time)):

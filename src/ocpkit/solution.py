@@ -5,12 +5,19 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ._deprecation import renamed
 from .problem import OptimalControlProblem
 from .trajectory import Reintegration, Trajectory
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import ArrayLike
+
+    from .accuracy import Accuracy
 
 __all__ = ["Reintegration", "Solution"]
 
@@ -58,7 +65,7 @@ class Solution(Trajectory):
     breakpoints: np.ndarray
     state_interpolant: Callable[[np.ndarray], np.ndarray] = field(repr=False)
     control_interpolant: Callable[[np.ndarray], np.ndarray] = field(repr=False)
-    raw: dict = field(default_factory=dict, repr=False)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False)
     costate_times: np.ndarray | None = field(default=None, repr=False)
     costate_values: np.ndarray | None = field(default=None, repr=False)
     converged: bool = True
@@ -69,14 +76,14 @@ class Solution(Trajectory):
     boundary_multipliers: np.ndarray | None = field(default=None, repr=False)
     estimate_breakpoints: np.ndarray | None = field(default=None, repr=False)
     estimate_points: np.ndarray | int | None = field(default=None, repr=False)
-    mesh_history: list | None = field(default=None, repr=False)
+    mesh_history: list[Any] | None = field(default=None, repr=False)
     #: how a refinement (``solve(mesh_tolerance=...)``) ended: ``"met"`` (every part of the estimate within the
     #: tolerance), ``"stalled"``, ``"stopped"`` (the next mesh would have been this one), ``"not met"`` (out of
     #: meshes) or ``"failed"`` (the last mesh's solve did not succeed, with ``raise_on_failure=False``); None for a
     #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
     #: the solved free parameters (:class:`~ocpkit.FreeParameter`) by name; the problem's constants, and these
     #: fixed at their solved values, are ``problem.parameters``
-    parameters: dict = field(default_factory=dict)
+    parameters: dict[str, float] = field(default_factory=dict)
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
 
@@ -106,7 +113,7 @@ class Solution(Trajectory):
         return float(self.interval_errors.max())
 
     @cached_property
-    def accuracy(self):
+    def accuracy(self) -> Accuracy:
         """Every part of the solution's estimated error (:class:`ocpkit.accuracy.Accuracy`): the state's, the
         objective's (the cost its admissible control achieves against the NLP's) and each path constraint's
         largest violation between the scheme's points."""
@@ -115,10 +122,10 @@ class Solution(Trajectory):
         return Accuracy(self)
 
     # -- the trajectory -------------------------------------------------------------
-    def _state(self, t):
+    def _state(self, t: np.ndarray) -> np.ndarray:
         return self.state_interpolant(t)
 
-    def _control(self, t):
+    def _control(self, t: np.ndarray) -> np.ndarray:
         """The transcription's control interpolant, projected onto the control bounds.
 
         Between its parameters a polynomial control can overshoot a bound it
@@ -127,7 +134,7 @@ class Solution(Trajectory):
         """
         return self.admissible(self.control_interpolant(t))
 
-    def admissible(self, values) -> np.ndarray:
+    def admissible(self, values: ArrayLike) -> np.ndarray:
         """Control values (last axis: the controls) as the dynamics admit them: a periodic control
         (:attr:`~ocpkit.Control.period`) wrapped into ``[lower, lower + period)`` when its bounds are finite and
         at least a period apart, then every control clipped to its bounds."""
@@ -147,7 +154,7 @@ class Solution(Trajectory):
                 return np.asarray(breaks, dtype=float)
         return np.asarray(self.breakpoints, dtype=float)
 
-    def _raw_control(self, t):
+    def _raw_control(self, t: ArrayLike) -> np.ndarray:
         return self.control_interpolant(self._check_times(t))
 
     def initial_state(self) -> np.ndarray:
@@ -157,15 +164,13 @@ class Solution(Trajectory):
     def has_costates(self) -> bool:
         return self.costate_values is not None
 
-    def _costate(self, t):
+    def _costate(self, t: ArrayLike) -> np.ndarray:
         """Costate estimates, linear between their points (transcriptions that provide them, e.g. Radau)."""
         if self.costate_values is None:
             raise ValueError(f"{self.transcription} provides no costate estimates")
         t = np.asarray(t, dtype=float)
-        cols = [
-            np.interp(t.ravel(), self.costate_times, self.costate_values[:, j])
-            for j in range(self.costate_values.shape[1])
-        ]
+        times = cast(np.ndarray, self.costate_times)  # given with the values
+        cols = [np.interp(t.ravel(), times, self.costate_values[:, j]) for j in range(self.costate_values.shape[1])]
         return np.stack(cols, axis=-1).reshape(t.shape + (len(cols),))
 
     @cached_property
@@ -174,7 +179,7 @@ class Solution(Trajectory):
         return np.array([c.lower for c in controls]), np.array([c.upper for c in controls])
 
     # -- tables ---------------------------------------------------------------------
-    def costates_dataframe(self):
+    def costates_dataframe(self) -> pd.DataFrame:
         """Costate estimates at their points (transcriptions that provide them, e.g. Radau)."""
         import pandas as pd
 
@@ -184,7 +189,7 @@ class Solution(Trajectory):
         df.insert(0, "t", self.costate_times)
         return df
 
-    def constraint(self, name: str) -> dict:
+    def constraint(self, name: str) -> dict[str, Any]:
         """One constraint by name: ``{"values", "multipliers", "lower", "upper"}`` (and the times ``"t"`` of a
         path constraint), one column per expression of the constraint."""
         functions = self.problem.functions
@@ -196,17 +201,21 @@ class Solution(Trajectory):
             start = int(sum(cs.sizes[:i]))
             cols = slice(start, start + cs.sizes[i])
             out = {"lower": cs.lower[cols], "upper": cs.upper[cols]}
+            # a solution of a problem with constraints of this kind has their values and multipliers
             if kind == "path":
-                out.update(
-                    t=self.path_times, values=self.path_values[:, cols], multipliers=self.path_multipliers[:, cols]
-                )
+                values, multipliers = cast(np.ndarray, self.path_values), cast(np.ndarray, self.path_multipliers)
+                out.update(t=self.path_times, values=values[:, cols], multipliers=multipliers[:, cols])
             else:
-                out.update(values=self.boundary_values[cols], multipliers=self.boundary_multipliers[cols])
+                values, multipliers = (
+                    cast(np.ndarray, self.boundary_values),
+                    cast(np.ndarray, self.boundary_multipliers),
+                )
+                out.update(values=values[cols], multipliers=multipliers[cols])
             return out
         known = [n for kind in ("path", "boundary") if getattr(functions, kind) for n in getattr(functions, kind).names]
         raise KeyError(f"no constraint {name!r}; the problem's constraints are {known}")
 
-    def path_dataframe(self):
+    def path_dataframe(self) -> pd.DataFrame:
         """Path constraints at their points: ``t``, each expression's value and its multiplier (``mu_<label>``)."""
         import pandas as pd
 
@@ -215,11 +224,11 @@ class Solution(Trajectory):
             raise ValueError(f"{self.problem.name!r} has no path constraints")
         df = pd.DataFrame(self.path_values, columns=cs.labels)
         for j, label in enumerate(cs.labels):
-            df[f"mu_{label}"] = self.path_multipliers[:, j]
+            df[f"mu_{label}"] = cast(np.ndarray, self.path_multipliers)[:, j]
         df.insert(0, "t", self.path_times)
         return df
 
-    def nodes_dataframe(self):
+    def nodes_dataframe(self) -> pd.DataFrame:
         """NLP state parameters at their nodes."""
         import pandas as pd
 
@@ -233,7 +242,7 @@ class Solution(Trajectory):
         transcription's structure, :attr:`~ocpkit.Radau.ipopt_defaults`); ``""`` where not recorded."""
         return str(self.raw.get("linear_solver", ""))
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """Key numbers, JSON-serialisable."""
         return {
             "problem": self.problem.name,

@@ -23,10 +23,18 @@ singular arc, ``psi = w`` between ``"lower"`` and ``"zero"``, ``psi = -w`` betwe
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .problem import OptimalControlProblem
+    from .trajectory import Trajectory
 
 #: the kinds of arc, in the order of :func:`control_structure`'s classification
 ARC_KINDS = ("lower", "upper", "zero", "singular", "regular", "boundary")
@@ -39,19 +47,19 @@ class Inequality:
     constraint's; ``pure`` when ``c`` does not depend on the control (a state constraint)."""
 
     name: str
-    function: object
+    function: ca.Function
     pure: bool
     #: the indices of the controls in ``c`` (mixed), or in its time derivative (a state constraint of order one)
-    controls: tuple = ()
+    controls: tuple[int, ...] = ()
 
 
-def inequalities(problem) -> list[Inequality]:
+def inequalities(problem: OptimalControlProblem) -> list[Inequality]:
     """Every finite state bound and path-constraint bound of ``problem`` as an :class:`Inequality` ``c <= 0``."""
     ham = problem.functions.hamiltonian
     x, u, t, P = ham.x, ham.u, ham.t, ham.P
     out = []
 
-    def add(name, expr):
+    def add(name: str, expr: ca.SX) -> None:
         fun = ca.Function("inequality", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["c"])
         pure = not ca.depends_on(expr, u)
         moved = ca.jtimes(expr, x, ham.f) + ca.jacobian(expr, t) if pure else expr
@@ -121,7 +129,9 @@ class Structure:
         return "\n".join(lines)
 
 
-def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_share: float = 0.01) -> Structure:
+def control_structure(
+    trajectory: Trajectory, samples: int = 4001, band: float = 1e-3, min_share: float = 0.01
+) -> Structure:
     """The arcs of every bounded control of ``trajectory`` (and of every control an active inequality involves) and
     their junction times (module docstring).
 
@@ -164,7 +174,15 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
             labels[on & (labels == interior)] = f"boundary:{name}"
         shortest = max(int(np.ceil(min_share * (samples - 1))), 1)
 
-        def short(label, a, b, left, right, interior=interior, shortest=shortest):
+        def short(
+            label: str,
+            a: int,
+            b: int,
+            left: str | None,
+            right: str | None,
+            interior: str = interior,
+            shortest: int = shortest,
+        ) -> bool | np.bool_:
             # an interior run within fewer than three mesh intervals is a switch the polynomial smears (a
             # transcription's control is one polynomial per interval), not an arc; a bound run as short between
             # two singular runs is the singular arc's chattering
@@ -182,7 +200,7 @@ def control_structure(trajectory, samples: int = 4001, band: float = 1e-3, min_s
     return Structure(tuple(arcs))
 
 
-def _l1_controls(problem) -> set:
+def _l1_controls(problem: OptimalControlProblem) -> set[int]:
     """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs: H of
     the form ``H0 + psi u + w |u| + b u^2`` in the control (checked at random points) with ``w`` not zero."""
     from .shooting.hamiltonian import _extract
@@ -207,7 +225,9 @@ def _l1_controls(problem) -> set:
     return out
 
 
-def _active(trajectory, t, U, band) -> dict:
+def _active(
+    trajectory: Trajectory, t: np.ndarray, U: np.ndarray, band: float
+) -> dict[str, tuple[np.ndarray, tuple[int, ...]]]:
     """Per inequality (:func:`inequalities`) active somewhere on the grid ``t`` (within ``band`` of zero, relative
     to the range of its values along the trajectory): where, and the controls it involves."""
     problem = trajectory.problem
@@ -222,11 +242,13 @@ def _active(trajectory, t, U, band) -> dict:
     return out
 
 
-def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
+def _runs(
+    labels: np.ndarray, short: Callable[[str, int, int, str | None, str | None], bool | np.bool_]
+) -> list[tuple[str, int, int]]:
     """Runs ``(label, first, last)`` of equal labels; a run that ``short(label, first, last, left, right)`` (the
     neighbours' labels, None at an end) calls too short to be an arc (the shortest first) is shared between its
     neighbours at its middle, or given to its only one."""
-    runs = []
+    runs: list[list[Any]] = []
     for k, label in enumerate(labels):
         if runs and runs[-1][0] == label:
             runs[-1][2] = k
@@ -250,7 +272,7 @@ def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
         else:
             runs[k - 1][2] = b
         del runs[k]
-        merged = []  # neighbours that now carry the same label become one run
+        merged: list[list[Any]] = []  # neighbours that now carry the same label become one run
         for run in runs:
             if merged and merged[-1][0] == run[0]:
                 merged[-1][2] = run[2]
@@ -260,7 +282,9 @@ def _runs(labels: np.ndarray, short) -> list[tuple[str, int, int]]:
     return [tuple(r) for r in runs]
 
 
-def _switching_functions(trajectory):
+def _switching_functions(
+    trajectory: Trajectory,
+) -> Callable[[ArrayLike], tuple[np.ndarray, np.ndarray]] | None:
     """``(psi, w)`` as functions of time for each control, where the solution has costates and ``H`` has the form
     ``H0 + psi u + w |u|`` in each control; else None."""
     if not trajectory.has_costates:
@@ -269,8 +293,8 @@ def _switching_functions(trajectory):
 
     problem = trajectory.problem
     ham = problem.functions.hamiltonian
-    H0, psi, w, _ = _extract(ham.H, ham.u, problem.nu)
-    psi, w = ca.vertcat(*psi), ca.vertcat(*w)
+    H0, psi_i, w_i, _ = _extract(ham.H, ham.u, problem.nu)
+    psi, w = ca.vertcat(*psi_i), ca.vertcat(*w_i)
     # the form holds where H - (H0 + psi u + w |u|) vanishes: checked at random points (a quadratic or nonlinear
     # control term leaves a residual, and then no switching function decides the junctions)
     residual = ca.Function(
@@ -279,12 +303,18 @@ def _switching_functions(trajectory):
     rng = np.random.default_rng(0)
     P = problem.parameter_vector()
     for _ in range(5):
-        args = [rng.normal(size=problem.nx), rng.normal(size=problem.nx), rng.uniform(-1, 1, problem.nu), 0.3, P]
+        args: list[Any] = [
+            rng.normal(size=problem.nx),
+            rng.normal(size=problem.nx),
+            rng.uniform(-1, 1, problem.nu),
+            0.3,
+            P,
+        ]
         if not abs(float(residual(*args))) <= 1e-9:
             return None
     fun = ca.Function("switching", [ham.x, ham.p, ham.t, ham.P], [psi, w])
 
-    def at(times):
+    def at(times: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         times = np.atleast_1d(np.asarray(times, dtype=float))
         X = trajectory.state(times).reshape(times.size, -1).T
         L = trajectory.costate(times).reshape(times.size, -1).T
@@ -294,7 +324,13 @@ def _switching_functions(trajectory):
     return at
 
 
-def _junction(t, before, after, switching, i) -> float:
+def _junction(
+    t: np.ndarray,
+    before: tuple[str, int, int],
+    after: tuple[str, int, int],
+    switching: Callable[[ArrayLike], tuple[np.ndarray, np.ndarray]] | None,
+    i: int,
+) -> float:
     """The junction between two runs: the midpoint of the samples either side, refined to the crossing of the
     switching function that decides it (module docstring) within a few samples of it, where there is one."""
     (kind_a, _, last), (kind_b, first, _) = before, after

@@ -14,9 +14,17 @@ integrator) and compared with another trajectory of the same problem.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import ArrayLike
+
+    from .problem import OptimalControlProblem
 
 
 @dataclass
@@ -55,7 +63,7 @@ class Trajectory(ABC):
     :meth:`_costate` where available).
     """
 
-    problem: object
+    problem: OptimalControlProblem
     t0: float
     tf: float
     objective: float
@@ -84,19 +92,19 @@ class Trajectory(ABC):
         return np.asarray(self.state(np.array(self.t0)), dtype=float).ravel()
 
     # -- evaluation ---------------------------------------------------------------------------
-    def state(self, t) -> np.ndarray:
+    def state(self, t: ArrayLike) -> np.ndarray:
         """States at times ``t`` (shape ``t.shape + (nx,)``)."""
         return self._state(self._check_times(t))
 
-    def control(self, t) -> np.ndarray:
+    def control(self, t: ArrayLike) -> np.ndarray:
         """Controls at times ``t`` (shape ``t.shape + (nu,)``), within the control bounds."""
         return self._control(self._check_times(t))
 
-    def costate(self, t) -> np.ndarray:
+    def costate(self, t: ArrayLike) -> np.ndarray:
         """Costates at times ``t`` (shape ``t.shape + (nx,)``), where the method gives them."""
         return self._costate(self._check_times(t))
 
-    def _check_times(self, t) -> np.ndarray:
+    def _check_times(self, t: ArrayLike) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         span = self.tf - self.t0
         if np.any(t < self.t0 - 1e-12 * span) or np.any(t > self.tf + 1e-12 * span):
@@ -108,7 +116,7 @@ class Trajectory(ABC):
             raise ValueError("a time grid needs at least 2 points")
         return np.linspace(self.t0, self.tf, n)
 
-    def to_dataframe(self, t=None, n: int = 401, costates: bool = False):
+    def to_dataframe(self, t: ArrayLike | None = None, n: int = 401, costates: bool = False) -> pd.DataFrame:
         """Time histories on ``t`` (default: ``n`` equally spaced points) as a DataFrame.
 
         Columns ``t``, the states, the controls and, with ``costates=True``, ``lambda_<state>``.
@@ -124,7 +132,9 @@ class Trajectory(ABC):
         return pd.DataFrame(data)
 
     # -- expressions of the solution --------------------------------------------------------
-    def sample(self, expr, grid=None, n: int = 401) -> tuple[np.ndarray, np.ndarray]:
+    def sample(
+        self, expr: Callable[..., Any], grid: ArrayLike | None = None, n: int = 401
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(t, values)``: ``expr(x, u, t[, p])`` evaluated along this trajectory, as rockit's ``sol.sample``.
 
         ``expr`` is written as the problem's callables are (names: ``x["h"]``, ``u["alpha"]``, ``p["k"]``;
@@ -135,7 +145,7 @@ class Trajectory(ABC):
         t = self.time_grid(n) if grid is None else self._check_times(grid)
         return t, self._sample(expr, t)
 
-    def _sample(self, expr, t: np.ndarray, extra: dict | None = None) -> np.ndarray:
+    def _sample(self, expr: Callable[..., Any], t: np.ndarray, extra: dict[str, float] | None = None) -> np.ndarray:
         """``expr`` at the times ``t``; ``extra``: parameters by name that ``p`` has besides the problem's."""
         extra = {} if extra is None else {k: v for k, v in extra.items() if k not in self.problem.parameter_names}
         fun = self.problem.expression(expr, "running", "sample's expression", list(extra))
@@ -148,7 +158,7 @@ class Trajectory(ABC):
         out = np.asarray(fun.map(flat.size)(self.state(flat).T, self.control(flat).T, flat[None, :], P)).T
         return out.reshape(t.shape) if m == 1 else out.reshape(t.shape + (m,))
 
-    def value(self, what):
+    def value(self, what: str | Callable[..., Any]) -> float | np.ndarray:
         """A number of this trajectory: a parameter's value by name (fixed, or free and solved), ``"t0"``, ``"tf"``,
         ``"objective"``, or ``what(x0, xf, t0, tf[, p])`` written as a Mayer term is (a float, or an array
         for several expressions). A state or control is a function of time: :meth:`sample` it."""
@@ -200,7 +210,7 @@ class Trajectory(ABC):
             # the control of this interval up to its end (piecewise controls may jump at b)
             b_left = np.nextafter(b, a)
 
-            def rhs(t, y, b_left=b_left):
+            def rhs(t: float, y: np.ndarray, b_left: float = b_left) -> np.ndarray:
                 return np.asarray(problem.dynamics(y, control(np.array(min(t, b_left))), t)).ravel()
 
             mask = (t_eval >= a) & (t_eval <= b)
@@ -222,7 +232,7 @@ class Trajectory(ABC):
             n_rhs=n_rhs,
         )
 
-    def difference(self, other: Trajectory, n: int = 2001) -> dict:
+    def difference(self, other: Trajectory, n: int = 2001) -> dict[str, float]:
         """Largest difference of each variable from ``other``, in percent of ``other``'s magnitude.
 
         For each state and control ``v``: ``100 max_k |v(s_k) - v_other(s_k)| / max_k |v_other(s_k)|``
@@ -239,7 +249,7 @@ class Trajectory(ABC):
             raise ValueError("trajectories of problems with different variables cannot be compared")
         s = np.linspace(0.0, 1.0, n)
 
-        def at(tr):
+        def at(tr: Trajectory) -> tuple[np.ndarray, np.ndarray]:
             t = tr.t0 + s * (tr.tf - tr.t0)
             return tr.state(t), tr.control(t)
 

@@ -37,8 +37,9 @@ derivatives of the shooting function through its forward sensitivities.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -49,6 +50,11 @@ from ..nodes import cubic_hermite
 from ..problem import FreeFinalTime
 from ..structure import Structure, inequalities
 from ..trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..problem import ConstraintSet, OptimalControlProblem
 
 BANG = ("lower", "upper", "zero")
 
@@ -61,14 +67,17 @@ class ArcType:
     constraint: str | None = None
 
 
-def arc_sequence(structure: Structure, problem, t0: float, tf: float) -> list[tuple[ArcType, float, float]]:
+def arc_sequence(
+    structure: Structure, problem: OptimalControlProblem, t0: float, tf: float
+) -> list[tuple[ArcType, float, float]]:
     """The arcs of the whole control vector on ``[t0, tf]`` from each control's arcs: the common refinement of
     their partitions, as ``(ArcType, start, end)``. A control without bounds is ``regular`` throughout."""
     cuts = sorted({float(t0), float(tf)} | {a.start for a in structure.arcs} | {a.end for a in structure.arcs})
-    out = []
+    out: list[tuple[ArcType, float, float]] = []
     for a, b in zip(cuts[:-1], cuts[1:]):
         mid = 0.5 * (a + b)
-        kinds, constraint = [], None
+        kinds: list[str] = []
+        constraint: str | None = None
         for c in problem.controls:
             arcs = [x for x in structure.arcs if x.control == c.name and x.start <= mid <= x.end]
             if not arcs:
@@ -94,16 +103,17 @@ class _Flow:
     w: ca.SX  # the implicit regular controls carried as states (0 x 1 if none)
     wdot: ca.SX
     mu: ca.SX  # the boundary multiplier (0 without)
-    entry: list  # the arc type's conditions at its start (a singular arc's, a boundary arc's), in x, p, t, P, w
+    entry: list[ca.SX]  # the arc type's conditions at its start (a singular arc's, a boundary arc's), in x, p, t, P, w
     boundary_control: int | None = None  # the control a boundary arc's constraint determines
-    implicit: list = field(default_factory=list)  # H_u = 0 at the start of an implicit regular arc
-    singular: list = field(default_factory=list)  # (control index, order q, d_u D^(2q) phi) for Legendre-Clebsch
+    implicit: list[ca.SX] = field(default_factory=list)  # H_u = 0 at the start of an implicit regular arc
+    #: (control index, order q, d_u D^(2q) phi) for Legendre-Clebsch
+    singular: list[tuple[int, int, ca.SX]] = field(default_factory=list)
 
 
 class ArcFlows:
     """The symbolic flows and conditions of a problem's arcs (module docstring)."""
 
-    def __init__(self, problem):
+    def __init__(self, problem: OptimalControlProblem) -> None:
         self.problem = problem
         ham = problem.functions.hamiltonian
         self.ham = ham
@@ -114,7 +124,7 @@ class ArcFlows:
         from ..structure import _l1_controls
 
         self.l1 = _l1_controls(problem)
-        self._cache = {}
+        self._cache: dict[ArcType, _Flow] = {}
 
     def depends(self, expr: ca.SX, ui: ca.SX) -> bool:
         """Whether ``expr`` depends on the control ``ui``: structurally, and then at random points (a bracket such
@@ -150,18 +160,20 @@ class ArcFlows:
         problem, u, H = self.problem, self.u, self.H
         nu = problem.nu
         names = problem.control_names
-        value = [None] * nu
-        for i, k in enumerate(kind.kinds):
+        value: list[Any] = [None] * nu
+        for i, which in enumerate(kind.kinds):
             c = problem.controls[i]
-            if k in BANG:
-                value[i] = ca.SX({"lower": c.lower, "upper": c.upper, "zero": 0.0}[k])
+            if which in BANG:
+                value[i] = ca.SX({"lower": c.lower, "upper": c.upper, "zero": 0.0}[which])
         free = [i for i in range(nu) if value[i] is None]
-        mu, entry, singular = ca.SX(0), [], []
+        mu: ca.SX = ca.SX(0)
+        entry: list[ca.SX] = []
+        singular: list[tuple[int, int, ca.SX]] = []
         w, wdot = ca.SX(0, 1), ca.SX(0, 1)
 
         bang = [i for i in range(nu) if value[i] is not None]
 
-        def fixed(expr):  # the bang controls at their values
+        def fixed(expr: ca.SX) -> ca.SX:  # the bang controls at their values
             if not bang:
                 return expr
             return ca.substitute(expr, ca.vertcat(*[u[i] for i in bang]), ca.vertcat(*[value[i] for i in bang]))
@@ -207,7 +219,7 @@ class ArcFlows:
             entry = derivs[:k]
             singular.append((i, k // 2, a))
         reg = [i for i in free if value[i] is None]
-        implicit = []
+        implicit: list[ca.SX] = []
         if reg:
             l1 = [names[i] for i in reg if i in self.l1]
             if l1:
@@ -226,7 +238,9 @@ class ArcFlows:
         entry = [ca.substitute(e, u, control) for e in entry]
         return _Flow(kind, control, w, wdot, mu, entry, boundary_control, implicit, singular)
 
-    def _regular(self, reg, value, fixed):
+    def _regular(
+        self, reg: list[int], value: list[Any], fixed: Callable[[ca.SX], ca.SX]
+    ) -> tuple[list[Any], ca.SX, ca.SX, list[ca.SX]]:
         """The regular controls from ``H_u = 0``: explicit when H is quadratic in them, else carried as states."""
         u, H = self.u, self.H
         ur = ca.vertcat(*[u[i] for i in reg])
@@ -257,10 +271,12 @@ class ArcFlows:
         wdot = -ca.solve(ca.substitute(Huu, ur, w), ca.substitute(dHu, ur, w))
         return full, w, wdot, [ca.substitute(Hu_w, u, ufull)]
 
-    def _boundary(self, kind, value, free, fixed):
+    def _boundary(
+        self, kind: ArcType, value: list[Any], free: list[int], fixed: Callable[[ca.SX], ca.SX]
+    ) -> tuple[list[Any], ca.SX, list[ca.SX], int]:
         """The control and the multiplier on a boundary arc of ``kind.constraint``, and the arc's entry conditions."""
         names = self.problem.control_names
-        q = self.ineq.get(kind.constraint)
+        q = self.ineq.get(cast(str, kind.constraint))  # (a boundary arc's)
         if q is None:
             raise ValueError(f"unknown inequality {kind.constraint!r}; the problem's are {sorted(self.ineq)}")
         x, u, t, P = self.x, self.u, self.t, self.P
@@ -305,7 +321,7 @@ class ArcFlows:
         mu = ca.substitute(fixed(self.D(phi)), u[i], value[i]) / denominator
         return value, mu, [c], i
 
-    def rhs(self, kind: ArcType):
+    def rhs(self, kind: ArcType) -> tuple[ca.SX, ca.SX, _Flow]:
         """``(y, rhs, flow)``: ``y = (x, p, w, J)``, its time derivative on this arc, and the arc's :class:`_Flow`."""
         fl = self.flow(kind)
         x, p, t, P, u = self.x, self.p, self.t, self.P, self.u
@@ -339,16 +355,23 @@ class ArcResult:
     n_jacobian: int
     cpu_s: float
     objective: float
-    trajectory: Trajectory
+    trajectory: Trajectory | None
     multipliers: np.ndarray
-    arcs: list
+    arcs: list[ArcType]
 
 
 class ArcShooting:
     """Multiple shooting of ``problem`` over the arcs ``arcs`` (``[(ArcType, start, end), ...]`` from
     :func:`arc_sequence`; start and end are estimates); module docstring. ``rtol``/``atol``: CVODES's."""
 
-    def __init__(self, problem, arcs, *, rtol: float = 1e-12, atol: float = 1e-12):
+    def __init__(
+        self,
+        problem: OptimalControlProblem,
+        arcs: Sequence[tuple[ArcType, float, float]],
+        *,
+        rtol: float = 1e-12,
+        atol: float = 1e-12,
+    ) -> None:
         if problem.free_initial_time:
             raise ValueError(f"{problem.name!r}: arc shooting integrates from a fixed t0")
         if problem.free_parameters:
@@ -376,8 +399,8 @@ class ArcShooting:
         self.n_nu = 0 if bc is None else bc.size
         self.free_initial = [s.initial is None for s in problem.states]
         self.x0 = np.array([0.0 if s.initial is None else s.fixed_initial for s in problem.states])
-        self.integrators = []
-        self.rhs = []
+        self.integrators: list[ca.Function] = []
+        self.rhs: list[tuple[ca.SX, ca.SX, _Flow]] = []
         self.rtol, self.atol = rtol, atol
         for k, kind in enumerate(self.kinds):
             y, rhs, fl = self.flows.rhs(kind)
@@ -385,7 +408,7 @@ class ArcShooting:
             self.rhs.append((y, rhs, fl))
         self._build()
 
-    def integrator(self, name: str, y: ca.SX, rhs: ca.SX, grid) -> ca.Function:
+    def integrator(self, name: str, y: ca.SX, rhs: ca.SX, grid: Sequence[float] | np.ndarray) -> ca.Function:
         """CVODES over an arc on the normalised time ``tau`` in [0, 1] (``t = ta + tau dt``, parameters
         ``(ta, dt, P)``), its outputs at ``grid``; at most 20000 steps, so that a hopeless iterate fails quickly."""
         tau, ta, dt = ca.SX.sym("tau"), ca.SX.sym("ta"), ca.SX.sym("dt")
@@ -395,7 +418,7 @@ class ArcShooting:
         return ca.integrator(name, "cvodes", dae, 0.0, list(grid), opts)
 
     # -- the shooting function, symbolic -----------------------------------------------------------------
-    def _build(self):
+    def _build(self) -> None:
         problem, nx, fl = self.problem, self.nx, self.flows
         K = len(self.kinds)
         nw = [self.rhs[k][2].w.numel() for k in range(K)]
@@ -411,22 +434,25 @@ class ArcShooting:
         self.layout = sizes
         nz = sum(n for _, n in sizes)
         z = ca.MX.sym("z", nz)
-        parts, offset = {}, 0
+        parts: dict[str, ca.MX] = {}
+        offset = 0
         for name, n in sizes:
             parts[name] = z[offset : offset + n] if n else ca.MX(0, 1)
             offset += n
         P = ca.MX.sym("P", fl.P.numel())
         t0 = float(problem.t0)
-        tf = parts["tf"] if self.free_tf else ca.MX(float(problem.tf))
+        tf = parts["tf"] if self.free_tf else ca.MX(float(cast(float, problem.tf)))
         times = [ca.MX(t0)] + [parts[f"t{k}"] for k in range(1, K)] + [tf]
-        xs = []
+        xs: list[ca.MX] = []
         it = iter(range(nx))
         free_iter = iter(range(nfree))
         for i in it:
             xs.append(parts["x0"][next(free_iter)] if self.free_initial[i] else ca.MX(self.x0[i]))
         x0 = ca.vertcat(*xs)
         starts = [ca.vertcat(x0, parts["p0"])] + [parts[f"y{k}"] for k in range(1, K)]
-        rows, ends, costs = [], [], []
+        rows: list[ca.MX] = []
+        ends: list[ca.MX] = []
+        costs: list[ca.MX] = []
         # the functions of the conditions, in the SX symbols of ArcFlows
         sym_in = [fl.x, fl.p, fl.t, fl.P]
         for k in range(K):
@@ -468,7 +494,7 @@ class ArcShooting:
         )
         g0, gf, gt, psi_v = grads(x0, xf, t0, tf, P, parts["nu"])
         for i, s in enumerate(problem.states):
-            rows.append(xf[i] - s.fixed_final if s.final is not None else pf[i] - gf[i])
+            rows.append(xf[i] - cast(float, s.fixed_final) if s.final is not None else pf[i] - gf[i])
             if self.free_initial[i]:
                 rows.append(parts["p0"][i] + g0[i])
         rows.append(psi_v)
@@ -499,7 +525,7 @@ class ArcShooting:
         kind = self.kinds[k]
         if kind.constraint is None or not self.flows.ineq[kind.constraint].pure:
             return
-        i = self.flows.flow(kind).boundary_control
+        i = cast(int, self.flows.flow(kind).boundary_control)  # (a boundary arc's)
         before = self.kinds[k - 1].kinds[i]
         if before != "singular":
             raise ValueError(
@@ -508,14 +534,14 @@ class ArcShooting:
                 "singular arc is); keep the direct solution"
             )
 
-    def _continuous_control(self, k: int, neighbour: int):
+    def _continuous_control(self, k: int, neighbour: int) -> ca.SX | None:
         """For the boundary arc ``k`` of a mixed constraint on a control H is affine in, the condition at its junction
         with arc ``neighbour`` (the control continuous there): ``c(x, u of the neighbour) = 0``, in arc ``k``'s
         symbols; None where the multiplier's vanishing is the condition (H regular in the control)."""
         fl, kind = self.flows, self.kinds[k]
         if kind.constraint is None or fl.ineq[kind.constraint].pure:
             return None
-        i = fl.flow(kind).boundary_control
+        i = cast(int, fl.flow(kind).boundary_control)  # (a boundary arc's)
         if fl.depends(ca.jacobian(fl.H, fl.u[i]), fl.u[i]):
             return None
         other = fl.flow(self.kinds[neighbour])
@@ -529,14 +555,16 @@ class ArcShooting:
     def _leaves_continuously(self, k: int) -> bool:
         """Whether boundary arc ``k``'s multiplier vanishes at its exit: a mixed constraint's (the control is
         continuous there)."""
-        return not self.flows.ineq[self.kinds[k].constraint].pure
+        return not self.flows.ineq[cast(str, self.kinds[k].constraint)].pure
 
     @staticmethod
     def _name(kind: ArcType) -> str:
         k = "/".join(kind.kinds)
         return k if kind.constraint is None else f"{k} ({kind.constraint})"
 
-    def _junction(self, k, left_end, right_start, w_right, tj, P) -> list:
+    def _junction(
+        self, k: int, left_end: ca.MX, right_start: ca.MX, w_right: ca.MX, tj: ca.MX, P: ca.MX
+    ) -> list[ca.MX]:
         """The conditions at the junction between arcs ``k - 1`` and ``k`` (module docstring)."""
         fl, nx = self.flows, self.nx
         a, b = self.kinds[k - 1], self.kinds[k]
@@ -582,13 +610,13 @@ class ArcShooting:
         return rows
 
     # -- the initial guess from a trajectory with costates -----------------------------------------------
-    def guess(self, trajectory, parameters=None) -> np.ndarray:
+    def guess(self, trajectory: Trajectory, parameters: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The unknowns from a trajectory with costates (a Radau solution): its values at the estimated junctions;
         the boundary multipliers by least squares on the final transversality condition."""
         times = self.estimates.copy()
         if self.free_tf:
             times[-1] = trajectory.tf
-        out = []
+        out: list[Any] = []
         X = trajectory.state(times)
         L = trajectory.costate(times)
         for name, n in self.layout:
@@ -614,12 +642,15 @@ class ArcShooting:
                 out.append(trajectory.control(np.array([inside]))[0][reg])
         return np.concatenate([np.ravel(v) for v in out]).astype(float)
 
-    def _multiplier_guess(self, trajectory, parameters) -> np.ndarray:
+    def _multiplier_guess(
+        self, trajectory: Trajectory, parameters: Mapping[str, float] | ArrayLike | None
+    ) -> np.ndarray:
         problem, nx = self.problem, self.nx
         X0, XF, T0, TF = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
         P = self.flows.P
         phi = problem.phi(X0, XF, T0, TF, P) if problem.phi is not None else ca.SX(0)
-        psi = problem.functions.boundary.function(X0, XF, T0, TF, P)
+        boundary = cast("ConstraintSet", problem.functions.boundary)  # (the multipliers of its equalities)
+        psi = boundary.function(X0, XF, T0, TF, P)
         F = ca.Function("g", [X0, XF, T0, TF, P], [ca.gradient(phi, XF), ca.jacobian(psi, XF)])
         x = trajectory.state(np.array([trajectory.t0, trajectory.tf]))
         pf = trajectory.costate(np.array([trajectory.tf]))[0]
@@ -627,7 +658,7 @@ class ArcShooting:
         free = [i for i, s in enumerate(problem.states) if s.final is None]
         return np.linalg.lstsq(A.T[free], pf[free] - g.ravel()[free], rcond=None)[0]
 
-    def _P(self, parameters=None) -> np.ndarray:
+    def _P(self, parameters: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The parameter vector: the problem's, a full vector, or a mapping of some names to values."""
         if parameters is None:
             return np.asarray(self.problem._P, dtype=float).ravel()
@@ -636,7 +667,14 @@ class ArcShooting:
         return np.asarray(parameters, dtype=float).ravel()
 
     # -- solve --------------------------------------------------------------------------------------------
-    def solve(self, z0, parameters=None, *, tol: float = 1e-10, max_iterations: int = 50) -> ArcResult:
+    def solve(
+        self,
+        z0: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
+        *,
+        tol: float = 1e-10,
+        max_iterations: int = 50,
+    ) -> ArcResult:
         """Newton's method on ``S(z) = 0`` from ``z0`` with the exact Jacobian (least-squares steps, Gauss-Newton
         where the conditions outnumber the unknowns, as when a singular arc reaching tf makes a transversality
         condition hold already; halved until ``|S|`` decreases); stops at ``|S| <= tol`` once a step no longer gains a factor ten, or at the
@@ -650,7 +688,7 @@ class ArcShooting:
         n_S = n_J = 0
         message = "maximum number of iterations"
 
-        def residual(z):
+        def residual(z: np.ndarray) -> np.ndarray:
             try:
                 return np.asarray(self.S(z, P)).ravel()
             except RuntimeError:  # CVODES failed on this iterate
@@ -658,7 +696,7 @@ class ArcShooting:
 
         S = residual(z)
         n_S += 1
-        norms = []
+        norms: list[float] = []
         for _ in range(max_iterations):
             norm = float(np.linalg.norm(S))
             norms.append(norm)
@@ -727,7 +765,7 @@ class ArcShooting:
             )
         return result
 
-    def _part(self, z, name) -> np.ndarray:
+    def _part(self, z: np.ndarray, name: str) -> np.ndarray:
         offset = 0
         for n_, n in self.layout:
             if n_ == name:
@@ -741,7 +779,16 @@ class ArcTrajectory(Trajectory):
     (CVODES, the shooting's tolerances), cubic Hermite between grid points with the arc's flow as derivative; the
     control the arc's derived control (bang value, singular feedback, boundary control, ``H_u = 0``)."""
 
-    def __init__(self, shooting: ArcShooting, z, P, times, objective: float, per_arc: int = 1000, problem=None):
+    def __init__(
+        self,
+        shooting: ArcShooting,
+        z: np.ndarray,
+        P: np.ndarray,
+        times: np.ndarray,
+        objective: float,
+        per_arc: int = 1000,
+        problem: OptimalControlProblem | None = None,
+    ) -> None:
         self.problem = shooting.problem if problem is None else problem
         self.shooting = shooting
         self.objective = float(objective)
@@ -749,13 +796,13 @@ class ArcTrajectory(Trajectory):
         self.breakpoints = np.asarray(times, dtype=float)
         nx = shooting.nx
         self._n = nx
-        self._pieces = []
+        self._pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray, ca.Function]] = []
         K = len(shooting.kinds)
         starts = [np.concatenate([self._x0(shooting, z), shooting._part(z, "p0")])] + [
             shooting._part(z, f"y{k}") for k in range(1, K)
         ]
         fl = shooting.flows
-        self.mu = []
+        self.mu: list[Any] = []
         for k in range(K):
             y, rhs, flow = shooting.rhs[k]
             w = shooting._part(z, f"w{k}")
@@ -772,11 +819,11 @@ class ArcTrajectory(Trajectory):
         self._P = P
 
     @staticmethod
-    def _x0(shooting, z):
+    def _x0(shooting: ArcShooting, z: np.ndarray) -> np.ndarray:
         free = iter(shooting._part(z, "x0"))
         return np.array([next(free) if f else shooting.x0[i] for i, f in enumerate(shooting.free_initial)])
 
-    def _eval(self, t):
+    def _eval(self, t: ArrayLike) -> tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)
         flat = t.ravel()
         arc = np.clip(np.searchsorted(self.breakpoints, flat, side="right") - 1, 0, len(self._pieces) - 1)
@@ -789,7 +836,7 @@ class ArcTrajectory(Trajectory):
             out[sel] = cubic_hermite(Y[i], D[i], Y[i + 1], D[i + 1], h, (flat[sel] - tk[i])[:, None] / h)
         return t.shape, flat, arc, out
 
-    def _state(self, t):
+    def _state(self, t: np.ndarray) -> np.ndarray:
         shape, _, _, y = self._eval(t)
         return y[:, : self._n].reshape(shape + (self._n,))
 
@@ -797,11 +844,11 @@ class ArcTrajectory(Trajectory):
     def has_costates(self) -> bool:
         return True
 
-    def _costate(self, t):
+    def _costate(self, t: ArrayLike) -> np.ndarray:
         shape, _, _, y = self._eval(t)
         return y[:, self._n : 2 * self._n].reshape(shape + (self._n,))
 
-    def _control_and_mu(self, t):
+    def _control_and_mu(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         shape, flat, arc, y = self._eval(t)
         nu = self.problem.nu
         U, M = np.empty((flat.size, nu)), np.empty(flat.size)
@@ -821,10 +868,10 @@ class ArcTrajectory(Trajectory):
             M[sel] = np.asarray(mu).ravel()
         return U.reshape(shape + (nu,)), M.reshape(shape)
 
-    def _control(self, t):
+    def _control(self, t: np.ndarray) -> np.ndarray:
         return self._control_and_mu(t)[0]
 
-    def multiplier(self, t) -> np.ndarray:
+    def multiplier(self, t: ArrayLike) -> np.ndarray:
         """The multiplier ``mu`` of the active inequality at times ``t`` (0 off boundary arcs)."""
         return self._control_and_mu(self._check_times(t))[1]
 

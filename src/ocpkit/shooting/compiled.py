@@ -12,8 +12,10 @@ integration, switching handling included, runs in C.
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +24,9 @@ from .._ccompile import CFLAGS, cache_dir  # noqa: F401 (their home before)
 from .._deprecation import renamed_argument
 from .hamiltonian import HamiltonianSystem
 from .strategies import SWITCHING_MODES
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 _STATUS = {
     0: "ok",
@@ -80,7 +85,9 @@ class Integration:
     def rejected_ratio(self) -> float:
         return self.rejected / self.steps if self.steps else 0.0
 
-    def controls(self, system: HamiltonianSystem, parameters=None) -> np.ndarray:
+    def controls(
+        self, system: HamiltonianSystem, parameters: Mapping[str, float] | ArrayLike | None = None
+    ) -> np.ndarray:
         """The control at the recorded points (rows), in the mode their switching functions select.
 
         ``parameters``: default, those this trajectory was integrated with.
@@ -97,7 +104,7 @@ class Integration:
 class CompiledSystem:
     """A :class:`HamiltonianSystem` compiled with the Dormand-Prince integrator."""
 
-    def __init__(self, system: HamiltonianSystem):
+    def __init__(self, system: HamiltonianSystem) -> None:
         self.system = system
         self.library_path = build_library(system)
         try:
@@ -136,15 +143,15 @@ class CompiledSystem:
 
     def integrate(
         self,
-        y0,
+        y0: ArrayLike,
         t0: float,
         tf: float,
-        parameters=None,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
         *,
         switching: str | None = None,
         rtol: float = 1e-8,
         atol: float = 1e-8,
-        Psi0=None,
+        Psi0: ArrayLike | None = None,
         record: bool = True,
         max_steps: int = 1_000_000,
         capacity: int | None = None,

@@ -29,13 +29,17 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import SolverError
 from .shooting import Shooting, ShootingResult
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 # -- natural-parameter continuation -------------------------------------------------------------
 
@@ -44,14 +48,18 @@ class Schedule:
     """Step rule: the given ``values`` in turn; a failed step is halved (``midpoint``) at most ``max_halvings`` times."""
 
     def __init__(
-        self, values: Sequence[float], *, midpoint: Callable = lambda a, b: 0.5 * (a + b), max_halvings: int = 6
-    ):
+        self,
+        values: Sequence[float],
+        *,
+        midpoint: Callable[[float, float], float] = lambda a, b: 0.5 * (a + b),
+        max_halvings: int = 6,
+    ) -> None:
         self._values = [float(v) for v in values]
         self._next = 0
         self._pending: list[float] = []
         self.midpoint, self.max_halvings = midpoint, max_halvings
 
-    def propose(self, current):
+    def propose(self, current: float | None) -> float | None:
         if not self._pending:
             if self._next >= len(self._values):
                 return None
@@ -59,7 +67,7 @@ class Schedule:
             self._next += 1
         return self._pending[-1]
 
-    def reject(self, current, value, error, solved: int):
+    def reject(self, current: float | None, value: float, error: BaseException | None, solved: int) -> None:
         if current is None or len(self._pending) > self.max_halvings:
             raise SolverError(
                 "continuation",
@@ -70,7 +78,7 @@ class Schedule:
             ) from error
         self._pending.append(self.midpoint(current, value))
 
-    def accept(self, value):
+    def accept(self, value: float) -> None:
         self._pending.pop()
 
 
@@ -91,19 +99,19 @@ class GeometricSteps:
         self,
         stop: float,
         *,
-        targets=(),
+        targets: Iterable[float] = (),
         factor: float = 0.8,
         slowest: float = 0.995,
         floor: float = 0.7,
         cap: float = 0.8,
         grow: float = 1.5,
-    ):
+    ) -> None:
         if not 0 < factor < 1:
             raise ValueError(f"factor must lie in (0, 1), got {factor}")
         self.stop, self.factor, self.slowest, self.floor, self.cap, self.grow = stop, factor, slowest, floor, cap, grow
         self.targets = sorted({float(t) for t in targets}, reverse=True)
 
-    def propose(self, current):
+    def propose(self, current: float) -> float | None:
         if current <= self.stop * (1 + 1e-12):
             return None
         value = max(current * self.factor, self.stop)
@@ -112,7 +120,7 @@ class GeometricSteps:
                 value = target
         return value
 
-    def reject(self, current, value, error, solved: int):
+    def reject(self, current: float, value: float, error: BaseException | None, solved: int) -> None:
         self.factor = 1 - (1 - self.factor) / 2
         if self.factor > self.slowest:
             raise SolverError(
@@ -123,20 +131,20 @@ class GeometricSteps:
                 unit="points solved",
             ) from error
 
-    def accept(self, value):
+    def accept(self, value: float) -> None:
         self.factor = max(self.floor, min(self.cap, 1 - (1 - self.factor) * self.grow))
 
 
 def follow(
-    solve_at: Callable,
-    z0,
+    solve_at: Callable[[float, np.ndarray], Any],
+    z0: ArrayLike,
     start: float | None,
-    steps,
+    steps: Schedule | GeometricSteps,
     *,
-    predictor: Callable | None = None,
-    choose: Callable | None = None,
-    log: Callable | None = None,
-) -> list[tuple[float, ShootingResult]]:
+    predictor: Callable[[list[tuple[Any, np.ndarray]], float], Any] | None = None,
+    choose: Callable[[list[Any]], Any] | None = None,
+    log: Callable[[float, Any, float], Any] | None = None,
+) -> list[tuple[float, Any]]:
     """Natural-parameter continuation from ``z0`` (a solution at ``start``, or just a start when ``start`` is None).
 
     ``steps`` proposes the parameter values (:class:`Schedule`, :class:`GeometricSteps`);
@@ -148,10 +156,10 @@ def follow(
     back to ``steps`` (which shortens it or gives up with a :class:`SolverError`).
     Returns ``[(value, result), ...]`` for every value solved, in order.
     """
-    history = [(start, np.asarray(z0, dtype=float))]
+    history: list[tuple[Any, np.ndarray]] = [(start, np.asarray(z0, dtype=float))]  # (the first value: start)
     predictor = predictor or (lambda h, v: h[-1][1])
     choose = choose or (lambda results: results[0])
-    out = []
+    out: list[tuple[float, Any]] = []
     t0 = time.perf_counter()
     while True:
         current = history[-1][0]
@@ -160,7 +168,8 @@ def follow(
             return out
         guesses = predictor(history, value)
         guesses = guesses if isinstance(guesses, list) else [guesses]
-        results, error = [], None
+        results: list[Any] = []
+        error: SolverError | None = None
         for g in guesses:
             try:
                 results.append(solve_at(value, g))
@@ -178,7 +187,13 @@ def follow(
 
 
 def homotopy(
-    regularized: Shooting, lambdas, z0, *, parameter: str = "lam", final: Shooting | None = None, **solve_options
+    regularized: Shooting,
+    lambdas: Sequence[float],
+    z0: ArrayLike,
+    *,
+    parameter: str = "lam",
+    final: Shooting | None = None,
+    **solve_options: Any,
 ) -> list[ShootingResult]:
     """Continuation on a cost parameter: solve for each value of ``lambdas`` in turn, each warm-starting the next.
 
@@ -191,7 +206,7 @@ def homotopy(
         raise KeyError(f"{problem.name!r} has no parameter {parameter!r}; it has {sorted(problem.parameters)}")
     solve_options = {**solve_options, "raise_on_failure": True}
 
-    def solve_at(lam, z):
+    def solve_at(lam: float, z: np.ndarray) -> ShootingResult:
         return regularized.solve(z, problem.parameter_vector({parameter: lam}), **solve_options)
 
     results = [r for _, r in follow(solve_at, z0, None, Schedule(lambdas, max_halvings=0))]
@@ -205,13 +220,14 @@ class ContinuationPath:
     """The points of a continuation: parameter values, unknowns, and the refined target solutions."""
 
     parameter: str
-    values: list = field(default_factory=list)
-    z: list = field(default_factory=list)
-    targets: dict = field(default_factory=dict)  # value -> list of ShootingResult (one per crossing)
+    values: list[float] = field(default_factory=list)
+    z: list[np.ndarray] = field(default_factory=list)
+    targets: dict[float, list[ShootingResult]] = field(default_factory=dict)  # value -> one per crossing
     steps: int = 0
     failures: int = 0
     message: str = ""
-    refinement_failures: dict = field(default_factory=dict)  # value -> messages of crossings that did not refine
+    #: value -> messages of crossings that did not refine
+    refinement_failures: dict[float, list[str]] = field(default_factory=dict)
 
     @property
     def turning_points(self) -> list[int]:
@@ -220,7 +236,7 @@ class ContinuationPath:
         d = np.diff(v)
         return [i + 1 for i in range(len(d) - 1) if d[i] * d[i + 1] < 0]
 
-    def best(self, value: float, key=lambda r: r.tf) -> ShootingResult:
+    def best(self, value: float, key: Callable[[ShootingResult], Any] = lambda r: r.tf) -> ShootingResult:
         """The crossing of ``value`` that minimises ``key`` (default: the final time)."""
         if value not in self.targets or not self.targets[value]:
             if value in self.refinement_failures:
@@ -234,12 +250,12 @@ class ContinuationPath:
 
 def arclength(
     shooting: Shooting,
-    z0,
+    z0: ArrayLike,
     parameter: str,
     start: float,
     stop: float,
     *,
-    targets=(),
+    targets: Iterable[float] = (),
     log: bool = True,
     h0: float = 0.05,
     hmin: float = 1e-7,
@@ -273,14 +289,14 @@ def arclength(
     target_values = {float(to_theta(t)): float(t) for t in targets}  # keyed by the caller's own values
     target_thetas = sorted(target_values)
 
-    def params(theta):
+    def params(theta: float) -> np.ndarray:
         P = base.copy()
         P[k] = from_theta(theta)
         return P
 
     scale = np.concatenate([np.maximum(np.abs(np.asarray(z0, dtype=float)), 1.0), [1.0]])
 
-    def F_and_J(Xs):
+    def F_and_J(Xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residual and Jacobian in the scaled unknowns ``Xs = X / scale``."""
         X = Xs * scale
         z, theta = X[:-1], X[-1]
@@ -288,7 +304,7 @@ def arclength(
         Sp = shooting.residual(z, params(theta + fd_step))
         return S, np.hstack([Jz, ((Sp - S) / fd_step)[:, None]]) * scale
 
-    def tangent(J, previous):
+    def tangent(J: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
         _, _, vt = np.linalg.svd(J)
         t = vt[-1]
         if previous is None:

@@ -35,14 +35,18 @@ one mode, no switching function, so the integrator's switching options do nothin
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
 
 from ..names import Named, NamedParameters, call
 from ..problem import Hamiltonian, OptimalControlProblem, _column
+
+if TYPE_CHECKING:
+    from ..problem import State
 
 CONTROL_SETS = ("box", "ball")
 
@@ -52,9 +56,9 @@ class SwitchingGroup:
     """Controls ``indices`` given by ``controls[regime]`` where ``regime = #{k : quantity > thresholds[k]}``."""
 
     quantity: ca.SX
-    thresholds: list
-    controls: list
-    indices: tuple
+    thresholds: list[Any]
+    controls: list[Any]
+    indices: tuple[int, ...]
 
     def __post_init__(self) -> None:
         if len(self.controls) != len(self.thresholds) + 1:
@@ -69,7 +73,7 @@ class ControlLaw:
     without thresholds (one smooth mode, no switching function).
     """
 
-    groups: list
+    groups: list[SwitchingGroup]
     nu: int
     regularized: bool
     control_set: str
@@ -99,7 +103,7 @@ class ControlLaw:
             mode //= size + 1
         return out
 
-    def mode_of(self, regimes) -> int:
+    def mode_of(self, regimes: Sequence[int]) -> int:
         mode, stride = 0, 1
         for r, size in zip(regimes, self.group_sizes):
             mode += r * stride
@@ -108,7 +112,7 @@ class ControlLaw:
 
     def control(self, mode: int) -> ca.SX:
         """The control branch (SX in the law's x, p, P) of a mode."""
-        u = [None] * self.nu
+        u: list[Any] = [None] * self.nu
         for g, r in zip(self.groups, self.regimes(mode)):
             branch = g.controls[r]
             for j, i in enumerate(g.indices):
@@ -120,11 +124,13 @@ class ControlLaw:
         return ca.vertcat(ca.SX(0, 1), *[g.quantity - c for g in self.groups for c in g.thresholds])
 
 
-def _extract(H, u, nu: int):
+def _extract(H: ca.SX, u: ca.SX, nu: int) -> tuple[ca.SX, list[ca.SX], list[ca.SX], list[ca.SX]]:
     """psi, w, b (per component for a box, scalar w and b for a ball) from evaluations of H."""
     zero = ca.DM.zeros(nu)
     H0 = ca.substitute(H, u, zero)
-    psi, w, b = [], [], []
+    psi: list[ca.SX] = []
+    w: list[ca.SX] = []
+    b: list[ca.SX] = []
     for i in range(nu):
         e = ca.DM.zeros(nu)
         e[i] = 1.0
@@ -142,7 +148,7 @@ def _extract(H, u, nu: int):
 
 def control_law(
     problem: OptimalControlProblem,
-    control_set: str | Callable = "box",
+    control_set: str | Callable[..., Any] = "box",
     *,
     regularized: bool = False,
     radius: float = 1.0,
@@ -204,7 +210,8 @@ def control_law(
         unbounded = [i for i, c in enumerate(problem.controls) if not (np.isfinite(c.lower) and np.isfinite(c.upper))]
     # the form first: an H this law cannot minimise is the error, whatever the bounds
     _check_form(problem, ham, control_set, regularized, psi, w, b, unbounded)
-    groups = []
+    groups: list[SwitchingGroup] = []
+    branches: list[Any]
     if control_set == "box":
         for i, c in enumerate(problem.controls):
             lo, hi = c.lower, c.upper
@@ -246,7 +253,7 @@ def _require_autonomous(ham: Hamiltonian) -> None:
         raise ValueError("indirect shooting here needs an autonomous problem (no explicit time dependence)")
 
 
-def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5) -> ControlLaw:
+def _user_law(problem: OptimalControlProblem, u_star: Callable[..., Any], samples: int = 5) -> ControlLaw:
     """The law ``u_star(x, p[, params])`` of the user, as one smooth mode (see :func:`control_law`)."""
     name = getattr(u_star, "__name__", type(u_star).__name__)
     what = f"control law {name!r}"
@@ -279,7 +286,18 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable, samples: int = 5
     return ControlLaw([group], nu, False, "user", f"user law {name}", ham)
 
 
-def _check_form(problem, ham, control_set, regularized, psi, w, b, unbounded=(), samples=20, tol=1e-8) -> None:
+def _check_form(
+    problem: OptimalControlProblem,
+    ham: Hamiltonian,
+    control_set: str,
+    regularized: bool,
+    psi: list[ca.SX],
+    w: list[ca.SX],
+    b: list[ca.SX],
+    unbounded: Sequence[int] = (),
+    samples: int = 20,
+    tol: float = 1e-8,
+) -> None:
     """H must equal H0 + psi.u + w|u| + b|u|^2 (b = 0 unless regularised, b > 0 on unbounded controls).
 
     Raise ValueError otherwise, saying what is wrong: a Hamiltonian of another form needs
@@ -328,7 +346,7 @@ def _check_form(problem, ham, control_set, regularized, psi, w, b, unbounded=(),
                 )
 
 
-def _sample(state) -> float:
+def _sample(state: State) -> float:
     lo, hi = state.lower, state.upper
     if np.isfinite(lo) and np.isfinite(hi):
         return 0.5 * (lo + hi) + 0.25 * (hi - lo)
@@ -353,12 +371,13 @@ class HamiltonianSystem:
     * ``acceleration(y, mode, P) -> d2y/dt2``.
     """
 
-    def __init__(self, problem: OptimalControlProblem, law: ControlLaw, n_variational: int | None = None):
+    def __init__(self, problem: OptimalControlProblem, law: ControlLaw, n_variational: int | None = None) -> None:
         self.problem, self.law = problem, law
         nx = problem.nx
         self.nx, self.n = nx, 2 * nx + 1
         self.n_variational = nx if n_variational is None else int(n_variational)
-        law_ham = law.hamiltonian  # the flows are those of the Hamiltonian the law minimises
+        # the flows are those of the Hamiltonian the law minimises (control_law's laws carry it)
+        law_ham = cast(Hamiltonian, law.hamiltonian)
         if (law_ham.x.numel(), law_ham.P.numel()) != (nx, len(problem.parameters)):
             raise ValueError("the control law was derived for a problem of other dimensions")
         ham = Hamiltonian.of(problem.functions, law_ham.x, law_ham.p, law_ham.P)
@@ -415,12 +434,18 @@ class HamiltonianSystem:
         y, Psi, P, flows, varflows, hams = self._branches
         mode = ca.MX.sym("mode")
 
-        def switched(name, sx_inputs, branches, names_in, names_out):
+        def switched(
+            name: str,
+            sx_inputs: list[ca.SX],
+            branches: Sequence[Sequence[ca.SX]],
+            names_in: list[str],
+            names_out: list[str],
+        ) -> ca.Function:
             per_mode = [ca.Function(f"{name}_{m}", sx_inputs, list(b)) for m, b in enumerate(branches)]
             zero = ca.Function(f"{name}_none", sx_inputs, [ca.SX.zeros(o.sparsity()) for o in branches[0]])
             select = ca.Function.conditional(f"{name}_switch", per_mode, zero)
             mx = [ca.MX.sym(n, s.sparsity()) for n, s in zip([n for n in names_in if n != "mode"], sx_inputs)]
-            out = select(mode, *mx)
+            out: Any = select(mode, *mx)  # one output: an MX; several: a tuple of them
             out = out if isinstance(out, (list, tuple)) else [out]
             inputs = mx[:-1] + [mode, mx[-1]]  # (..., mode, P), as the SX functions
             return ca.Function(name, inputs, list(out), names_in, names_out)
@@ -432,7 +457,7 @@ class HamiltonianSystem:
         ham = switched("ocp_ham", [y, P], [(h,) for h in hams], ["y", "mode", "P"], ["H"])
         return [flow, varflow, self.switching, self.dswitch, ham]
 
-    def mode_at(self, y, P) -> int:
+    def mode_at(self, y: np.ndarray, P: np.ndarray) -> int:
         """The mode selected by the signs of the switching functions at ``y``."""
         g = np.asarray(self.switching(y, P)).ravel()
         regimes, k = [], 0

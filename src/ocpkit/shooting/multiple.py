@@ -23,7 +23,9 @@ shooting's root solvers (damped Newton by default).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -33,6 +35,9 @@ from .hamiltonian import HamiltonianSystem
 from .shooting import Shooting, residual_noise
 from .strategies import solver_strategy
 from .trajectory import ShootingTrajectory
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 @dataclass
@@ -61,9 +66,9 @@ class MultipleShootingResult:
     objective: float
     switchings: int
     steps: int
-    integrations: list = field(repr=False, default_factory=list)
-    system: HamiltonianSystem = field(repr=False, default=None)
-    free_parameters: dict = field(default_factory=dict)
+    integrations: list[Integration] = field(repr=False, default_factory=list)
+    system: HamiltonianSystem | None = field(repr=False, default=None)
+    free_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
     def tf(self) -> float:
@@ -79,7 +84,7 @@ class MultipleShootingResult:
         if not runs or any(r.states.shape[0] < 2 for r in runs):
             raise ValueError("this run has no recorded integrations: its last evaluation was not recorded")
 
-        def joined(name):
+        def joined(name: str) -> np.ndarray:
             return np.concatenate([getattr(r, name) for r in runs])
 
         self.__dict__["_integration"] = Integration(
@@ -109,7 +114,8 @@ class MultipleShootingResult:
         """The extremal as functions of time (:class:`~ocpkit.shooting.trajectory.ShootingTrajectory` of
         :attr:`integration`)."""
         if "_trajectory" not in self.__dict__:
-            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system, self.objective)
+            system = cast(HamiltonianSystem, self.system)  # (set by the multiple shooting that made this result)
+            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, system, self.objective)
         return self.__dict__["_trajectory"]
 
 
@@ -122,7 +128,7 @@ class MultipleShooting:
     docstring). The segments are integrated as the shooting integrates (its switching treatment, tolerances and
     interior check), by a system compiled with ``2 nx`` variational columns."""
 
-    def __init__(self, shooting: Shooting, segments: int = 10):
+    def __init__(self, shooting: Shooting, segments: int = 10) -> None:
         if not (isinstance(segments, (int, np.integer)) and segments >= 2):
             raise ValueError(f"segments must be an integer of at least 2, got {segments!r}")
         self.shooting = shooting
@@ -147,15 +153,17 @@ class MultipleShooting:
         t0 = float(self.shooting.problem.t0)
         return t0 + self.fractions * (tf - t0)
 
-    def _integrate(self, y0, ta: float, tb: float, P, Psi0=None, record: bool = False) -> Integration:
+    def _integrate(
+        self, y0: ArrayLike, ta: float, tb: float, P: np.ndarray, Psi0: ArrayLike | None = None, record: bool = False
+    ) -> Integration:
         return self.shooting.flow(y0, ta, tb, P, Psi0=Psi0, record=record, system=self.compiled)
 
-    def _start(self, z) -> tuple[np.ndarray, float]:
+    def _start(self, z: ArrayLike) -> tuple[np.ndarray, float]:
         unknowns, tf = self.shooting._split(z)
         x0, p0 = self.shooting._initial(unknowns)
         return np.concatenate([x0, p0, [0.0]]), tf
 
-    def nodes(self, z, parameters=None) -> np.ndarray:
+    def nodes(self, z: ArrayLike, parameters: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The multiple-shooting unknowns ``Z`` continuing a single shooting's ``z``: each node where the flow
         from the previous one arrives."""
         P = self.shooting._params(parameters)
@@ -167,7 +175,7 @@ class MultipleShooting:
             out.append(y)
         return np.concatenate(out)
 
-    def _split(self, Z):
+    def _split(self, Z: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         Z = np.asarray(Z, dtype=float).ravel()
         if Z.size != self.nz:
             raise ValueError(
@@ -176,7 +184,14 @@ class MultipleShooting:
         m = self.shooting.nz
         return Z[:m], Z[m:].reshape(self.segments - 1, self.n)
 
-    def evaluate(self, Z, parameters=None, *, jacobian: bool = True, record: bool = False):
+    def evaluate(
+        self,
+        Z: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
+        *,
+        jacobian: bool = True,
+        record: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray | None, list[Integration]]:
         """``(R, dR/dZ, integrations)`` at ``Z`` (``dR/dZ`` None without ``jacobian``)."""
         s, sysm = self.shooting, self.compiled.system
         P = s._params(parameters)
@@ -207,14 +222,16 @@ class MultipleShooting:
                 R[rows] = S.ravel()
             if not jacobian:
                 continue
+            D = cast(np.ndarray, D)  # (allocated above: a Jacobian is asked for)
+            Psi = cast(np.ndarray, res.Psi)  # (integrated with the variational columns)
             # d(segment end)/d(its start): the variational columns for x and p; the cost J only adds itself
             dend = np.zeros((n, n))
-            dend[:, : 2 * nx] = res.Psi
+            dend[:, : 2 * nx] = Psi
             dend[2 * nx, 2 * nx] = 1.0
             velocity = np.asarray(sysm.flow(yb, mode, P)).ravel() * share
             outer = dSdy if k == K - 1 else np.diag(self.weights[k])
             if k == 0:
-                D[rows, :nx] = outer @ res.Psi[:, :nx]
+                D[rows, :nx] = outer @ Psi[:, :nx]
             else:
                 cols = slice(m + (k - 1) * n, m + k * n)
                 D[rows, cols] = outer @ dend
@@ -224,12 +241,12 @@ class MultipleShooting:
                 D[rows, m - 1] += outer @ velocity + (dSdtf.ravel() if k == K - 1 else 0.0)
         return R, D, runs
 
-    def noise(self, Z, parameters=None, **options) -> float:
+    def noise(self, Z: ArrayLike, parameters: Mapping[str, float] | ArrayLike | None = None, **options: Any) -> float:
         """The level below which ``|R(Z)|`` is chance (:func:`~ocpkit.shooting.shooting.residual_noise`, with the
         continuity weights of the last :meth:`solve`; ``options``: its ``samples``, ``relative``, ``seed``)."""
         return residual_noise(
             lambda Y: self.evaluate(Y, parameters, jacobian=False)[0],
-            lambda Y: self.evaluate(Y, parameters)[:2],
+            lambda Y: cast("tuple[np.ndarray, np.ndarray]", self.evaluate(Y, parameters)[:2]),  # (with the Jacobian)
             np.asarray(Z, dtype=float).ravel(),
             **options,
         )
@@ -237,10 +254,10 @@ class MultipleShooting:
     # -- solve -----------------------------------------------------------------------------------------
     def solve(
         self,
-        Z0,
-        parameters=None,
+        Z0: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
         *,
-        solver="newton",
+        solver: str | Callable[..., tuple[np.ndarray, str]] = "newton",
         stol: float = 1e-10,
         maxfev: int = 50,
         raise_on_failure: bool = True,
@@ -257,9 +274,9 @@ class MultipleShooting:
             Z0 = self.nodes(Z0, parameters)
         self.weights = 1.0 / (1.0 + np.abs(self._split(Z0)[1]))
         counts = {"S": 0, "jac": 0}
-        cache = {}
+        cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = {}
 
-        def evaluate(Z, jacobian):
+        def evaluate(Z: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
             key = Z.tobytes()
             if key not in cache or (jacobian and cache[key][1] is None):
                 try:
@@ -270,12 +287,12 @@ class MultipleShooting:
                 cache[key] = (R, D)
             return cache[key]
 
-        def fun(Z):
+        def fun(Z: np.ndarray) -> np.ndarray:
             counts["S"] += 1
             R = evaluate(Z, False)[0]
             return R if np.all(np.isfinite(R)) else np.full(self.nz, 1e10)
 
-        def jac(Z):
+        def jac(Z: np.ndarray) -> np.ndarray:
             counts["jac"] += 1
             D = evaluate(Z, True)[1]
             if D is None or not np.all(np.isfinite(D)):

@@ -35,8 +35,10 @@ each switching).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
@@ -48,6 +50,9 @@ from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
 from .trajectory import ShootingTrajectory
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 @dataclass
@@ -79,10 +84,11 @@ class ShootingResult:
     switching: str
     jacobian: str
     parameters: np.ndarray
-    integration: Integration = field(repr=False)
-    system: HamiltonianSystem = field(repr=False, default=None)
+    #: None where the integration at the last iterate failed (``solve(raise_on_failure=False)``)
+    integration: Integration | None = field(repr=False)
+    system: HamiltonianSystem | None = field(repr=False, default=None)
     #: the solved free parameters by name (states of the shooting's problem, :meth:`parameters_as_states`)
-    free_parameters: dict = field(default_factory=dict)
+    free_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
     def detection(self) -> str:
@@ -96,13 +102,14 @@ class ShootingResult:
         if self.integration is None:
             raise ValueError(f"this run has no trajectory: {self.message}")
         if "_trajectory" not in self.__dict__:
-            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, self.system, self.objective)
+            system = cast(HamiltonianSystem, self.system)  # (set by the shooting that made this result)
+            self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, system, self.objective)
         return self.__dict__["_trajectory"]
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """The result as a table row; the switching treatment under ``"detection"``, the column of Martinon &
         Gergaud's tables (and of ``data/paper/switching_detection.csv``)."""
-        tr = self.integration
+        tr: Any = self.integration
         if tr is None:  # the integration at the last iterate failed
             nan = float("nan")
             tr = SimpleNamespace(
@@ -127,7 +134,15 @@ class ShootingResult:
         }
 
 
-def residual_noise(residual, jacobian, z, *, samples: int = 12, relative: float = 1e-12, seed: int = 0) -> float:
+def residual_noise(
+    residual: Callable[[np.ndarray], np.ndarray],
+    jacobian: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    z: ArrayLike,
+    *,
+    samples: int = 12,
+    relative: float = 1e-12,
+    seed: int = 0,
+) -> float:
     """How noisy a shooting function is at ``z``: the level below which its norm is chance.
 
     The median of ``|S(z + dz) - S(z) - J dz|`` over random ``dz`` of relative size ``relative``, with ``(S(z), J)
@@ -186,7 +201,7 @@ class Shooting:
         law: ControlLaw,
         *,
         switching: str | None = None,
-        jacobian: str = "variational",
+        jacobian: str | Callable[..., tuple[np.ndarray, np.ndarray]] = "variational",
         rtol: float = 1e-8,
         atol: float = 1e-8,
         system: CompiledSystem | None = None,
@@ -194,7 +209,7 @@ class Shooting:
         interior_check: bool = True,
         fd_step: float | None = None,
         detection: str | None = None,
-    ):
+    ) -> None:
         switching = renamed_argument("detection", "switching", detection, switching, "correction", "Shooting")
         if switching not in SWITCHING_MODES:
             raise ValueError(f"switching must be one of {SWITCHING_MODES}, got {switching!r}")
@@ -263,7 +278,7 @@ class Shooting:
         dphi = ca.gradient(phi, xf)
         rows = []
         for i, s in enumerate(problem.states):
-            rows.append(xf[i] - s.fixed_final if self.fixed_final[i] else pf[i] - dphi[i])
+            rows.append(xf[i] - cast(float, s.fixed_final) if self.fixed_final[i] else pf[i] - dphi[i])
         if self.free_tf:
             rows.append(sysm.hamiltonian(yf, mode, P) + ca.gradient(phi, tf))
         S = ca.vertcat(*rows)
@@ -271,19 +286,26 @@ class Shooting:
         self.counts = {"S": 0, "jac": 0, "integrations": 0}
 
     # -- shooting function ------------------------------------------------------------------
-    def _split(self, z):
+    def _split(self, z: ArrayLike) -> tuple[np.ndarray, float]:
         z = np.asarray(z, dtype=float).ravel()
         if z.size != self.nz:
             raise ValueError(
                 f"z must have {self.nz} entries (per state its initial costate, or its initial value where it is "
                 f"free{', then tf' if self.free_tf else ''})"
             )
-        tf = z[-1] if self.free_tf else float(self.problem.tf)
+        tf = z[-1] if self.free_tf else float(cast(float, self.problem.tf))
         if not tf > self.problem.t0:
             raise ValueError(f"final time {tf} must exceed t0 = {self.problem.t0}")
         return z[: self.problem.nx], tf
 
-    def integrate(self, z, parameters=None, *, variational: bool = False, record: bool = False) -> Integration:
+    def integrate(
+        self,
+        z: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
+        *,
+        variational: bool = False,
+        record: bool = False,
+    ) -> Integration:
         """The trajectory from the initial state and the costates (and tf) in ``z``.
 
         ``parameters``: the problem's parameter vector; default, this problem's values
@@ -303,7 +325,18 @@ class Shooting:
         where = f"at z = {np.array2string(np.asarray(z), precision=6)}"
         return self.flow(y0, self.problem.t0, tf, P, Psi0=Psi0, record=record, where=where)
 
-    def flow(self, y0, t0: float, tf: float, P, *, Psi0=None, record: bool = False, system=None, where: str = ""):
+    def flow(
+        self,
+        y0: ArrayLike,
+        t0: float,
+        tf: float,
+        P: Mapping[str, float] | ArrayLike | None,
+        *,
+        Psi0: ArrayLike | None = None,
+        record: bool = False,
+        system: CompiledSystem | None = None,
+        where: str = "",
+    ) -> Integration:
         """The integration of ``y = (x, p, J)`` from ``y0`` at ``t0`` to ``tf`` as this shooting integrates (its
         switching treatment, tolerances, step cap and interior check), by ``system`` (default its compiled system;
         :class:`~ocpkit.shooting.multiple.MultipleShooting` passes one with more variational columns). A failed
@@ -331,20 +364,25 @@ class Shooting:
             )
         return res
 
-    def _initial(self, unknowns) -> tuple[np.ndarray, np.ndarray]:
+    def _initial(self, unknowns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The initial state and costates from the unknowns (initial costates, or initial values of free states)."""
         x0 = np.where(self.free_initial, unknowns, self.x0)
         p0 = np.where(self.free_initial, 0.0, unknowns)
         return x0, p0
 
-    def _params(self, parameters):
+    def _params(self, parameters: Mapping[str, float] | ArrayLike | None) -> np.ndarray:
         return self.problem.parameter_vector(parameters)
 
-    def _free_parameters(self, x0) -> dict:
+    def _free_parameters(self, x0: np.ndarray) -> dict[str, float]:
         """The free parameters by name in the initial state ``x0`` of the shooting's problem (they are states)."""
         return {v.name: float(x0[self.problem.state_index(v.name)]) for v in self.statement.free_parameters}
 
-    def residual(self, z, parameters=None, integration: Integration | None = None) -> np.ndarray:
+    def residual(
+        self,
+        z: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
+        integration: Integration | None = None,
+    ) -> np.ndarray:
         """S(z)."""
         P = self._params(parameters)
         res = integration if integration is not None else self.integrate(z, P)
@@ -352,20 +390,26 @@ class Shooting:
         mode = self.compiled.system.mode_at(res.y, P)
         return np.asarray(self._S(res.y, tf, mode, P)[0]).ravel()
 
-    def residual_and_derivatives(self, z, P, integration: Integration, variational: bool = True):
+    def residual_and_derivatives(
+        self, z: ArrayLike, P: np.ndarray, integration: Integration, variational: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(S(z), dS/dz)`` from an integration that carried the variational columns ``Psi = dy/dz``."""
         _, tf = self._split(z)
         sysm = self.compiled.system
         mode = sysm.mode_at(integration.y, P)
         S, dSdy, dSdtf = (np.asarray(v) for v in self._S(integration.y, tf, mode, P))
-        J = dSdy @ integration.Psi
+        J = dSdy @ cast(np.ndarray, integration.Psi)  # (integrated with the variational columns)
         if self.free_tf:
             ydot = np.asarray(sysm.flow(integration.y, mode, P)).ravel()
             J = np.hstack([J, (dSdy @ ydot + dSdtf.ravel())[:, None]])
         return S.ravel(), J
 
     def jacobian_matrix(
-        self, z, parameters=None, method=None, S0: np.ndarray | None = None
+        self,
+        z: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
+        method: str | Callable[..., tuple[np.ndarray, np.ndarray]] | None = None,
+        S0: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(S(z), dS/dz)`` by ``method`` (a name in :data:`~ocpkit.shooting.strategies.JACOBIANS` or a
         strategy object; default: this run's).
@@ -377,7 +421,7 @@ class Shooting:
         z = np.asarray(z, dtype=float).ravel()
         return strategy(self, z, P, S0)
 
-    def noise(self, z, parameters=None, **options) -> float:
+    def noise(self, z: ArrayLike, parameters: Mapping[str, float] | ArrayLike | None = None, **options: Any) -> float:
         """The level below which ``|S(z)|`` is chance (:func:`residual_noise`; ``options``: its ``samples``,
         ``relative``, ``seed``)."""
         P = self._params(parameters)
@@ -388,10 +432,10 @@ class Shooting:
     # -- solve ------------------------------------------------------------------------------------
     def solve(
         self,
-        z0,
-        parameters=None,
+        z0: ArrayLike,
+        parameters: Mapping[str, float] | ArrayLike | None = None,
         *,
-        solver="hybr",
+        solver: str | Callable[..., tuple[np.ndarray, str]] = "hybr",
         stol: float = 1e-8,
         maxfev: int = 400,
         raise_on_failure: bool = True,
@@ -436,9 +480,10 @@ class Shooting:
         self.counts = {"S": 0, "jac": 0, "integrations": 0}
         # the solvers ask for S and J at the same points more than once (scipy checks the shapes at z0,
         # Newton evaluates S where it took J): each is computed once per point; counts are the requests
-        last_S, last_J = {}, {}
+        last_S: dict[bytes, np.ndarray] = {}
+        last_J: dict[bytes, np.ndarray] = {}
 
-        def fun(z):
+        def fun(z: np.ndarray) -> np.ndarray:
             self.counts["S"] += 1
             key = z.tobytes()
             if key not in last_S:
@@ -454,7 +499,7 @@ class Shooting:
                 last_S[key] = S
             return last_S[key]
 
-        def jac(z):
+        def jac(z: np.ndarray) -> np.ndarray:
             self.counts["jac"] += 1
             key = z.tobytes()
             if key not in last_J:
@@ -500,7 +545,7 @@ class Shooting:
         norm = float(np.linalg.norm(S))
         ok = bool(np.isfinite(norm) and norm <= stol)
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
-            unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(self.problem.tf))
+            unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))
         else:
             unknowns, tf = self._split(z)
         x0, p0 = self._initial(unknowns)
@@ -540,7 +585,7 @@ class Shooting:
             )
         return result
 
-    def _objective(self, res: Integration, tf: float, P) -> float:
+    def _objective(self, res: Integration, tf: float, P: np.ndarray) -> float:
         """Running cost (integrated along the trajectory) plus the Mayer term."""
         nx = self.problem.nx
         J = float(res.y[2 * nx])

@@ -13,16 +13,23 @@ strategy is a small class with the same method.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._deprecation import renamed
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .shooting import Shooting
+
 SWITCHING_MODES = ("none", "detection", "correction")
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> tuple[str, ...]:
     if name == "DETECTION_MODES":
         renamed("ocpkit.shooting.DETECTION_MODES", "SWITCHING_MODES")
         return SWITCHING_MODES
@@ -44,7 +51,9 @@ class FiniteDifferences:
 
     name = "fd"
 
-    def __call__(self, shooting, z, P, S0=None):
+    def __call__(
+        self, shooting: Shooting, z: np.ndarray, P: np.ndarray, S0: ArrayLike | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         step = shooting.fd_step if self.step is None else self.step
         S0 = shooting.residual(z, P) if S0 is None else np.asarray(S0, dtype=float)
         J = np.empty((S0.size, z.size))
@@ -71,15 +80,23 @@ class Variational:
 
     name = "variational"
 
-    def __call__(self, shooting, z, P, S0=None):
+    def __call__(
+        self, shooting: Shooting, z: np.ndarray, P: np.ndarray, S0: ArrayLike | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         res = shooting.integrate(z, P, variational=True)
         return shooting.residual_and_derivatives(z, P, res, variational=True)
 
 
-JACOBIANS = {"fd": FiniteDifferences(), "central": FiniteDifferences(central=True), "variational": Variational()}
+JACOBIANS: dict[str, FiniteDifferences | Variational] = {
+    "fd": FiniteDifferences(),
+    "central": FiniteDifferences(central=True),
+    "variational": Variational(),
+}
 
 
-def jacobian_strategy(spec):
+def jacobian_strategy(
+    spec: str | Callable[..., tuple[np.ndarray, np.ndarray]],
+) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
     """A Jacobian strategy from its name in :data:`JACOBIANS` or an object."""
     if isinstance(spec, str):
         if spec not in JACOBIANS:
@@ -105,7 +122,15 @@ class MinpackHybrid:
 
     name = "hybr"
 
-    def __call__(self, fun, jac, z0, *, stol: float, maxfev: int):
+    def __call__(
+        self,
+        fun: Callable[[np.ndarray], np.ndarray],
+        jac: Callable[[np.ndarray], np.ndarray],
+        z0: ArrayLike,
+        *,
+        stol: float,
+        maxfev: int,
+    ) -> tuple[np.ndarray, str]:
         from scipy.optimize import root
 
         sol = root(
@@ -126,7 +151,15 @@ class DampedNewton:
 
     name = "newton"
 
-    def __call__(self, fun, jac, z0, *, stol: float, maxfev: int):
+    def __call__(
+        self,
+        fun: Callable[[np.ndarray], np.ndarray],
+        jac: Callable[[np.ndarray], np.ndarray],
+        z0: ArrayLike,
+        *,
+        stol: float,
+        maxfev: int,
+    ) -> tuple[np.ndarray, str]:
         z = np.asarray(z0, dtype=float)
         J = jac(z)
         S = fun(z)
@@ -167,10 +200,10 @@ class DampedNewton:
         return best[1], message
 
 
-SOLVERS = {"hybr": MinpackHybrid(), "newton": DampedNewton()}
+SOLVERS: dict[str, MinpackHybrid | DampedNewton] = {"hybr": MinpackHybrid(), "newton": DampedNewton()}
 
 
-def solver_strategy(spec):
+def solver_strategy(spec: str | Callable[..., tuple[np.ndarray, str]]) -> Callable[..., tuple[np.ndarray, str]]:
     """A root solver from its name in :data:`SOLVERS` or an object."""
     if isinstance(spec, str):
         if spec not in SOLVERS:

@@ -13,6 +13,8 @@ evaluated on the interpolated state and costate.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._arrays import unique
@@ -21,6 +23,9 @@ from ..trajectory import Trajectory
 from .compiled import Integration
 from .hamiltonian import HamiltonianSystem
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 
 class ShootingTrajectory(Trajectory):
     """State, control and costate of a recorded integration (``record=True``) of a Hamiltonian system.
@@ -28,7 +33,7 @@ class ShootingTrajectory(Trajectory):
     ``objective``: the cost of the trajectory (the shooting result's, running cost plus Mayer term).
     """
 
-    def __init__(self, integration: Integration, system: HamiltonianSystem, objective: float = float("nan")):
+    def __init__(self, integration: Integration, system: HamiltonianSystem, objective: float = float("nan")) -> None:
         if integration.states.shape[0] < 2:
             raise ValueError("a shooting trajectory needs a recorded integration (record=True)")
         if integration.truncated:
@@ -67,7 +72,7 @@ class ShootingTrajectory(Trajectory):
             ]
         )
 
-    def _modes_at(self, Y) -> np.ndarray:
+    def _modes_at(self, Y: np.ndarray) -> np.ndarray:
         law = self.system.law
         g = np.asarray(self.system.switching.map(Y.shape[0])(Y.T, self._P)).T
         modes = np.zeros(Y.shape[0], dtype=int)
@@ -78,7 +83,7 @@ class ShootingTrajectory(Trajectory):
             k += size
         return modes
 
-    def _locate(self, t):
+    def _locate(self, t: ArrayLike) -> tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)
         flat = t.ravel()
         i = np.clip(np.searchsorted(self._t, flat, side="right") - 1, 0, self._t.size - 2)
@@ -86,24 +91,24 @@ class ShootingTrajectory(Trajectory):
         s = (flat - self._t[i]) / h
         return t.shape, i, s, h
 
-    def _y(self, t) -> np.ndarray:
+    def _y(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         shape, i, s, h = self._locate(t)
         y = quintic_hermite(
             self._Y[i], self._D0[i], self._A0[i], self._Y[i + 1], self._D1[i], self._A1[i], h[:, None], s[:, None]
         )
         return y.reshape(shape + (y.shape[-1],)), i
 
-    def _state(self, t):
+    def _state(self, t: np.ndarray) -> np.ndarray:
         return self._y(t)[0][..., : self._n]
 
     @property
     def has_costates(self) -> bool:
         return True
 
-    def _costate(self, t):
+    def _costate(self, t: ArrayLike) -> np.ndarray:
         return self._y(t)[0][..., self._n : 2 * self._n]
 
-    def _control(self, t):
+    def _control(self, t: np.ndarray) -> np.ndarray:
         y, i = self._y(t)
         shape = y.shape[:-1]
         Y = y.reshape(-1, y.shape[-1])

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Self, cast
 
 import casadi as ca
 import numpy as np
@@ -20,14 +22,17 @@ from ..accuracy import (
 )
 from ..errors import SolverError
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP, failure_hint
-from ..problem import AffineScaling, Guess, OptimalControlProblem, State
+from ..problem import AffineScaling, Guess, OptimalControlProblem, State, Variable
 from ..solution import Solution
 from . import session
 from .mesh import GlobalVariables, Mesh
 from .session import STALL_FALL, STALL_GROWTH, STALL_MESHES, MeshIteration  # noqa: F401 (their home before)
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def settle(result: NLPResult, package, raise_on_failure: bool):
+
+def settle(result: NLPResult, package: Callable[[NLPResult], Any], raise_on_failure: bool) -> Any:
     """The solution of an IPOPT result (``package(result)``), or :class:`SolverError` naming the status.
 
     A failed solve raises, with the last iterate attached, unless ``raise_on_failure`` is False
@@ -42,7 +47,7 @@ def settle(result: NLPResult, package, raise_on_failure: bool):
     return solution
 
 
-def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+def node_bounds(states: Sequence[State], n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_nodes, len(states)) of states on a node set, with the boundary conditions at both ends."""
     sc = AffineScaling.of(states)
     lo = np.tile([s.lower for s in states], (n_nodes, 1)).reshape(n_nodes, len(states))
@@ -53,7 +58,7 @@ def node_bounds(states, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     return sc.to_nlp(lo), sc.to_nlp(hi)
 
 
-def point_bounds(controls, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+def point_bounds(controls: Sequence[Variable], n_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Scaled bounds (n_points, len(controls)) of controls at their parameter points."""
     sc = AffineScaling.of(controls)
     lo = np.tile([c.lower for c in controls], (n_points, 1)).reshape(n_points, len(controls))
@@ -97,7 +102,7 @@ class VariableGroup:
     """
 
     name: str
-    variables: tuple
+    variables: tuple[Variable, ...]
     points: int
 
     @property
@@ -113,7 +118,7 @@ class VariableGroup:
         return AffineScaling.of(self.variables)
 
 
-class Transcription(session.SolveSession, ABC):
+class Transcription(session.SolveSession[Solution], ABC):
     """A direct transcription of an :class:`~ocpkit.problem.OptimalControlProblem` into an NLP.
 
     Subclasses define the variable layout, the blocks and the interpolants;
@@ -121,19 +126,19 @@ class Transcription(session.SolveSession, ABC):
     """
 
     #: IPOPT options this scheme prefers over :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (user options win).
-    ipopt_defaults: dict = {}
+    ipopt_defaults: dict[str, Any] = {}
 
     #: Whether the NLP's Jacobian and Hessian blocks are compiled to C (:mod:`ocpkit._compiled_blocks`): ``"auto"``
     #: (where one evaluation is large, the compilation is repaid and a C compiler is found), True or False; set it on
     #: the object before its NLP is built (the meshes of a refinement from it keep it).
     compile: str | bool = "auto"
 
-    def __init__(self, problem: OptimalControlProblem):
+    def __init__(self, problem: OptimalControlProblem) -> None:
         if not isinstance(problem, OptimalControlProblem):
             raise TypeError(f"expected an OptimalControlProblem, got {type(problem).__name__}")
         self.problem = problem
         self._nlp: SeparableNLP | None = None
-        self._solvers = {}
+        self._solvers: dict[tuple[Any, ...], ca.Function] = {}
         self._nlp_build_s = 0.0
         self._solver_build_s = 0.0
 
@@ -152,14 +157,21 @@ class Transcription(session.SolveSession, ABC):
     def n_defects(self) -> int: ...
 
     @abstractmethod
-    def _blocks(self) -> list: ...
+    def _blocks(self) -> list[Block]: ...
 
     @abstractmethod
-    def _initial_point(self, tf: float, states, controls) -> np.ndarray:
-        """Scaled NLP vector sampled from guess functions of time."""
+    def _initial_point(
+        self,
+        tf: float,
+        states: Callable[[ArrayLike], np.ndarray],
+        controls: Callable[[ArrayLike], np.ndarray],
+        t0: float | None = None,
+    ) -> np.ndarray:
+        """Scaled NLP vector sampled from guess functions of time (``t0``: a free initial time's, default the
+        problem's)."""
 
     @abstractmethod
-    def _package(self, result: NLPResult) -> dict:
+    def _package(self, result: NLPResult) -> dict[str, Any]:
         """Solution fields (times, values, interpolants, breakpoints) from the NLP result."""
 
     def _path_points(self) -> list[PathPoints]:
@@ -189,9 +201,10 @@ class Transcription(session.SolveSession, ABC):
     def time_indices(self) -> tuple[int | None, int | None]:
         """NLP indices of t0 and tf (None where fixed)."""
         g, layout = self.global_indices(), self.global_variables
-        return tuple(None if k is None else int(g[k]) for k in (layout.t0_position, layout.tf_position))
+        indices = tuple(None if k is None else int(g[k]) for k in (layout.t0_position, layout.tf_position))
+        return cast("tuple[int | None, int | None]", indices)
 
-    def global_values(self, w) -> dict:
+    def global_values(self, w: ArrayLike) -> dict[str, Any]:
         """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of a scaled NLP vector
         (``pinned``: the problem's parameters as solved with; ``parameters``: the free ones)."""
         w = np.asarray(w, dtype=float).ravel()
@@ -202,36 +215,45 @@ class Transcription(session.SolveSession, ABC):
             )
         return self.global_variables.unpack(w[self.global_indices()])
 
-    def parameter_values(self, parameters=None) -> np.ndarray:
+    def parameter_values(self, parameters: Mapping[str, float] | None = None) -> np.ndarray:
         """The values the problem's parameters are pinned to in a solve: the problem's, with ``parameters``
         (a mapping of some names to values) replacing some; each name checked."""
         return self.problem.parameter_vector(parameters) if parameters is not None else self.problem.parameter_vector()
 
     def _index_tables(self) -> tuple[list[np.ndarray], int | None]:
         """Global NLP indices of each group, shaped (variables, points), and of tf (None if fixed)."""
-        tables, offset = [], 0
+        tables: list[np.ndarray] = []
+        offset = 0
         for g in self._groups():
             tables.append(offset + np.arange(g.size).reshape(g.points, len(g.variables)).T)
             offset += g.size
         return tables, self.time_indices()[1]
 
-    def _bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray]:
+    def _bounds(self, parameters: Mapping[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Scaled bounds of the NLP variables; state groups carry the boundary conditions, the problem's parameters
         are pinned to their values (``parameters``: some replaced)."""
         return self._stack_bounds(
             [
-                node_bounds(g.variables, g.points) if g.is_state else point_bounds(g.variables, g.points)
+                node_bounds(cast("Sequence[State]", g.variables), g.points)
+                if g.is_state
+                else point_bounds(g.variables, g.points)
                 for g in self._groups()
             ],
             parameters,
         )
 
-    def pack(self, *values, tf: float | None = None, t0: float | None = None, parameters=None) -> np.ndarray:
+    def pack(
+        self,
+        *values: ArrayLike | None,
+        tf: float | None = None,
+        t0: float | None = None,
+        parameters: Mapping[str, float] | None = None,
+    ) -> np.ndarray:
         """Scaled NLP vector from physical values, one (points, variables) array per group, and tf
         (free parameters and a free t0: ``parameters`` and ``t0``, default their guesses)."""
         groups = self._groups()
         if len(values) == len(groups) + 1 and tf is None:
-            *values, tf = values
+            *values, tf = values  # type: ignore[assignment]  # tf given after the arrays, a number
         if len(values) != len(groups):
             raise ValueError(f"expected {len(groups)} arrays ({', '.join(g.name for g in groups)}), got {len(values)}")
         parts = []
@@ -247,12 +269,13 @@ class Transcription(session.SolveSession, ABC):
         parts.append(self.global_variables.pack(pinned, free, t0, tf))
         return np.concatenate(parts)
 
-    def unpack(self, w) -> tuple:
+    def unpack(self, w: ArrayLike) -> tuple[Any, ...]:
         """Physical values, one (points, variables) array per group, then tf, from a scaled NLP vector."""
         w = np.asarray(w, dtype=float).ravel()
         if w.size != self.n_variables:
             raise ValueError(f"NLP vector has {w.size} entries, expected {self.n_variables}")
-        out, offset = [], 0
+        out: list[Any] = []
+        offset = 0
         for g in self._groups():
             z = w[offset : offset + g.size].reshape(g.points, len(g.variables))
             out.append(g.scaling.from_nlp(z) if g.variables else z)
@@ -261,11 +284,13 @@ class Transcription(session.SolveSession, ABC):
         return tuple(out)
 
     # -- helpers for subclasses ------------------------------------------------------------
-    def _times(self, tf: float, s: np.ndarray, t0: float | None = None) -> np.ndarray:
+    def _times(self, tf: float, s: ArrayLike, t0: float | None = None) -> np.ndarray:
         """Physical times of normalised times ``s`` in [0, 1]."""
         return Mesh.times(self.problem, tf, s, t0)
 
-    def _result_problem(self, result: NLPResult, g: dict | None = None):
+    def _result_problem(
+        self, result: NLPResult, g: dict[str, Any] | None = None
+    ) -> tuple[OptimalControlProblem, float, float]:
         """The problem of a result: with the parameter values it was solved with (sharing the functions) and the
         free parameters fixed at their solved values; and ``(t0, tf)`` (``g``: its :meth:`global_values`, if at
         hand)."""
@@ -289,12 +314,14 @@ class Transcription(session.SolveSession, ABC):
     def _objective_scale(self) -> float:
         return float(self.problem.objective_scale)
 
-    def _time_span(self, w) -> tuple[float, float]:
+    def _time_span(self, w: ArrayLike) -> tuple[float, float]:
         """``(t0, tf)`` of a scaled NLP vector."""
         values = self.global_values(w)
         return values["t0"], values["tf"]
 
-    def _stack_bounds(self, parts, parameters=None) -> tuple[np.ndarray, np.ndarray]:
+    def _stack_bounds(
+        self, parts: Sequence[tuple[np.ndarray, np.ndarray]], parameters: Mapping[str, float] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Concatenate ``(lower, upper)`` arrays in layout order and append the problem-wide variables' bounds
         (the parameters pinned to :meth:`parameter_values`)."""
         lb = [np.ravel(lo) for lo, _ in parts]
@@ -343,7 +370,8 @@ class Transcription(session.SolveSession, ABC):
     def _constraint_blocks(self) -> list[Block]:
         """Path constraints ``g / scale`` at every point of :meth:`_path_points`, then the boundary constraints."""
         pr = self.problem
-        blocks, row = [], self.n_defects
+        blocks: list[Block] = []
+        row = self.n_defects
         path = pr.functions.path
         if path is not None:
             scale = ca.DM(path.scale)
@@ -368,7 +396,7 @@ class Transcription(session.SolveSession, ABC):
             )
         return blocks
 
-    def _boundary_symbols(self):
+    def _boundary_symbols(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, Any, Any, Any]:
         """Symbols ``z = [x(t0), x(tf), problem-wide variables]`` (scaled) and ``p = [(tf)]``, and in them the
         physical ``x0, xf, t0, tf`` and the parameter vector ``P``."""
         pr = self.problem
@@ -403,7 +431,7 @@ class Transcription(session.SolveSession, ABC):
     def n_constraints(self) -> int:
         return self.n_defects + self.n_path_constraints + self.n_boundary_constraints
 
-    def _constraint_fields(self, result: NLPResult, tf: float, g: np.ndarray | None = None) -> dict:
+    def _constraint_fields(self, result: NLPResult, tf: float, g: np.ndarray | None = None) -> dict[str, Any]:
         """Values and multipliers of the path and boundary constraints, in the problem's units.
 
         The multiplier of a constraint row is IPOPT's, converted from the scaled NLP
@@ -414,6 +442,7 @@ class Transcription(session.SolveSession, ABC):
         out = {}
         if g is None and (pr.functions.path is not None or pr.functions.boundary is not None):
             g = np.asarray(self.nlp.constraint_function(result.w)).ravel()
+        values = cast(np.ndarray, g)  # (evaluated above where there are constraints to read)
         lam = np.asarray(result.lam_g, dtype=float).ravel()
         row = self.n_defects
         path = pr.functions.path
@@ -422,18 +451,18 @@ class Transcription(session.SolveSession, ABC):
             sl = slice(row, row + n * m)
             order = np.argsort(self.path_point_fractions(), kind="stable")
             out["path_times"] = self._times(tf, self.path_point_fractions()[order])
-            out["path_values"] = (g[sl].reshape(n, m) * path.scale)[order]
+            out["path_values"] = (values[sl].reshape(n, m) * path.scale)[order]
             out["path_multipliers"] = (lam[sl].reshape(n, m) * pr.objective_scale / path.scale)[order]
             row += n * m
         boundary = pr.functions.boundary
         if boundary is not None:
             sl = slice(row, row + boundary.size)
-            out["boundary_values"] = g[sl] * boundary.scale
+            out["boundary_values"] = values[sl] * boundary.scale
             out["boundary_multipliers"] = lam[sl] * pr.objective_scale / boundary.scale
         return out
 
     # -- shared machinery ---------------------------------------------------------------
-    def build(self) -> Transcription:
+    def build(self) -> Self:
         """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
         if self._nlp is None:
             t = time.perf_counter()
@@ -449,16 +478,16 @@ class Transcription(session.SolveSession, ABC):
 
     @property
     def nlp(self) -> SeparableNLP:
-        return self.build()._nlp
+        return cast(SeparableNLP, self.build()._nlp)  # (built)
 
-    def effective_ipopt_options(self, ipopt_options: dict | None = None) -> dict:
+    def effective_ipopt_options(self, ipopt_options: dict[str, Any] | None = None) -> dict[str, Any]:
         """The IPOPT options a solve with these overrides runs with: ocpkit's defaults
         (:data:`~ocpkit.nlp.DEFAULT_IPOPT_OPTIONS`), then this transcription's (``ipopt_defaults``: the ordering its
         structure asks for), then the overrides. A warm start adds :data:`~ocpkit.nlp.WARM_START` before the
         overrides (its options touch the barrier, not the linear solver)."""
         return {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_defaults, **(ipopt_options or {})}
 
-    def solver(self, ipopt_options: dict | None = None):
+    def solver(self, ipopt_options: dict[str, Any] | None = None) -> ca.Function:
         """The IPOPT instance for these option overrides: created once per set of options, then reused."""
         key = tuple(sorted((ipopt_options or {}).items()))
         if key not in self._solvers:
@@ -468,8 +497,10 @@ class Transcription(session.SolveSession, ABC):
             self._solver_build_s = time.perf_counter() - t
         return self._solvers[key]
 
-    def initial_point(self, guess=None) -> np.ndarray:
+    def initial_point(self, guess: Guess | Solution | None = None) -> np.ndarray:
         """Scaled NLP start vector from a :class:`~ocpkit.Guess`, a :class:`~ocpkit.Solution` or the defaults."""
+        xs: Callable[[ArrayLike], np.ndarray]
+        us: Callable[[ArrayLike], np.ndarray]
         if guess is None:
             guess = Guess()
         if isinstance(guess, Solution):
@@ -501,7 +532,9 @@ class Transcription(session.SolveSession, ABC):
         lb, ub = self._bounds()
         return np.clip(w0, lb, ub)
 
-    def nlp_bounds(self, parameters=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def nlp_bounds(
+        self, parameters: Mapping[str, float] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(lbw, ubw, lbg, ubg)``: the bounds of the scaled NLP variables and constraints, for solving
         :attr:`nlp` with another NLP solver (then :meth:`package` its result)."""
         return (*self._bounds(parameters), *self._constraint_bounds())
@@ -512,7 +545,13 @@ class Transcription(session.SolveSession, ABC):
         return settle(result, self._solution, raise_on_failure)
 
     def _solve_once(
-        self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
+        self,
+        guess: Any,
+        ipopt_options: dict[str, Any] | None,
+        allow_acceptable: bool,
+        raise_on_failure: bool,
+        parameters: Mapping[str, float] | None = None,
+        estimate_multipliers: bool = False,
     ) -> Solution:
         """One IPOPT solve (:func:`ocpkit.transcription.session.solve_once`)."""
         return session.solve_once(
@@ -520,30 +559,34 @@ class Transcription(session.SolveSession, ABC):
         )
 
     # -- mesh refinement --------------------------------------------------------------------
-    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Transcription:
+    def refine(
+        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
+    ) -> Transcription:
         """A transcription of the same problem on a mesh refined where ``errors`` (per interval) exceed ``tolerance``;
         ``switches``: per interval, where the control switches inside it (:func:`ocpkit.accuracy.control_switches`)."""
         raise NotImplementedError(f"{type(self).__name__} does not refine its mesh")
 
     # -- what the solve session (ocpkit.transcription.session) asks of a mesh ----------------------------------------
-    def _mesh_fractions(self, solution) -> np.ndarray:
+    def _mesh_fractions(self, solution: Solution) -> np.ndarray:
         """The solution's estimate intervals as fractions of its time span (a refinement's history)."""
         return np.diff(solution.estimate_intervals) / (solution.tf - solution.t0)
 
-    def _path_where(self, solution) -> np.ndarray:
+    def _path_where(self, solution: Solution) -> np.ndarray:
         """Per estimate interval, ``(index of its worst path constraint, its violation)`` (:func:`path_violations`)."""
         return path_violations(solution, solution.estimate_intervals)[2]
 
-    def _cuts(self, solution) -> list[np.ndarray]:
+    def _cuts(self, solution: Solution) -> list[np.ndarray]:
         """Per estimate interval, where the next mesh cuts it: control switches and path-constraint junctions."""
         switches = control_switches(solution, solution.estimate_intervals)
         junctions = path_junctions(solution, solution.estimate_intervals)
         return [np.union1d(a, b) for a, b in zip(switches, junctions)]
 
-    def _refinement_hint(self, solution) -> str:
+    def _refinement_hint(self, solution: Solution) -> str:
         return refinement_hint(solution)
 
-    def _warn_if_inaccurate(self, solution, threshold: float, label: str | None = None, stacklevel: int = 5) -> None:
+    def _warn_if_inaccurate(
+        self, solution: Solution, threshold: float, label: str | None = None, stacklevel: int = 5
+    ) -> None:
         """The single solve's warnings: the state estimate over ``threshold``, path constraints violated between
         points by more than it (``label``: who says so, default :attr:`label`; ``stacklevel``: the caller of
         ``solve()``, counted from the warning, through the session)."""
@@ -558,7 +601,7 @@ class Transcription(session.SolveSession, ABC):
         )
         warn_if_path_violated(label, solution, threshold, stacklevel=stacklevel)
 
-    def _check_parameters(self, parameters) -> None:
+    def _check_parameters(self, parameters: Mapping[str, float]) -> None:
         self.parameter_values(parameters)
 
     @property

@@ -20,6 +20,9 @@ NLP size for ``nx`` states, ``nu`` controls and ``n`` segments:
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
 import casadi as ca
 import numpy as np
 
@@ -31,8 +34,11 @@ from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, h_refined, segment_clock
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
+
+def hlgl_collocation_states(x_i: Any, x_c: Any, x_e: Any, f_i: Any, f_c: Any, f_e: Any, h: Any) -> tuple[Any, Any]:
     """States ``(x_a, x_b)`` at the collocation points: the quintic Hermite interpolant of the nodes."""
     A, B = nodes.HLGL_XA_X, nodes.HLGL_XA_F
     x_a = A[0] * x_i + A[1] * x_c + A[2] * x_e + h * (B[0] * f_i + B[1] * f_c + B[2] * f_e)
@@ -41,7 +47,9 @@ def hlgl_collocation_states(x_i, x_c, x_e, f_i, f_c, f_e, h):
     return x_a, x_b
 
 
-def hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h):
+def hlgl_defects(
+    x_i: Any, x_c: Any, x_e: Any, f_i: Any, f_a: Any, f_c: Any, f_b: Any, f_e: Any, h: Any
+) -> tuple[Any, Any]:
     """Defects ``(C1, C2)`` of Eqs. (6)-(7) from the node states and the slopes at all five points."""
     D, E = nodes.HLGL_C1_X, nodes.HLGL_C1_F
     c1 = D[0] * x_i + D[1] * x_c + D[2] * x_e + h * (E[0] * f_i + E[1] * f_a + E[2] * f_c + E[3] * f_e)
@@ -50,7 +58,9 @@ def hlgl_defects(x_i, x_c, x_e, f_i, f_a, f_c, f_b, f_e, h):
     return c1, c2
 
 
-def hlgl_segment(f, x_i, x_c, x_e, u, t, h):
+def hlgl_segment(
+    f: Callable[[Any, Any, Any], Any], x_i: Any, x_c: Any, x_e: Any, u: Sequence[Any], t: Sequence[Any], h: Any
+) -> tuple[Any, Any, Any, Any, tuple[Any, Any, Any, Any, Any]]:
     """HLGL defects of one segment (Eqs. 6-7) and the states at the collocation points.
 
     ``f(x, u, t)`` is the dynamics; ``u`` is a list of the five controls at
@@ -101,8 +111,13 @@ class HLGL(Transcription):
     """
 
     def __init__(
-        self, problem: OptimalControlProblem, intervals: int | None = None, *, mesh=None, segments: int | None = None
-    ):
+        self,
+        problem: OptimalControlProblem,
+        intervals: int | None = None,
+        *,
+        mesh: ArrayLike | None = None,
+        segments: int | None = None,
+    ) -> None:
         super().__init__(problem)
         intervals = renamed_argument("segments", "intervals", segments, intervals, None, "HLGL")
         self.mesh = Mesh.from_spec(intervals, mesh)
@@ -147,7 +162,7 @@ class HLGL(Transcription):
         return self.mesh.points(nodes.HLGL_CONTROL_NODES[:4])
 
     # -- NLP blocks ----------------------------------------------------------------------
-    def _segment_symbols(self):
+    def _segment_symbols(self) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[Any], Any]:
         """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, problem-wide variables] scaled;
         p = [start, frac, (tf)]."""
         pr = self.problem
@@ -161,7 +176,7 @@ class HLGL(Transcription):
         t = [t_begin + h * s for s in nodes.HLGL_CONTROL_NODES]
         return z, p, x, u, t, h
 
-    def _segment_tables(self):
+    def _segment_tables(self) -> tuple[np.ndarray, np.ndarray]:
         pr = self.problem
         n = self.intervals
         k = np.arange(n)
@@ -179,7 +194,7 @@ class HLGL(Transcription):
         z, p, x, u, t, h = self._segment_symbols()
         P = self.global_variables.P(z)
 
-        def f(x, u, t):
+        def f(x: Any, u: Any, t: Any) -> Any:
             return pr.dynamics(x, u, t, P)
 
         c1, c2, x_a, x_b, _ = hlgl_segment(f, x[0], x[1], x[2], u, t, h)
@@ -213,7 +228,9 @@ class HLGL(Transcription):
             PathPoints(z, p, [x[2]], [u[4]], [t[4]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
         ]
 
-    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> HLGL:
+    def refine(
+        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
+    ) -> HLGL:
         """h-refinement: a segment whose error estimate exceeds ``tolerance`` splits into
         ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6), or,
         where ``switches`` (per segment, :func:`ocpkit.accuracy.control_switches`) finds the control switching
@@ -221,12 +238,18 @@ class HLGL(Transcription):
         return HLGL(self.problem, mesh=h_refined(self.mesh, errors, tolerance, switches))
 
     # -- bounds and guess -------------------------------------------------------------
-    def _initial_point(self, tf, states, controls, t0=None):
+    def _initial_point(
+        self,
+        tf: float,
+        states: Callable[[ArrayLike], np.ndarray],
+        controls: Callable[[ArrayLike], np.ndarray],
+        t0: float | None = None,
+    ) -> np.ndarray:
         X = np.asarray(states(self._times(tf, self.state_node_fractions(), t0)), dtype=float)
         U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
         return self.pack(X, U, tf, t0=t0)
 
-    def defects(self, X: np.ndarray, U: np.ndarray, tf: float | None = None) -> np.ndarray:
+    def defects(self, X: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
         """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""
         w = self.pack(X, U, tf)
         g = np.asarray(self.nlp.constraint_function(w)).ravel()[: self.n_defects]
@@ -234,7 +257,7 @@ class HLGL(Transcription):
         return (g.reshape(n, 2, nx) * self.problem.state_scale).transpose(1, 2, 0)
 
     # -- solution ------------------------------------------------------------------------
-    def _package(self, result: NLPResult) -> dict:
+    def _package(self, result: NLPResult) -> dict[str, Any]:
         pr, t0, tf = self._result_problem(result)
         X, U, _ = self.unpack(result.w)
         t_x = self._times(tf, self.state_node_fractions(), t0)

@@ -19,11 +19,19 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..nlp import WARM_START, NLPResult, succeeded
 from .base import settle
+
+if TYPE_CHECKING:
+    import casadi as ca
+
+    from ..solution import Solution
+    from .base import Transcription
+    from .phases import MultiPhase, MultiPhaseSolution
 
 
 class LoopResult:
@@ -50,7 +58,20 @@ class LoopResult:
         were not given one: None; the :attr:`solution`'s phases have each one's).
     """
 
-    def __init__(self, loop, w, lam_g, lam_w, objective, status, iterations, solve_s, converged, parameters, stats):
+    def __init__(
+        self,
+        loop: SolveLoop,
+        w: np.ndarray,
+        lam_g: np.ndarray,
+        lam_w: np.ndarray,
+        objective: float,
+        status: str,
+        iterations: int,
+        solve_s: float,
+        converged: bool,
+        parameters: dict[str, float | None],
+        stats: dict[str, Any],
+    ) -> None:
         self._loop = loop
         self.w, self.lam_g, self.lam_w = w, lam_g, lam_w
         self.objective, self.status, self.iterations = objective, status, iterations
@@ -68,7 +89,7 @@ class LoopResult:
         return self._loop.meshed._time_span(self.w)[1]
 
     @cached_property
-    def solution(self):
+    def solution(self) -> Solution | MultiPhaseSolution:
         """The full :class:`~ocpkit.Solution` (or :class:`~ocpkit.MultiPhaseSolution`) of this result, as
         ``solve()`` would have returned it (built on first access, then kept)."""
         return self._loop._package(self)
@@ -116,12 +137,12 @@ class SolveLoop:
 
     def __init__(
         self,
-        meshed,
+        meshed: Transcription | MultiPhase,
         *,
-        ipopt_options: Mapping | None = None,
+        ipopt_options: Mapping[str, Any] | None = None,
         allow_acceptable: bool = False,
         raise_on_failure: bool = True,
-    ):
+    ) -> None:
         self.meshed = meshed.build()
         self.ipopt_options = dict(ipopt_options or {})
         self.allow_acceptable = bool(allow_acceptable)
@@ -134,9 +155,9 @@ class SolveLoop:
         self._defaults = dict(meshed._parameter_defaults())
         self._objective_scale = meshed._objective_scale()
         self._zero_w, self._zero_g = np.zeros(self._lbw.size), np.zeros(self._lbg.size)
-        self._start = None  # the default start, computed when first needed
+        self._start: np.ndarray | None = None  # the default start, computed when first needed
 
-    def __call__(self, parameters: Mapping | None = None, *, guess=None) -> LoopResult:
+    def __call__(self, parameters: Mapping[str, float] | None = None, *, guess: Any = None) -> LoopResult:
         given = self._parameters(parameters)
         lbw, ubw = self._lbw, self._ubw
         if given:  # only the names given: the others keep their values (each phase's own, for linked phases)
@@ -170,7 +191,7 @@ class SolveLoop:
 
     _no_p = np.zeros(0)
 
-    def _parameters(self, parameters) -> dict:
+    def _parameters(self, parameters: Mapping[str, float] | None) -> dict[str, float]:
         """The values given, by name, checked (empty where none is given)."""
         if parameters is None:
             return {}
@@ -187,7 +208,9 @@ class SolveLoop:
             given[name] = value
         return given
 
-    def _start_of(self, guess, lbw, ubw):
+    def _start_of(
+        self, guess: Any, lbw: np.ndarray, ubw: np.ndarray
+    ) -> tuple[ca.Function, np.ndarray, np.ndarray, np.ndarray]:
         """The IPOPT instance, start vector and multipliers for ``guess`` (the module docstring)."""
         if isinstance(guess, LoopResult) and guess._loop.meshed is self.meshed:
             return self._warm, np.clip(guess.w, lbw, ubw), guess.lam_w, guess.lam_g
@@ -206,7 +229,7 @@ class SolveLoop:
                 raise ValueError("the initial guess contains NaN or infinite values")
         return self._cold, np.clip(w0, lbw, ubw), self._zero_w, self._zero_g
 
-    def _package(self, result: LoopResult):
+    def _package(self, result: LoopResult) -> Solution | MultiPhaseSolution:
         from .session import record_solve
 
         solution = self.meshed._solution(result.nlp_result())

@@ -17,13 +17,20 @@ end of a block's variables ``z``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
 
 from .._deprecation import renamed
 from ..problem import Duration
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..problem import FreeFinalTime, FreeInitialTime, OptimalControlProblem
 
 
 @dataclass(frozen=True)
@@ -33,7 +40,7 @@ class Mesh:
     fractions: np.ndarray
 
     @classmethod
-    def from_spec(cls, count: int | None, fractions=None, *, what: str = "intervals") -> Mesh:
+    def from_spec(cls, count: int | None, fractions: ArrayLike | None = None, *, what: str = "intervals") -> Mesh:
         """``count`` equal segments, or the given ``fractions`` (normalised to sum to one).
 
         ``what`` names the count in errors (``segments``, ``intervals``).
@@ -57,17 +64,18 @@ class Mesh:
     def n(self) -> int:
         return self.fractions.size
 
-    def split(self, pieces) -> np.ndarray:
+    def split(self, pieces: ArrayLike) -> np.ndarray:
         """Fractions of this mesh with segment ``k`` split into ``pieces[k]`` equal parts (1: unchanged)."""
         pieces = np.asarray(pieces, dtype=np.int64)
         if pieces.shape != self.fractions.shape or np.any(pieces < 1):
             raise ValueError(f"give a positive number of pieces for each of the {self.n} intervals")
         return np.repeat(self.fractions / pieces, pieces)
 
-    def split_at(self, cuts) -> tuple[np.ndarray, np.ndarray]:
+    def split_at(self, cuts: Sequence[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
         """Fractions of this mesh with segment ``k`` cut at the positions ``cuts[k]`` (in (0, 1) of the segment;
         empty: unchanged), and the index of the original segment of each new one."""
-        fractions, origin = [], []
+        fractions: list[np.ndarray] = []
+        origin: list[np.ndarray] = []
         for k, (f, c) in enumerate(zip(self.fractions, cuts)):
             edges = np.concatenate([[0.0], np.sort(np.asarray(c, dtype=float)), [1.0]])
             parts = np.diff(edges) * f
@@ -85,7 +93,7 @@ class Mesh:
         """Normalised segment boundaries, 0 ... 1 (n + 1 values)."""
         return np.concatenate([self.starts, [1.0]])
 
-    def points(self, local) -> np.ndarray:
+    def points(self, local: ArrayLike) -> np.ndarray:
         """Normalised times (0..1) of points at ``local`` positions in [0, 1) of every segment, then the end (1).
 
         Points are ordered segment by segment; consecutive segments share their
@@ -96,17 +104,21 @@ class Mesh:
         return np.concatenate([s, [1.0]])
 
     @staticmethod
-    def times(problem, tf: float, s, t0: float | None = None) -> np.ndarray:
+    def times(problem: OptimalControlProblem, tf: float, s: ArrayLike, t0: float | None = None) -> np.ndarray:
         """Physical times of normalised times ``s`` for a final time ``tf`` (and ``t0``, default the problem's)."""
         t0 = problem.t0 if t0 is None else t0
         return t0 + (tf - t0) * np.asarray(s)
 
-    def parameters(self, problem, s=None, fractions=None) -> np.ndarray:
+    def parameters(
+        self, problem: OptimalControlProblem, s: ArrayLike | None = None, fractions: ArrayLike | None = None
+    ) -> np.ndarray:
         """Deprecated name of :meth:`block_constants`."""
         renamed("Mesh.parameters", "Mesh.block_constants")
         return self.block_constants(problem, s, fractions)
 
-    def block_constants(self, problem, s=None, fractions=None) -> np.ndarray:
+    def block_constants(
+        self, problem: OptimalControlProblem, s: ArrayLike | None = None, fractions: ArrayLike | None = None
+    ) -> np.ndarray:
         """The constant rows of segment (or point) blocks (:attr:`ocpkit.nlp.Block.constants`):
         ``[s, fraction, (tf if fixed)]``.
 
@@ -127,7 +139,7 @@ class GlobalVariables:
     symbolically (:meth:`t0`, :meth:`tf`, :meth:`P`).
     """
 
-    def __init__(self, problem):
+    def __init__(self, problem: OptimalControlProblem) -> None:
         self.problem = problem
         self.n_pinned = len(problem.parameters)
         self.n_free = len(problem.free_parameters)
@@ -139,13 +151,13 @@ class GlobalVariables:
         """The positions of the free parameters among them."""
         return np.arange(self.n_pinned, self.n_pinned + self.n_free, dtype=np.int64)
 
-    def free_to_nlp(self, values: dict) -> np.ndarray:
+    def free_to_nlp(self, values: Mapping[str, float]) -> np.ndarray:
         """The scaled values of the free parameters from physical ones by name (default their guesses)."""
         pr = self.problem
         values = {v.name: v.guess_value for v in pr.free_parameters} | dict(values)
         return pr.free_parameter_scaling.to_nlp([values[v.name] for v in pr.free_parameters])
 
-    def free_value(self, j: int, scaled):
+    def free_value(self, j: int, scaled: Any) -> Any:
         """Free parameter ``j``'s physical value from its scaled NLP value (a number or a symbol)."""
         sc = self.problem.free_parameter_scaling
         return float(sc.scale[j]) * scaled + float(sc.shift[j])
@@ -164,33 +176,35 @@ class GlobalVariables:
     def constants(self) -> list[float]:
         """The block constants the times need: ``[tf]`` when it is fixed (a block's ``q`` holds it, so that one
         compiled block serves any fixed final time), else none."""
-        return [] if self.problem.free_final_time else [float(self.problem.tf)]
+        return [] if self.problem.free_final_time else [float(cast(float, self.problem.tf))]
 
     # -- numbers ---------------------------------------------------------------------------------------------------
-    def pack(self, pinned: np.ndarray, parameters: dict, t0: float | None, tf: float | None) -> np.ndarray:
+    def pack(
+        self, pinned: ArrayLike, parameters: Mapping[str, float], t0: float | None, tf: float | None
+    ) -> np.ndarray:
         """The scaled values from physical ones: the pinned vector, the free parameters by name (default their
         guesses), t0 (default the problem's guess) and tf (required when free)."""
         pr = self.problem
-        parts = [np.asarray(pinned, dtype=float).ravel()]
+        parts: list[Any] = [np.asarray(pinned, dtype=float).ravel()]
         if self.n_free:
             parts.append(self.free_to_nlp(parameters))
         t0 = pr.t0 if t0 is None else t0
         if pr.free_initial_time:
-            parts.append([t0 / pr.initial_time.scale])
+            parts.append([t0 / cast("FreeInitialTime", pr.initial_time).scale])
         if pr.free_final_time:
             if tf is None:
                 raise ValueError("this problem has a free final time: give tf")
-            parts.append([((tf - t0) if self.duration else tf) / pr.tf.scale])
+            parts.append([((tf - t0) if self.duration else tf) / cast("FreeFinalTime", pr.tf).scale])
         return np.concatenate(parts)
 
-    def unpack(self, z) -> dict:
+    def unpack(self, z: ArrayLike) -> dict[str, Any]:
         """``{"pinned": {name: value}, "parameters": {name: value}, "t0": ..., "tf": ...}`` of their scaled values."""
         pr = self.problem
         z = np.asarray(z, dtype=float).ravel()
         n_pinned, nf = self.n_pinned, self.n_free
         values = pr.free_parameter_scaling.from_nlp(z[n_pinned : n_pinned + nf]) if nf else np.zeros(0)
         i0, i_f = self.t0_position, self.tf_position
-        t0 = float(z[i0] * pr.initial_time.scale) if i0 is not None else pr.t0
+        t0 = float(z[i0] * cast("FreeInitialTime", pr.initial_time).scale) if i0 is not None else pr.t0
         return {
             "pinned": dict(zip(pr.parameters, z[:n_pinned].tolist())),
             "parameters": dict(zip([v.name for v in pr.free_parameters], values.tolist())),
@@ -198,37 +212,39 @@ class GlobalVariables:
             "tf": float(self._final(t0, z[i_f])) if i_f is not None else pr.tf,
         }
 
-    def _final(self, t0, value):
+    def _final(self, t0: Any, value: Any) -> Any:
         """The final time from t0 and the scaled NLP value of tf (or of the duration)."""
-        return (t0 if self.duration else 0.0) + value * self.problem.tf.scale
+        return (t0 if self.duration else 0.0) + value * cast("FreeFinalTime", self.problem.tf).scale
 
-    def bounds(self, pinned: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, pinned: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Their scaled bounds, the pinned parameters held at ``pinned``."""
         pr = self.problem
         pinned = np.asarray(pinned, dtype=float).ravel()
-        lb, ub = [pinned], [pinned]
+        lb: list[Any] = [pinned]
+        ub: list[Any] = [pinned]
         if self.n_free:
             sc = pr.free_parameter_scaling
             lb.append(sc.to_nlp([v.lower for v in pr.free_parameters]))
             ub.append(sc.to_nlp([v.upper for v in pr.free_parameters]))
         for spec, free in ((pr.initial_time, pr.free_initial_time), (pr.tf, pr.free_final_time)):
             if free:
+                spec = cast("FreeFinalTime", spec)  # (a FreeInitialTime is one)
                 lb.append([spec.lower / spec.scale])
                 ub.append([spec.upper / spec.scale])
         return np.concatenate(lb), np.concatenate(ub)
 
     # -- symbols (a block's ``z`` ends with these variables; ``q`` holds its constants) -------------------------
-    def t0(self, z):
+    def t0(self, z: Any) -> Any:
         """The symbolic initial time: its NLP variable in ``z``'s tail when free, else the constant."""
         if self.t0_position is None:
             return self.problem.t0
-        return z[z.numel() - self.size + self.t0_position] * self.problem.initial_time.scale
+        return z[z.numel() - self.size + self.t0_position] * cast("FreeInitialTime", self.problem.initial_time).scale
 
-    def tf(self, z, q, index: int):
+    def tf(self, z: Any, q: Any, index: int) -> Any:
         """The symbolic final time: its NLP variable in ``z``'s tail when free, else the block constant ``q[index]``."""
         return self._final(self.t0(z), z[z.numel() - 1]) if self.tf_position is not None else q[index]
 
-    def P(self, z):
+    def P(self, z: Any) -> Any:
         """The parameter vector ``P`` from ``z``'s tail: the pinned values, then the free parameters."""
         pr = self.problem
         if not self.n_pinned + self.n_free:
@@ -241,7 +257,7 @@ class GlobalVariables:
         return ca.vertcat(*parts)
 
 
-def segment_clock(problem, z, p):
+def segment_clock(problem: OptimalControlProblem, z: Any, p: Any) -> tuple[Any, Any, Any]:
     """``(t_begin, T, h)`` of a block whose constants are ``[s, fraction, (tf)]`` (:meth:`Mesh.block_constants`).
 
     ``T = tf - t0``, ``t_begin = t0 + T s`` and ``h = T fraction``.
@@ -252,7 +268,12 @@ def segment_clock(problem, z, p):
     return t0 + T * p[0], T, T * p[1]
 
 
-def h_refined(mesh: Mesh, errors, tolerance: float, switches=None) -> np.ndarray:
+def h_refined(
+    mesh: Mesh,
+    errors: ArrayLike,
+    tolerance: float,
+    switches: Sequence[np.ndarray | Sequence[float]] | None = None,
+) -> np.ndarray:
     """The fractions of HLGL's h-refinement of ``mesh``: a segment over ``tolerance`` is cut at its control
     ``switches`` when it has any, else split into ``ceil((error / tolerance)^(1/6))`` equal parts (2 to 6;
     HLGL's states converge at about h^6)."""
@@ -260,7 +281,7 @@ def h_refined(mesh: Mesh, errors, tolerance: float, switches=None) -> np.ndarray
     over = ~(errors <= tolerance)  # NaN counts as over
     errors = np.where(np.isfinite(errors), errors, 1e3)
     pieces = np.where(over, np.clip(np.ceil((errors / tolerance) ** (1 / 6)), 2, 6), 1).astype(np.int64)
-    cuts = []
+    cuts: list[np.ndarray] = []
     for k in range(mesh.n):
         if over[k] and switches is not None and len(switches[k]):
             cuts.append(np.asarray(switches[k], dtype=float))

@@ -44,8 +44,9 @@ the fine mesh) and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -59,16 +60,21 @@ from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, segment_clock
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 COUPLINGS = ("coarse", "fine", "quadrature", "galerkin")
 #: the couplings whose slow defects see the fast states at every fine point (the ones fine controls need)
 WEAK_COUPLINGS = ("quadrature", "galerkin")
 CONTROL_MESHES = ("coarse", "fine")
 
 
-def state_partition(problem: OptimalControlProblem, slow=None, fast=None) -> tuple[list[int], list[int]]:
+def state_partition(
+    problem: OptimalControlProblem, slow: Sequence[str] | None = None, fast: Sequence[str] | None = None
+) -> tuple[list[int], list[int]]:
     """Indices of the slow and fast states from names; either group may be left to be the complement."""
     names = problem.state_names
-    groups = {}
+    groups: dict[str, list[str]] = {}
     for label, group in (("slow", slow), ("fast", fast)):
         if group is None:
             continue
@@ -110,7 +116,8 @@ def fine_quadrature_weights(ratio: int) -> np.ndarray:
     C = nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES)  # values -> monomial coefficients on [0, 1]
     powers = np.arange(5)
 
-    def integral(lo, hi):  # of each Lagrange basis polynomial over [lo, hi] of the fine segment
+    # of each Lagrange basis polynomial over [lo, hi] of the fine segment
+    def integral(lo: float, hi: float) -> np.ndarray:
         return ((hi ** (powers + 1) - lo ** (powers + 1)) / (powers + 1)) @ C
 
     W = np.zeros((2, 4 * M + 1))
@@ -135,7 +142,7 @@ def legendre_weights(ratio: int) -> tuple[np.ndarray, np.ndarray]:
     return W, B
 
 
-def _hermite(b, x_i, d_i, x_c, d_c, x_e, d_e):
+def _hermite(b: np.ndarray, x_i: Any, d_i: Any, x_c: Any, d_c: Any, x_e: Any, d_e: Any) -> Any:
     """Quintic Hermite value from basis weights ``b`` (6,) and node values/slopes (slopes times h)."""
     return b[0] * x_i + b[1] * d_i + b[2] * x_c + b[3] * d_c + b[4] * x_e + b[5] * d_e
 
@@ -175,10 +182,10 @@ class MultiRateHLGL(Transcription):
         fast: Sequence[str] | None = None,
         coupling: str | None = None,
         control_mesh: str = "coarse",
-        mesh=None,
+        mesh: ArrayLike | None = None,
         fast_interpolation: str | None = None,
         segments: int | None = None,
-    ):
+    ) -> None:
         super().__init__(problem)
         intervals = renamed_argument("segments", "intervals", segments, intervals, None, "MultiRateHLGL")
         coupling = renamed_argument(
@@ -268,22 +275,22 @@ class MultiRateHLGL(Transcription):
         q = self.control_quartics
         return self.mesh.points(np.arange(4 * q) / (4 * q))
 
-    def _indices(self):
+    def _indices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int | None]:
         """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
         (X, Z, U), tf = self._index_tables()
         return X, Z, U, tf
 
     # -- NLP blocks -------------------------------------------------------------------
-    def _full_state(self, x, z):
+    def _full_state(self, x: Sequence[Any], z: Sequence[Any]) -> ca.SX:
         """Assemble the full state vector (problem order) from slow and fast parts."""
-        parts = [None] * self.problem.nx
+        parts: list[Any] = [None] * self.problem.nx
         for j, i in enumerate(self.slow):
             parts[i] = x[j]
         for j, i in enumerate(self.fast):
             parts[i] = z[j]
         return ca.vertcat(*parts)
 
-    def _segment_symbols(self):
+    def _segment_symbols(self) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[ca.SX], Any, Any]:
         """Symbols of one coarse segment, ``w`` (its NLP variables, the layout of :meth:`_segment_tables`) and
         ``p``, and in them the slow nodes ``X`` (3), fast nodes ``Z`` (2M + 1), controls ``U`` (4q + 1, q quartics),
         start and length."""
@@ -321,7 +328,7 @@ class MultiRateHLGL(Transcription):
             PathPoints(m.w, m.p, [full[-1]], [m.U[-1]], [t[-1]], *last),
         ]
 
-    def _segment_model(self):
+    def _segment_model(self) -> SimpleNamespace:
         """One coarse segment's symbols (:meth:`_segment_symbols`) and the pieces every expression of it uses: the
         control ``u_at(s)``, the dynamics ``f(x, z, s)`` and ``split`` of their value into slow and fast parts, the
         full dynamics at the coarse nodes (``Fc``) and at the fine nodes (``F_nodes``, the fast part ``fz_nodes``),
@@ -334,17 +341,17 @@ class MultiRateHLGL(Transcription):
         P = self.global_variables.P(w)
         q = self.control_quartics
 
-        def u_at(s):
+        def u_at(s: float) -> Any:
             if nu == 0:
                 return ca.SX(0, 1)
             j = min(int(np.floor(s * q)), q - 1)  # the quartic containing s
             L = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([s * q - j]))[0]
             return sum(float(L[k]) * U[4 * j + k] for k in range(5) if L[k] != 0.0)
 
-        def f(x, z, s):
+        def f(x: ca.SX, z: ca.SX, s: float) -> Any:
             return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
 
-        def split(fv):
+        def split(fv: ca.SX) -> tuple[ca.SX, ca.SX]:
             return fv[self.slow], fv[self.fast]
 
         # coarse nodes: x params, z at fine nodes 0, M, 2M
@@ -353,7 +360,7 @@ class MultiRateHLGL(Transcription):
         fx_c = [split(F)[0] for F in Fc]
         fz_c = [split(F)[1] for F in Fc]
 
-        def x_at(s):
+        def x_at(s: float) -> Any:
             b = nodes.hermite_quintic_basis(np.array([s]))[0]
             return _hermite(b, X[0], h * fx_c[0], X[1], h * fx_c[1], X[2], h * fx_c[2])
 
@@ -363,13 +370,13 @@ class MultiRateHLGL(Transcription):
         F_nodes = [Fc[k // M] if k % M == 0 else f(x_at(s), Z[k], s) for k, s in enumerate(fine_s)]
         fz_nodes = [split(F)[1] for F in F_nodes]
 
-        def z_fine_at(s):
+        def z_fine_at(s: float) -> Any:
             j = min(int(np.floor(s * M)), M - 1)  # fine segment containing s
             b = nodes.hermite_quintic_basis(np.array([s * M - j]))[0]
             i = 2 * j
             return _hermite(b, Z[i], hf * fz_nodes[i], Z[i + 1], hf * fz_nodes[i + 1], Z[i + 2], hf * fz_nodes[i + 2])
 
-        def z_coarse_at(s):
+        def z_coarse_at(s: float) -> Any:
             b = nodes.hermite_quintic_basis(np.array([s]))[0]
             return _hermite(b, zc[0], h * fz_c[0], zc[1], h * fz_c[1], zc[2], h * fz_c[2])
 
@@ -379,7 +386,7 @@ class MultiRateHLGL(Transcription):
             **dict(z_fine_at=z_fine_at, z_coarse_at=z_coarse_at),
         )
 
-    def _segment_expressions(self):
+    def _segment_expressions(self) -> tuple[ca.SX, ca.SX, ca.SX, Any]:
         """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
         pr = self.problem
         M = self.ratio
@@ -412,7 +419,7 @@ class MultiRateHLGL(Transcription):
             F_all.append(F_nodes[2 * M])
             fx_all = [split(F)[0] for F in F_all] if nxs else []
 
-            def integral(weights):
+            def integral(weights: np.ndarray) -> Any:
                 return sum(float(wk) * fk for wk, fk in zip(weights, fx_all) if wk != 0.0)
 
             if nxs and self.coupling == "quadrature":
@@ -453,7 +460,7 @@ class MultiRateHLGL(Transcription):
         quad = None
         if pr.L is not None:
 
-            def lagrange(s, x, z):
+            def lagrange(s: float, x: Any, z: Any) -> Any:
                 return pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
 
             # on the fine grid, whatever the coupling: the running cost sees the fast states and the controls at
@@ -468,7 +475,7 @@ class MultiRateHLGL(Transcription):
             quad = h * sum(float(wq) * lagrange(s, x_at(s), z) for wq, (s, z) in zip(W, pts))
         return w, p, ca.vertcat(*defects), quad
 
-    def _segment_tables(self):
+    def _segment_tables(self) -> tuple[np.ndarray, np.ndarray]:
         pr = self.problem
         N, M = self.intervals, self.ratio
         k = np.arange(N)
@@ -494,7 +501,7 @@ class MultiRateHLGL(Transcription):
             blocks.append(self._mayer_block(*self._boundary_indices()))
         return blocks
 
-    def _boundary_indices(self):
+    def _boundary_indices(self) -> tuple[np.ndarray, np.ndarray, int | None]:
         """NLP indices of the full state at t0 and tf (problem order: slow and fast parts), and of tf."""
         X, Z, _, tfi = self._indices()
         first = np.empty(self.problem.nx, dtype=np.int64)
@@ -504,13 +511,19 @@ class MultiRateHLGL(Transcription):
         return first, last, tfi
 
     # -- bounds, guess, packing -----------------------------------------------------------
-    def _initial_point(self, tf, states, controls, t0=None):
+    def _initial_point(
+        self,
+        tf: float,
+        states: Callable[[ArrayLike], np.ndarray],
+        controls: Callable[[ArrayLike], np.ndarray],
+        t0: float | None = None,
+    ) -> np.ndarray:
         Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions(), t0)), dtype=float)
         Xf = np.asarray(states(self._times(tf, self.fine_node_fractions(), t0)), dtype=float)
         U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
         return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf, t0=t0)
 
-    def defects(self, X_slow, Z_fast, U, tf=None) -> np.ndarray:
+    def defects(self, X_slow: ArrayLike, Z_fast: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
         """All defects (physical units), in NLP row order, at given parameter values."""
         g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()[: self.n_defects]
         per = g.size // self.intervals
@@ -521,7 +534,7 @@ class MultiRateHLGL(Transcription):
         return (g.reshape(self.intervals, per) * scale).T
 
     # -- solution ---------------------------------------------------------------------
-    def _package(self, result: NLPResult) -> dict:
+    def _package(self, result: NLPResult) -> dict[str, Any]:
         pr, t0, tf = self._result_problem(result)
         Xs, Zf, U, _ = self.unpack(result.w)
         N, M = self.intervals, self.ratio
@@ -537,7 +550,7 @@ class MultiRateHLGL(Transcription):
         control_breaks = breaks if self.control_quartics == 1 else t_u[::4]
         controls = PiecewiseEvaluator(piecewise_polynomial(control_breaks, ucoef))
 
-        def rhs(times, full):
+        def rhs(times: np.ndarray, full: np.ndarray) -> np.ndarray:
             return np.asarray(pr.f.map(times.size)(full.T, controls(times).T, times[None, :], pr.parameter_vector())).T
 
         # slow states: coarse Hermite with slopes from the full state at the coarse nodes
@@ -558,7 +571,7 @@ class MultiRateHLGL(Transcription):
 
         slow_idx, fast_idx = list(self.slow), list(self.fast)
 
-        def states(t):
+        def states(t: ArrayLike) -> np.ndarray:
             t = np.asarray(t, dtype=float)
             out = np.empty(t.shape + (pr.nx,))
             if slow_idx:
@@ -580,7 +593,9 @@ class MultiRateHLGL(Transcription):
             estimate_breakpoints=fine_breaks,
         )
 
-    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> MultiRateHLGL:
+    def refine(
+        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
+    ) -> MultiRateHLGL:
         """h-refinement of the coarse mesh: ``errors`` (and ``switches``) are per fine segment (the solution's
         estimate intervals); a coarse segment whose worst fine segment exceeds ``tolerance`` refines as
         :meth:`HLGL.refine` does."""
@@ -601,7 +616,7 @@ class MultiRateHLGL(Transcription):
         )
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> tuple[str, ...]:
     if name == "FAST_INTERPOLATIONS":
         renamed("ocpkit.transcription.multirate.FAST_INTERPOLATIONS", "COUPLINGS")
         return COUPLINGS

@@ -27,9 +27,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, Self, cast
 
 import casadi as ca
 import numpy as np
@@ -43,6 +44,12 @@ from ..solution import Solution
 from ..trajectory import Reintegration, Trajectory
 from . import session
 from .base import Transcription
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..accuracy import MultiPhaseAccuracy
+    from ..problem import Variable
 
 
 @dataclass(frozen=True)
@@ -66,7 +73,7 @@ class Link:
         return f"link {self.before} -> {self.after}"
 
 
-def _has_cost(problem) -> bool:
+def _has_cost(problem: OptimalControlProblem) -> bool:
     return problem.functions.L is not None or problem.functions.phi is not None
 
 
@@ -88,14 +95,14 @@ class PhaseEnds:
     fixed_tf: float | None = None
 
 
-class PhasesEnds(Mapping):
+class PhasesEnds(Mapping[Any, PhaseEnds]):
     """Every phase's :class:`PhaseEnds`, by name or by index: ``ends["descent"].tf``, ``ends[0].xf["h"]``."""
 
-    def __init__(self, ends: Sequence[PhaseEnds]):
+    def __init__(self, ends: Sequence[PhaseEnds]) -> None:
         self._ends = list(ends)
         self._by_name = {e.name: e for e in self._ends}
 
-    def __getitem__(self, key) -> PhaseEnds:
+    def __getitem__(self, key: str | int) -> PhaseEnds:
         if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
             if -len(self._ends) <= key < len(self._ends):
                 return self._ends[key]
@@ -110,7 +117,7 @@ class PhasesEnds(Mapping):
         last phase that ends there (at a link with a jump, the state after the jump): a named interior time of
         :meth:`MultiPhase.split`, a measurement time."""
 
-        def same(v):
+        def same(v: float | None) -> bool:
             return v is not None and math.isclose(v, t, rel_tol=1e-12, abs_tol=1e-12)
 
         for e in self._ends:
@@ -122,14 +129,14 @@ class PhasesEnds(Mapping):
         fixed = sorted({v for e in self._ends for v in (e.fixed_t0, e.fixed_tf) if v is not None})
         raise UnknownName(f"no phase starts or ends at the fixed time t = {t}; the fixed phase times are {fixed}")
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[str]:
         return iter(self._by_name)
 
     def __len__(self) -> int:
         return len(self._ends)
 
 
-class MultiPhase(session.SolveSession):
+class MultiPhase(session.SolveSession["MultiPhaseSolution"]):
     """Transcribed phases and their links, as one NLP (see the module docstring).
 
     Parameters
@@ -163,18 +170,19 @@ class MultiPhase(session.SolveSession):
         phases: Sequence[Transcription] | Mapping[str, Transcription],
         links: Sequence[Link] | None = None,
         *,
-        cost: Callable | None = None,
+        cost: Callable[..., Any] | None = None,
         constraints: Sequence[Constraint] = (),
         local_parameters: Sequence[str] = (),
         objective_scale: float | None = None,
-    ):
+    ) -> None:
         if isinstance(phases, Mapping):
             self.names = [str(k) for k in phases]
             self.phases = list(phases.values())
         else:
             self.phases = list(phases)
             own = [getattr(ph, "problem", None) and ph.problem.name for ph in self.phases]
-            self.names = own if len(set(own)) == len(own) and all(own) else [str(k) for k in range(len(own))]
+            own_names = cast("list[str]", own)  # (when all of them are names)
+            self.names = own_names if len(set(own)) == len(own) and all(own) else [str(k) for k in range(len(own))]
         if not self.phases:
             raise ValueError("a multi-phase problem needs at least one phase")
         for k, ph in enumerate(self.phases):
@@ -191,7 +199,7 @@ class MultiPhase(session.SolveSession):
         if not (objective_scale > 0 and math.isfinite(objective_scale)):
             raise ValueError(f"objective_scale must be positive and finite, got {objective_scale}")
         self.objective_scale = float(objective_scale)
-        self._options = dict(
+        self._options: dict[str, Any] = dict(
             links=self.links,
             cost=cost,
             constraints=tuple(constraints),
@@ -214,12 +222,12 @@ class MultiPhase(session.SolveSession):
             + self.n_linkage_rows
         )
         self.n_constraints = int(sum(rows)) + self.n_link_rows
-        self._nlp = None
-        self._solver = None
-        self._solver_options = None
-        self._estimate_counts = None
+        self._nlp: SeparableNLP | None = None
+        self._solver: ca.Function | None = None
+        self._solver_options: tuple[Any, ...] | None = None
+        self._estimate_counts: list[int] | None = None
         #: the times a problem was cut at (:meth:`split`), else None
-        self.cut_times = None
+        self.cut_times: np.ndarray | None = None
         self.build_s = 0.0
 
     @classmethod
@@ -229,9 +237,9 @@ class MultiPhase(session.SolveSession):
         times: Sequence[float],
         scheme: Callable[[OptimalControlProblem], Transcription],
         *,
-        cost: Callable | None = None,
+        cost: Callable[..., Any] | None = None,
         constraints: Sequence[Constraint] = (),
-        **options,
+        **options: Any,
     ) -> MultiPhase:
         """One problem cut at fixed ``times`` into linked phases, so that costs and constraints can name those times.
 
@@ -246,25 +254,26 @@ class MultiPhase(session.SolveSession):
         """
         if problem.free_initial_time or problem.free_final_time:
             raise ValueError(f"split needs fixed t0 and tf: {problem.name!r} has a free one")
+        tf = cast(float, problem.tf)  # (fixed)
         t = np.sort(np.asarray(times, dtype=float).ravel())
-        if t.size and (not np.all(np.isfinite(t)) or t[0] < problem.t0 or t[-1] > problem.tf):
-            raise ValueError(f"times must lie in [t0, tf] = [{problem.t0}, {problem.tf}], got {t.min()} to {t.max()}")
-        cuts = [problem.t0]
-        for v in [*t, problem.tf]:  # times as close as PhasesEnds.at matches them are one cut
-            if not math.isclose(v, cuts[-1], rel_tol=1e-12, abs_tol=1e-12):
-                cuts.append(float(v))
-        cuts[-1] = problem.tf
-        cuts = np.array(cuts)
+        if t.size and (not np.all(np.isfinite(t)) or t[0] < problem.t0 or t[-1] > tf):
+            raise ValueError(f"times must lie in [t0, tf] = [{problem.t0}, {tf}], got {t.min()} to {t.max()}")
+        edges = [problem.t0]
+        for v in [*t, tf]:  # times as close as PhasesEnds.at matches them are one cut
+            if not math.isclose(v, edges[-1], rel_tol=1e-12, abs_tol=1e-12):
+                edges.append(float(v))
+        edges[-1] = tf
+        cuts = np.array(edges)
         n = cuts.size - 1
-        span = problem.tf - problem.t0
+        span = tf - problem.t0
 
-        def whole(variable):
+        def whole(variable: Variable) -> Callable[[ArrayLike], np.ndarray]:
             """The whole problem's guess of ``variable`` as a function of physical time (so pieces continue it)."""
             fn = variable.guess_function()
             return lambda t: fn((np.asarray(t, dtype=float) - problem.t0) / span, np.asarray(t, dtype=float))
 
         controls = [replace(c, guess=whole(c)) for c in problem.controls]
-        phases = {}
+        phases: dict[str, Transcription] = {}
         for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
             states = [
                 replace(
@@ -285,17 +294,17 @@ class MultiPhase(session.SolveSession):
                 boundary_constraints=(),
             )
             phases[f"{problem.name}_{k}"] = scheme(piece)
-        whole = problem.functions
+        functions = problem.functions
 
-        def total_cost(ends, p):
+        def total_cost(ends: PhasesEnds, p: NamedParameters) -> Any:
             out = 0.0 if cost is None else call(cost, [ends], p, has_parameters=bool(p.names), what="the cost")
-            if whole.phi is not None:
+            if functions.phi is not None:
                 first, last = ends[0], ends[-1]
-                out = out + whole.phi(first.x0, last.xf, first.t0, last.tf, first.p.column)
+                out = out + functions.phi(first.x0, last.xf, first.t0, last.tf, first.p.column)
             return out
 
         def boundary(c: Constraint) -> Constraint:
-            def at_ends(ends):
+            def at_ends(ends: PhasesEnds) -> Any:
                 first, last = ends[0], ends[-1]
                 inputs = [first.x0, last.xf, first.t0, last.tf]
                 what = f"boundary constraint {c.name!r}"
@@ -304,7 +313,7 @@ class MultiPhase(session.SolveSession):
             return replace(c, function=at_ends)
 
         moved = [boundary(c) for c in problem.boundary_constraints]
-        has_cost = cost is not None or whole.phi is not None
+        has_cost = cost is not None or functions.phi is not None
         mp = cls(phases, cost=total_cost if has_cost else None, constraints=[*moved, *constraints], **options)
         mp.cut_times = cuts
         return mp
@@ -324,7 +333,7 @@ class MultiPhase(session.SolveSession):
             ends[which] = v
         return replace(link, **ends)
 
-    def _ends_symbols(self):
+    def _ends_symbols(self) -> tuple[ca.SX, ca.SX, np.ndarray, np.ndarray, PhasesEnds, NamedParameters]:
         """The symbols of every phase's boundary values: ``(z, q, variables, values, ends, p)``.
 
         ``z``: the scaled NLP variables at ``variables`` (each phase's x(t0), x(tf) and problem-wide variables);
@@ -332,8 +341,12 @@ class MultiPhase(session.SolveSession):
         ``p``: the trajectory's parameters by name (each shared free one once, each that one phase alone names, each
         fixed one that the phases naming it give one value; a phase-local one is in ``ends[k].p``).
         """
-        zs, qs, variables, values, ends = [], [], [], [], []
-        entries: dict[str, list] = {}  # name -> [(its symbol in a phase's p, free in that phase), ...]
+        zs: list[ca.SX] = []
+        qs: list[ca.SX] = []
+        variables: list[np.ndarray] = []
+        values: list[list[float]] = []
+        ends: list[PhaseEnds] = []
+        entries: dict[str, list[Any]] = {}  # name -> [(its symbol in a phase's p, free in that phase), ...]
         for k, ph in enumerate(self.phases):
             z, q, x0, xf, t0, tf, P = ph._boundary_symbols()
             first, last, _ = ph._boundary_indices()
@@ -352,7 +365,7 @@ class MultiPhase(session.SolveSession):
                     ca.SX(tf),
                     NamedParameters(ca.SX(P), pr.parameter_names),
                     None if pr.free_initial_time else pr.t0,
-                    None if pr.free_final_time else pr.tf,
+                    None if pr.free_final_time else cast(float, pr.tf),
                 )
             )
             for j, name in enumerate(pr.parameter_names):
@@ -363,8 +376,8 @@ class MultiPhase(session.SolveSession):
             if name in self._shared:  # the free copies are one parameter: the first free one (a phase may fix it)
                 chosen[name] = next(symbol for symbol, fixed in found if fixed is None)
                 continue
-            fixed = {v for _, v in found}
-            if len(found) == 1 or (None not in fixed and len(fixed) == 1):
+            held = {v for _, v in found}
+            if len(found) == 1 or (None not in held and len(held) == 1):
                 chosen[name] = found[0][0]
         p = NamedParameters(
             ca.vertcat(*chosen.values()) if chosen else ca.SX(0, 1), list(chosen), "trajectory parameter"
@@ -378,11 +391,11 @@ class MultiPhase(session.SolveSession):
             p,
         )
 
-    def _call_on_ends(self, fn: Callable, what: str):
+    def _call_on_ends(self, fn: Callable[..., Any], what: str) -> Any:
         ends, p = self._ends[4], self._ends[5]
         return call(fn, [ends], p, has_parameters=bool(p.names), what=what)
 
-    def _trajectory_cost(self, cost: Callable | None) -> ca.Function | None:
+    def _trajectory_cost(self, cost: Callable[..., Any] | None) -> ca.Function | None:
         """``(z, q) -> J_trajectory`` (in the problem's units) of ``cost`` (None without)."""
         if cost is None:
             return None
@@ -394,7 +407,7 @@ class MultiPhase(session.SolveSession):
             raise ValueError(f"the trajectory cost must be a scalar, got shape {expr.shape}")
         return ca.Function("trajectory_cost", [z, q], [expr])
 
-    def _linkage_constraints(self, constraints) -> ConstraintSet | None:
+    def _linkage_constraints(self, constraints: Sequence[Constraint]) -> ConstraintSet | None:
         """The linkage constraints compiled into one function ``(z, q) -> g`` with bounds (None without)."""
         constraints = checked_constraints(constraints, "linkage constraints")
         z, q = self._ends[:2]
@@ -404,7 +417,7 @@ class MultiPhase(session.SolveSession):
         """The trajectory cost (scaled by :attr:`objective_scale`) and the linkage rows from ``row``."""
         _, _, variables, values, _, _ = self._ends
         var, par = variables[:, None], values[:, None]
-        blocks = []
+        blocks: list[Block] = []
         if self._cost is not None:
             z, q = self._ends[:2]
             fun = ca.Function("trajectory_cost", [z, q], [self._cost(z, q) / self.objective_scale])
@@ -416,7 +429,7 @@ class MultiPhase(session.SolveSession):
         return blocks
 
     # -- shared parameters ----------------------------------------------------------------------
-    def _shared_parameters(self, local) -> dict[str, list[tuple[int, int]]]:
+    def _shared_parameters(self, local: str | Sequence[str]) -> dict[str, list[tuple[int, int]]]:
         """``{name: [(phase, index among its free parameters), ...]}`` of the free parameters several phases name
         and ``local`` does not (checked: every name in ``local`` is a free parameter of some phase)."""
         local = [local] if isinstance(local, str) else list(local)
@@ -438,11 +451,11 @@ class MultiPhase(session.SolveSession):
 
     def _parameter_blocks(self, row: int) -> list[Block]:
         """``(p_k - p_first) / scale = 0`` for every further phase naming a shared parameter (physical values)."""
-        blocks = []
+        blocks: list[Block] = []
         for name, where in self._shared.items():
             (k0, j0), rest = where[0], where[1:]
 
-            def physical(k, j, z):
+            def physical(k: int, j: int, z: ca.SX) -> Any:
                 return self.phases[k].global_variables.free_value(j, z)
 
             for k, j in rest:
@@ -471,9 +484,10 @@ class MultiPhase(session.SolveSession):
     def _check_link(self, link: Link) -> list[tuple[int, int, str]]:
         """``(index in before, index in after, name)`` of the linked states; bad links raise, naming the link."""
         n = len(self.phases)
-        if not (0 <= link.before < n and 0 <= link.after < n) or link.before == link.after:
+        kb, ka = cast(int, link.before), cast(int, link.after)  # (a resolved link: indices)
+        if not (0 <= kb < n and 0 <= ka < n) or kb == ka:
             raise ValueError(f"{link.label}: phases must be two different indices in [0, {n})")
-        before, after = self.phases[link.before].problem, self.phases[link.after].problem
+        before, after = self.phases[kb].problem, self.phases[ka].problem
         names = before.state_names if link.states == "all" else list(link.states)
         if isinstance(link.states, str) and link.states != "all":
             raise TypeError(f"{link.label}: states must be 'all' or a sequence of names, got {link.states!r}")
@@ -493,10 +507,11 @@ class MultiPhase(session.SolveSession):
         """``"none"``, ``"consistent"`` (both times fixed and equal) or ``"constraint"`` (either is free)."""
         if not link.time:
             return "none"
-        before, after = self.phases[link.before].problem, self.phases[link.after].problem
+        kb, ka = cast(int, link.before), cast(int, link.after)  # (a resolved link: indices)
+        before, after = self.phases[kb].problem, self.phases[ka].problem
         if before.free_final_time or after.free_initial_time:
             return "constraint"
-        if not np.isclose(before.tf, after.t0, rtol=1e-12, atol=1e-12):
+        if not np.isclose(cast(float, before.tf), after.t0, rtol=1e-12, atol=1e-12):
             raise ValueError(
                 f"{link.label}: phase {link.before} ends at tf = {before.tf} but phase {link.after} starts at "
                 f"t0 = {after.t0}; make the times agree, or free one of them (FreeFinalTime, FreeInitialTime)"
@@ -504,10 +519,12 @@ class MultiPhase(session.SolveSession):
         return "consistent"
 
     def _link_blocks(self) -> list[Block]:
-        blocks, row = [], int(sum(ph.n_constraints for ph in self.phases))
+        blocks: list[Block] = []
+        row = int(sum(ph.n_constraints for ph in self.phases))
         for link, joined in zip(self.links, self._link_states):
-            pb, pa = self.phases[link.before], self.phases[link.after]
-            ob, oa = self.variable_offsets[link.before], self.variable_offsets[link.after]
+            kb, ka = cast(int, link.before), cast(int, link.after)  # (a resolved link: indices)
+            pb, pa = self.phases[kb], self.phases[ka]
+            ob, oa = self.variable_offsets[kb], self.variable_offsets[ka]
             if joined:
                 _, end_b, _ = pb._boundary_indices()
                 start_a, _, _ = pa._boundary_indices()
@@ -530,10 +547,11 @@ class MultiPhase(session.SolveSession):
                 zb, qb, _, _, _, tf_before, _ = pb._boundary_symbols()
                 za, qa, _, _, t0_after, _, _ = pa._boundary_symbols()
                 z, q = ca.vertcat(zb, za), ca.vertcat(qb, qa)
-                var, par = [], []
+                parts: list[np.ndarray] = []
+                par: list[float] = []
                 for ph, offset in ((pb, ob), (pa, oa)):
                     first, last, _ = ph._boundary_indices()
-                    var.append(offset + np.concatenate([first, last, ph.global_indices()]))
+                    parts.append(offset + np.concatenate([first, last, ph.global_indices()]))
                     par.extend(ph.global_variables.constants)
                 values = [tf_before, t0_after]
                 scale = max(abs(float(pb.problem.tf_guess)), 1.0)
@@ -541,7 +559,7 @@ class MultiPhase(session.SolveSession):
                     Block(
                         f"link_time_{link.before}_{link.after}",
                         ca.Function("link_time", [z, q], [(values[1] - values[0]) / scale]),
-                        np.concatenate(var).astype(np.int64).reshape(-1, 1),
+                        np.concatenate(parts).astype(np.int64).reshape(-1, 1),
                         np.array(par, dtype=float).reshape(-1, 1),
                         np.array([[row]]),
                     )
@@ -552,7 +570,7 @@ class MultiPhase(session.SolveSession):
 
     # -- the NLP ----------------------------------------------------------------------------
     def _phase_blocks(self) -> list[Block]:
-        out = []
+        out: list[Block] = []
         for k, ph in enumerate(self.phases):
             ov, orow = self.variable_offsets[k], self.row_offsets[k]
             factor = ph.problem.objective_scale / self.objective_scale
@@ -573,7 +591,7 @@ class MultiPhase(session.SolveSession):
                 )
         return out
 
-    def build(self) -> MultiPhase:
+    def build(self) -> Self:
         """Build the NLP (idempotent); the wall time is kept in ``build_s``."""
         if self._nlp is None:
             t = time.perf_counter()
@@ -584,20 +602,20 @@ class MultiPhase(session.SolveSession):
 
     @property
     def nlp(self) -> SeparableNLP:
-        return self.build()._nlp
+        return cast(SeparableNLP, self.build()._nlp)  # (built)
 
-    def _bounds(self, parameters=None):
+    def _bounds(self, parameters: Mapping[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
         lb, ub = zip(*(ph._bounds(self._phase_parameters(ph, parameters)) for ph in self.phases))
         return np.concatenate(lb), np.concatenate(ub)
 
     @staticmethod
-    def _phase_parameters(ph, parameters):
+    def _phase_parameters(ph: Transcription, parameters: Mapping[str, float] | None) -> dict[str, float] | None:
         """The part of ``parameters`` (new values of fixed parameters) that names ``ph``'s."""
         if parameters is None:
             return None
         return {k: v for k, v in parameters.items() if k in ph.problem.parameters}
 
-    def _check_parameters(self, parameters) -> None:
+    def _check_parameters(self, parameters: Mapping[str, float]) -> None:
         known = sorted({k for ph in self.phases for k in ph.problem.parameters})
         unknown = sorted(set(parameters) - set(known))
         if unknown:
@@ -607,7 +625,7 @@ class MultiPhase(session.SolveSession):
 
     def _parameter_slots(self) -> dict[str, np.ndarray]:
         """Per parameter name, its NLP indices in every phase that has it (one value for all of them)."""
-        slots: dict[str, list] = {}
+        slots: dict[str, list[np.ndarray]] = {}
         for k, ph in enumerate(self.phases):
             for name, index in ph._parameter_slots().items():
                 slots.setdefault(name, []).append(self.variable_offsets[k] + index)
@@ -628,7 +646,7 @@ class MultiPhase(session.SolveSession):
     def _objective_scale(self) -> float:
         return self.objective_scale
 
-    def _time_span(self, w) -> tuple[float, float]:
+    def _time_span(self, w: ArrayLike) -> tuple[float, float]:
         """``(t0, tf)`` of a scaled NLP vector: the first phase's start and the last phase's end (as listed)."""
         w = np.asarray(w, dtype=float).ravel()
         first, last = self.phases[0], self.phases[-1]
@@ -638,16 +656,16 @@ class MultiPhase(session.SolveSession):
             last._time_span(w[o1 : o1 + last.n_variables])[1],
         )
 
-    def _constraint_bounds(self):
-        lo, hi = zip(*(ph._constraint_bounds() for ph in self.phases))
+    def _constraint_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        phase_lo, phase_hi = zip(*(ph._constraint_bounds() for ph in self.phases))
         z = np.zeros(self.n_link_rows - self.n_linkage_rows)
-        lo, hi = [*lo, z], [*hi, z]
+        lo, hi = [*phase_lo, z], [*phase_hi, z]
         if self._linkage is not None:
             lo.append(self._linkage.lower / self._linkage.scale)
             hi.append(self._linkage.upper / self._linkage.scale)
         return np.concatenate(lo), np.concatenate(hi)
 
-    def initial_point(self, guesses=None) -> np.ndarray:
+    def initial_point(self, guesses: Sequence[Any] | MultiPhaseSolution | None = None) -> np.ndarray:
         """The start vector from one guess per phase (a :class:`~ocpkit.Guess`, a Solution or None), or from a
         :class:`MultiPhaseSolution` of the same phases (each phase from its own)."""
         if isinstance(guesses, MultiPhaseSolution):
@@ -666,29 +684,35 @@ class MultiPhase(session.SolveSession):
         return sum(ph.n_collocation_points for ph in self.phases)
 
     @property
-    def ipopt_defaults(self) -> dict:
+    def ipopt_defaults(self) -> dict[str, Any]:
         """The phases' IPOPT defaults where every phase asks for the same value (an ordering one phase's structure
         asks for, and another's does not, is left at ocpkit's default)."""
         first, *others = [ph.ipopt_defaults for ph in self.phases]
         return {k: v for k, v in first.items() if all(o.get(k, object()) == v for o in others)}
 
-    def effective_ipopt_options(self, ipopt_options: dict | None = None) -> dict:
+    def effective_ipopt_options(self, ipopt_options: dict[str, Any] | None = None) -> dict[str, Any]:
         """The IPOPT options a solve with these overrides runs with (as a single transcription's)."""
         return {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_defaults, **(ipopt_options or {})}
 
-    def solver(self, ipopt_options: dict | None = None):
+    def solver(self, ipopt_options: dict[str, Any] | None = None) -> ca.Function:
         """The IPOPT instance for these option overrides (:meth:`effective_ipopt_options`): created once per set."""
         self.build()
         key = tuple(sorted((ipopt_options or {}).items()))
         if self._solver is None or key != self._solver_options:
             t = time.perf_counter()
-            self._solver = self._nlp.solver(self.effective_ipopt_options(ipopt_options))
+            self._solver = self.nlp.solver(self.effective_ipopt_options(ipopt_options))
             self.build_s += time.perf_counter() - t
             self._solver_options = key
         return self._solver
 
     def _solve_once(
-        self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
+        self,
+        guess: Any,
+        ipopt_options: dict[str, Any] | None,
+        allow_acceptable: bool,
+        raise_on_failure: bool,
+        parameters: Mapping[str, float] | None = None,
+        estimate_multipliers: bool = False,
     ) -> MultiPhaseSolution:
         """One IPOPT solve (:func:`ocpkit.transcription.session.solve_once`)."""
         return session.solve_once(
@@ -696,28 +720,30 @@ class MultiPhase(session.SolveSession):
         )
 
     # -- what the solve session asks of a mesh (ocpkit.transcription.session): each phase's, in phase order ---------
-    def _mesh_fractions(self, solution) -> np.ndarray:
+    def _mesh_fractions(self, solution: MultiPhaseSolution) -> np.ndarray:
         span = solution.tf - solution.t0
         return np.concatenate([np.diff(p.estimate_intervals) / span for p in solution.phases])
 
-    def _path_where(self, solution) -> np.ndarray:
+    def _path_where(self, solution: MultiPhaseSolution) -> np.ndarray:
         # a phase without path constraints has none violated (NaN from path_violations would blind the others')
         where = np.vstack([ph._path_where(p) for ph, p in zip(self.phases, solution.phases)])
         where[:, 1] = np.nan_to_num(where[:, 1], nan=0.0)
         return where
 
-    def _cuts(self, solution) -> list:
+    def _cuts(self, solution: MultiPhaseSolution) -> list[np.ndarray]:
         return [c for ph, p in zip(self.phases, solution.phases) for c in ph._cuts(p)]
 
-    def _refinement_hint(self, solution) -> str:
+    def _refinement_hint(self, solution: MultiPhaseSolution) -> str:
         hints = [(name, ph._refinement_hint(p)) for name, ph, p in zip(self.names, self.phases, solution.phases)]
         return "; ".join(f"phase {name}: {h}" for name, h in hints if h)
 
-    def _warn_if_inaccurate(self, solution, threshold: float) -> None:
+    def _warn_if_inaccurate(self, solution: MultiPhaseSolution, threshold: float) -> None:
         for name, ph, p in zip(self.names, self.phases, solution.phases):
             ph._warn_if_inaccurate(p, threshold, label=f"phase {name!r}, {ph.label}", stacklevel=6)
 
-    def refine(self, errors: np.ndarray, tolerance: float, cuts=None) -> MultiPhase:
+    def refine(
+        self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray | Sequence[float]] | None = None
+    ) -> MultiPhase:
         """The same phases, links, cost and constraints, each phase's mesh refined by its own :meth:`refine` on its
         share of ``errors`` and ``cuts`` (per estimate interval, in phase order); a phase left as it was keeps its
         transcription."""
@@ -725,11 +751,11 @@ class MultiPhase(session.SolveSession):
         if counts is None or int(sum(counts)) != len(errors):
             raise ValueError(f"{len(errors)} interval errors for phases of {counts} estimate intervals: solve first")
         bounds = np.concatenate([[0], np.cumsum(counts)])
-        cuts = [None] * len(errors) if cuts is None else list(cuts)
+        per_interval: list[Any] = [None] * len(errors) if cuts is None else list(cuts)
         phases = {}
         for k, (name, ph) in enumerate(zip(self.names, self.phases)):
             part = slice(bounds[k], bounds[k + 1])
-            new = ph.refine(np.asarray(errors[part]), tolerance, cuts[part])
+            new = ph.refine(np.asarray(errors[part]), tolerance, per_interval[part])
             phases[name] = ph if session._same_mesh(new, ph) else new
         refined = MultiPhase(phases, **self._options)
         refined.cut_times = self.cut_times
@@ -795,14 +821,14 @@ class MultiPhase(session.SolveSession):
             raw={"w": result.w, "lam_g": result.lam_g, "lam_w": result.lam_w, "transcription": self},
         )
 
-    def _trajectory_parameters(self, phases) -> dict[str, float]:
+    def _trajectory_parameters(self, phases: Sequence[Solution]) -> dict[str, float]:
         """The solved free parameters of the trajectory: each shared one once, and each that one phase alone names;
         phase-local ones (``local_parameters`` named by several phases) are in ``phases[k].parameters``."""
         count: dict[str, int] = {}
         for ph in self.phases:
             for v in ph.problem.free_parameters:
                 count[v.name] = count.get(v.name, 0) + 1
-        out = {}
+        out: dict[str, float] = {}
         for sol in phases:
             for name, value in sol.parameters.items():
                 if name in self._shared or count[name] == 1:
@@ -836,14 +862,14 @@ class MultiPhaseSolution(Trajectory):
     solve_s: float
     converged: bool
     link_residual: float
-    parameters: dict = field(default_factory=dict)
+    parameters: dict[str, float] = field(default_factory=dict)
     trajectory_cost: float = 0.0
-    names: list = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
     objective_scale: float = 1.0
     #: the NLP vector, IPOPT's multipliers and the :class:`MultiPhase` solved (an exact warm start of it)
-    raw: dict = field(default_factory=dict, repr=False)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False)
     #: a refined solve's meshes and how it ended, as :class:`~ocpkit.Solution`'s
-    mesh_history: list | None = field(default=None, repr=False)
+    mesh_history: list[Any] | None = field(default=None, repr=False)
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
 
@@ -869,13 +895,13 @@ class MultiPhaseSolution(Trajectory):
         renamed("MultiPhaseSolution.nlp_parameters", "MultiPhaseSolution.decision_variables")
         return self.decision_variables
 
-    def value(self, what):
+    def value(self, what: str | Callable[..., Any]) -> float | np.ndarray:
         """:meth:`Trajectory.value`, with the trajectory's parameters (:attr:`parameters`) by name too."""
         if isinstance(what, str) and what in self.parameters:
             return float(self.parameters[what])
         return super().value(what)
 
-    def phase(self, key) -> Solution:
+    def phase(self, key: str | int) -> Solution:
         """A phase's solution by name or index."""
         if isinstance(key, str):
             if key not in self.names:
@@ -887,7 +913,7 @@ class MultiPhaseSolution(Trajectory):
         starts = np.array([p.t0 for p in self.phases])
         return np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.phases) - 1)
 
-    def _piecewise(self, t, what: str) -> np.ndarray:
+    def _piecewise(self, t: ArrayLike, what: str) -> np.ndarray:
         if not self._uniform:
             raise ValueError("the phases have different states or controls: evaluate phases[k] instead")
         t = np.asarray(t, dtype=float)
@@ -901,13 +927,15 @@ class MultiPhaseSolution(Trajectory):
             out[sel] = getattr(ph, what)(np.clip(flat[sel], ph.t0, ph.tf))
         return out.reshape(t.shape + (dim,))
 
-    def _state(self, t):
+    def _state(self, t: np.ndarray) -> np.ndarray:
         return self._piecewise(t, "state")
 
-    def _control(self, t):
+    def _control(self, t: np.ndarray) -> np.ndarray:
         return self._piecewise(t, "control")
 
-    def sample(self, expr, grid=None, n: int = 401):
+    def sample(
+        self, expr: Callable[..., Any], grid: ArrayLike | None = None, n: int = 401
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(t, values)`` of ``expr(x, u, t[, p])`` (:meth:`Trajectory.sample`), each time in its phase (the later one at
         a shared time), each phase with its own variables and parameters and the trajectory's (:attr:`parameters`)."""
         t = self.time_grid(n) if grid is None else self._check_times(grid)
@@ -938,13 +966,15 @@ class MultiPhaseSolution(Trajectory):
         return np.concatenate([p.interval_errors for p in self.phases])
 
     @cached_property
-    def accuracy(self):
+    def accuracy(self) -> MultiPhaseAccuracy:
         """Every part of the estimated error, over the phases (:class:`ocpkit.accuracy.MultiPhaseAccuracy`)."""
         from ..accuracy import MultiPhaseAccuracy
 
         return MultiPhaseAccuracy(self)
 
-    def reintegrate(self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"):
+    def reintegrate(
+        self, rtol: float = 1e-12, atol: float = 1e-12, n: int = 2001, controls: str = "bounded"
+    ) -> Reintegration:
         """Each phase re-integrated from its own initial state (a link may jump), as one
         :class:`~ocpkit.Reintegration` over the phases' times (phases with the same states; otherwise
         ``phases[k].reintegrate()``). ``n`` points per phase."""
@@ -992,10 +1022,10 @@ class MultiPhaseSolution(Trajectory):
         _, _, variables, values, _, _ = mp._ends
         return float(mp._cost(w[variables], values))
 
-    def _reintegrations(self, **options) -> list[Reintegration]:
+    def _reintegrations(self, **options: Any) -> list[Reintegration]:
         return [p.reintegrate(**options) for p in self.phases]
 
-    def max_reintegration_error(self, **kwargs) -> float:
+    def max_reintegration_error(self, **kwargs: Any) -> float:
         """The largest re-integration error over the phases (units of each phase's state scales)."""
         return max(r.max_error for r in self._reintegrations(**kwargs))
 

@@ -23,6 +23,9 @@ N = 100); multi-interval is ``intervals=K`` with a few nodes each.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, cast
+
 import casadi as ca
 import numpy as np
 
@@ -33,11 +36,14 @@ from ..problem import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, segment_clock
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 
 class PiecewiseBarycentric:
     """Callable ``t -> values`` (shape ``t.shape + (dim,)``) interpolating per interval in barycentric form."""
 
-    def __init__(self, breaks: np.ndarray, pieces: list[tuple[np.ndarray, np.ndarray]]):
+    def __init__(self, breaks: ArrayLike, pieces: Sequence[tuple[ArrayLike, ArrayLike]]) -> None:
         """``pieces[i] = (tau, values)``: support points in [-1, 1] and values (n_i, dim) on interval i.
 
         Beyond an interval's last support point the polynomial is extrapolated (an
@@ -48,7 +54,7 @@ class PiecewiseBarycentric:
         # barycentric weights) per group
         groups: dict[bytes, list[int]] = {}
         weights: dict[bytes, np.ndarray] = {}
-        self.pieces = []
+        self.pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         for i, (tau, v) in enumerate(pieces):
             tau = np.asarray(tau, float)
             key = tau.tobytes()
@@ -59,14 +65,14 @@ class PiecewiseBarycentric:
         self.dim = self.pieces[0][1].shape[1]
         self._group = np.empty(len(self.pieces), dtype=np.int64)
         self._slot = np.empty(len(self.pieces), dtype=np.int64)
-        self._groups = []
+        self._groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         for g, members in enumerate(groups.values()):
             self._group[members] = g
             self._slot[members] = np.arange(len(members))
             tau, _, w = self.pieces[members[0]]
             self._groups.append((tau, w, np.stack([self.pieces[i][1] for i in members])))
 
-    def __call__(self, t) -> np.ndarray:
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         flat = np.clip(t.ravel(), self.breaks[0], self.breaks[-1])
         out = np.empty((flat.size, self.dim))
@@ -99,7 +105,7 @@ class Radau(Transcription):
     """
 
     @property
-    def ipopt_defaults(self) -> dict:
+    def ipopt_defaults(self) -> dict[str, Any]:  # type: ignore[override]  # read-only here, a class attribute above
         """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
         interval, QAMD for several" (issue 26): it picks the faster ordering on 17 of 19 comparable cases (five
         problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
@@ -110,14 +116,19 @@ class Radau(Transcription):
         return {"mumps_pivot_order": 2}
 
     def __init__(
-        self, problem: OptimalControlProblem, nodes: int | list[int] = 20, intervals: int | None = None, *, mesh=None
-    ):
+        self,
+        problem: OptimalControlProblem,
+        nodes: int | Sequence[int] | np.ndarray = 20,
+        intervals: int | None = None,
+        *,
+        mesh: ArrayLike | None = None,
+    ) -> None:
         super().__init__(problem)
         if intervals is None and mesh is None:
             intervals = 1
         self.mesh = Mesh.from_spec(intervals, mesh, what="intervals")
         self.intervals = self.mesh.n
-        counts = [nodes] * self.intervals if np.ndim(nodes) == 0 else list(nodes)
+        counts = [cast(int, nodes)] * self.intervals if np.ndim(nodes) == 0 else list(cast("Sequence[int]", nodes))
         if len(counts) != self.intervals:
             raise ValueError(f"{len(counts)} node counts given for {self.intervals} intervals")
         self.tau = [lgr_nodes(n) for n in counts]  # validates each count
@@ -174,7 +185,7 @@ class Radau(Transcription):
         nx = pr.nx
         (X, U), _ = self._index_tables()
         rows_all = np.arange(self.n_defects).reshape(self.n_collocation, nx).T  # (nx, points)
-        blocks = []
+        blocks: list[Block] = []
 
         # D X on the scaled variables: a shift cancels exactly, whatever the rounding of D's row sums
         for n in unique(self.counts):
@@ -210,7 +221,7 @@ class Radau(Transcription):
             blocks.append(self._mayer_block(X[:, 0], X[:, -1], None))
         return blocks
 
-    def _point_symbols(self, n_controls: int = 1):
+    def _point_symbols(self, n_controls: int = 1) -> tuple[ca.SX, ca.SX, ca.SX, list[ca.SX], Any, Any]:
         """Symbols of one point: ``z = [x, u_1..u_n, problem-wide variables]`` (scaled), ``p = [s, fraction,
         (tf)]``; physical ``x``, the ``n`` controls, ``t`` and its interval's length ``h`` in them."""
         pr = self.problem
@@ -248,13 +259,19 @@ class Radau(Transcription):
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
         return [colloc, end]
 
+    #: per interval, its error before the refinement that made this mesh raised its degree, else None (set by
+    #: :meth:`refine` on the mesh it returns)
+    _raised: list[float | None]
+
     #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015): nodes per interval in [N_MIN, N_MAX]
     N_MIN, N_MAX = 3, 12
     #: An interval of at least STALL_NODES nodes whose degree was raised and whose error fell by less than
     #: STALL_FACTOR is split instead (below, a raise can change the solution nearby more than its own error)
     STALL_FACTOR, STALL_NODES = 0.5, 6
 
-    def refine(self, errors: np.ndarray, tolerance: float, switches=None) -> Radau:
+    def refine(
+        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
+    ) -> Radau:
         """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4), with three safeguards.
 
         On an interval of ``N`` nodes whose error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)``
@@ -280,9 +297,11 @@ class Radau(Transcription):
             if switches is None
             else [c if o else np.zeros(0) for c, o in zip(switches, over)]
         )
-        raised_before = getattr(self, "_raised", None)
+        raised_before: Any = getattr(self, "_raised", None)
         fractions, origin = self.mesh.split_at(cuts)
-        counts, out, raised = [], [], []
+        counts: list[int] = []
+        out: list[float] = []
+        raised: list[float | None] = []
         for k in range(self.intervals):
             pieces = fractions[origin == k]
             e, n = errors[k], int(self.counts[k])
@@ -320,12 +339,18 @@ class Radau(Transcription):
         return refined
 
     # -- bounds, guess, packing ---------------------------------------------------------------
-    def _initial_point(self, tf, states, controls, t0=None):
+    def _initial_point(
+        self,
+        tf: float,
+        states: Callable[[ArrayLike], np.ndarray],
+        controls: Callable[[ArrayLike], np.ndarray],
+        t0: float | None = None,
+    ) -> np.ndarray:
         X = np.asarray(states(self._times(tf, self.state_point_fractions(), t0)), dtype=float)
         U = np.asarray(controls(self._times(tf, self.collocation_fractions(), t0)), dtype=float)
         return self.pack(X, U, tf, t0=t0)
 
-    def defects(self, X, U, tf=None) -> np.ndarray:
+    def defects(self, X: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
         """Defects (collocation points, nx) in physical units, in d/dtau form, at given values."""
         g = np.asarray(self.nlp.constraint_function(self.pack(X, U, tf))).ravel()[: self.n_defects]
         return g.reshape(self.n_collocation, self.problem.nx) * self.problem.state_scale
@@ -348,7 +373,7 @@ class Radau(Transcription):
         lam[-1] = D[:, -1] @ Lam[last:]
         return lam
 
-    def _package(self, result: NLPResult) -> dict:
+    def _package(self, result: NLPResult) -> dict[str, Any]:
         pr, t0, tf = self._result_problem(result)
         X, U, _ = self.unpack(result.w)
         breaks = self._times(tf, self.mesh.breaks, t0)

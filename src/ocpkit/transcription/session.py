@@ -19,14 +19,25 @@ from __future__ import annotations
 import dataclasses
 import time
 import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, cast
 
 import numpy as np
 
 from .._deprecation import renamed
 from ..accuracy import AccuracyWarning
 from ..errors import SolverError
-from ..nlp import WARM_START, linear_solver, solve_nlp
+from ..nlp import WARM_START, NLPResult, linear_solver, solve_nlp
+
+if TYPE_CHECKING:
+    from .base import Transcription
+    from .loop import SolveLoop
+    from .phases import MultiPhase
+
+#: What :meth:`SolveSession.solve` returns: a :class:`~ocpkit.Solution` for a :class:`~ocpkit.Transcription`, a
+#: :class:`~ocpkit.MultiPhaseSolution` for linked phases (:class:`~ocpkit.MultiPhase`).
+SolutionType = TypeVar("SolutionType")
 
 
 @dataclass(frozen=True)
@@ -46,7 +57,7 @@ class MeshIteration:
     total_s: float
     #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
     #: met it; empty where the state part did not (the other parts are not computed then) or all met it
-    failing: tuple = ()
+    failing: tuple[str, ...] = ()
     #: what drives the refinement on this mesh, which the stall rule follows: the state part while it is over the
     #: tolerance, else the largest of the others (path violations between points, the objective)
     worst: float = float("nan")
@@ -58,21 +69,21 @@ class MeshIteration:
         return self.decision_variables
 
 
-class SolveSession:
+class SolveSession(Generic[SolutionType]):
     """The one ``solve`` of a mesh object (:class:`Transcription`, :class:`MultiPhase`): :func:`solve`."""
 
     def solve(
         self,
-        guess=None,
+        guess: Any = None,
         *,
-        ipopt_options: dict | None = None,
+        ipopt_options: dict[str, Any] | None = None,
         allow_acceptable: bool = False,
         raise_on_failure: bool = True,
         error_threshold: float | None = 1e-3,
         mesh_tolerance: float | None = None,
         max_mesh_iterations: int = 25,
-        parameters=None,
-    ):
+        parameters: Mapping[str, float] | None = None,
+    ) -> SolutionType:
         """Solve with IPOPT from ``guess``: a :class:`~ocpkit.Solution`, or for linked phases
         (:class:`~ocpkit.MultiPhase`: every phase in one NLP) a :class:`~ocpkit.MultiPhaseSolution`.
 
@@ -132,7 +143,13 @@ class SolveSession:
             parameters=parameters,
         )
 
-    def loop(self, *, ipopt_options: dict | None = None, allow_acceptable: bool = False, raise_on_failure: bool = True):
+    def loop(
+        self,
+        *,
+        ipopt_options: dict[str, Any] | None = None,
+        allow_acceptable: bool = False,
+        raise_on_failure: bool = True,
+    ) -> SolveLoop:
         """A :class:`~ocpkit.transcription.loop.SolveLoop` of this mesh: many solves (parameter values, starts) at
         the cost of the IPOPT call, each result's Solution built only when asked for.
 
@@ -142,23 +159,24 @@ class SolveSession:
         """
         from .loop import SolveLoop
 
+        meshed = cast("Transcription | MultiPhase", self)  # (the mesh objects are these)
         return SolveLoop(
-            self, ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure
+            meshed, ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure
         )
 
 
 def solve(
-    meshed,
-    guess,
+    meshed: Any,
+    guess: Any,
     *,
-    ipopt_options,
-    allow_acceptable,
-    raise_on_failure,
-    error_threshold,
-    mesh_tolerance,
-    max_mesh_iterations,
-    parameters,
-):
+    ipopt_options: dict[str, Any] | None,
+    allow_acceptable: bool,
+    raise_on_failure: bool,
+    error_threshold: float | None,
+    mesh_tolerance: float | None,
+    max_mesh_iterations: int,
+    parameters: Mapping[str, float] | None,
+) -> Any:
     """The solve policy (the module docstring; the options are :meth:`Transcription.solve`'s)."""
     if parameters is not None:
         meshed._check_parameters(parameters)  # names checked before anything is built
@@ -183,7 +201,7 @@ def solve(
     return solution
 
 
-def record_solve(meshed, solution, ipopt_options, allow_acceptable: bool) -> None:
+def record_solve(meshed: Any, solution: Any, ipopt_options: dict[str, Any] | None, allow_acceptable: bool) -> None:
     """Record on ``solution.raw`` how it was solved: ``solve_options``, for a re-solve of the same NLP
     (ocpkit.indirect re-solves from an extremal), and ``linear_solver``, the linear algebra it ran with (a
     refinement's last mesh: the solution's own)."""
@@ -200,8 +218,14 @@ def record_solve(meshed, solution, ipopt_options, allow_acceptable: bool) -> Non
 
 
 def solve_once(
-    meshed, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters=None, estimate_multipliers=False
-):
+    meshed: Any,
+    guess: Any,
+    ipopt_options: dict[str, Any] | None,
+    allow_acceptable: bool,
+    raise_on_failure: bool,
+    parameters: Mapping[str, float] | None = None,
+    estimate_multipliers: bool = False,
+) -> Any:
     """One IPOPT solve of ``meshed``. From a solution of this same object: its exact warm start (its NLP vector and
     IPOPT's multipliers, with :data:`~ocpkit.nlp.WARM_START`). From a solution of another mesh with
     ``estimate_multipliers``: the interpolated point with first-order multiplier estimates
@@ -212,7 +236,9 @@ def solve_once(
     lbw, ubw = meshed._bounds(parameters)
     lbg, ubg = meshed._constraint_bounds()
 
-    def run(w0, options, multipliers=None):
+    def run(
+        w0: np.ndarray, options: dict[str, Any] | None, multipliers: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> NLPResult:
         lam_g0, lam_w0 = multipliers if multipliers is not None else (None, None)
         solver = meshed.solver(options)
         return solve_nlp(
@@ -232,7 +258,7 @@ def solve_once(
     return settle(run(w0, ipopt_options), meshed._solution, raise_on_failure)
 
 
-def solve_refined(meshed, guess, tolerance: float, max_iterations: int, options: dict):
+def solve_refined(meshed: Any, guess: Any, tolerance: float, max_iterations: int, options: dict[str, Any]) -> Any:
     """Solve and refine ``meshed`` (a :class:`Transcription` or a :class:`MultiPhase`) until every part of the error
     estimate meets ``tolerance`` (:meth:`Transcription.solve`'s ``mesh_tolerance``), with the history and the
     outcome on the returned solution."""
@@ -240,7 +266,10 @@ def solve_refined(meshed, guess, tolerance: float, max_iterations: int, options:
         raise ValueError(f"mesh_tolerance must be positive, got {tolerance!r}")
     if max_iterations < 1:
         raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
-    transcription, history, solution, best = meshed, [], None, None
+    transcription = meshed
+    history: list[MeshIteration] = []
+    solution: Any = None
+    best: Any = None
     outcome, reason = "met", ""
     for iteration in range(max_iterations):
         start = time.perf_counter()
@@ -369,7 +398,7 @@ def solve_refined(meshed, guess, tolerance: float, max_iterations: int, options:
 STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
 
 
-def _same_mesh(a, b) -> bool:
+def _same_mesh(a: Any, b: Any) -> bool:
     """Whether two transcriptions of a refinement have the same mesh (a refinement that changed nothing); linked
     phases, when every phase has."""
     if hasattr(a, "phases") or hasattr(b, "phases"):
@@ -388,7 +417,7 @@ def _worst(h: MeshIteration) -> float:
     return h.worst if np.isfinite(h.worst) else h.error_estimate
 
 
-def _stalled(history) -> str:
+def _stalled(history: Sequence[MeshIteration]) -> str:
     """Why refinement stalls (module constants, on what drives each mesh: :attr:`MeshIteration.worst`), or the
     empty string."""
     if len(history) <= STALL_MESHES:
@@ -402,7 +431,9 @@ def _stalled(history) -> str:
     return ""
 
 
-def _refinement_failure(exc: Exception, iteration: int, transcription, best, history, doing="on") -> SolverError:
+def _refinement_failure(
+    exc: Exception, iteration: int, transcription: Any, best: Any, history: Sequence[MeshIteration], doing: str = "on"
+) -> SolverError:
     """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
     solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
     and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
