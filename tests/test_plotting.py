@@ -29,3 +29,17 @@ def test_bad_figure_name_rejected(tmp_path):
     with pytest.raises(ValueError, match="unsupported"):
         plotting.save_figure(fig, "x", tmp_path, formats=("bmp",))
     plt.close(fig)
+
+
+def test_junctions_drawn_at_the_extremals_converged_times():
+    """A junction read from samples (on their grid) is drawn at the extremal's own junction nearest it; a time with
+    none near stays as read."""
+    from types import SimpleNamespace
+
+    from compendium.plotting import _junction_times
+
+    extremal = SimpleNamespace(t0=0.0, tf=1.0, breakpoints=[0.0, 0.13629903, 0.72523011, 1.0])
+    at = _junction_times(extremal)
+    assert at(0.1363875) == 0.13629903 and at(0.725125) == 0.72523011 and at(1.0) == 1.0
+    assert at(0.5) == 0.5
+    assert _junction_times(SimpleNamespace(t0=0.0, tf=2.0))(0.999) == 0.999

@@ -103,10 +103,26 @@ def time_histories(
 ARC_COLOURS = {"lower": "C0", "upper": "C3", "zero": "C7", "singular": "C2", "regular": "C1", "boundary": "C4"}
 
 
+def _junction_times(trajectory, reach: float = 0.01):
+    """A junction read from an extremal's control samples moved to the extremal's own junction nearest it, within
+    ``reach`` of the horizon: an arc's end or a switching time, which the shooting converged
+    (``trajectory.breakpoints``). Reading the samples locates a junction of a singular arc only to the sampling
+    grid, and where exactly on it depends on rounding (catalyst mixing's, 1e-4 off, moved by 2.5e-5 from one machine
+    to another)."""
+    exact = np.asarray(getattr(trajectory, "breakpoints", [trajectory.t0, trajectory.tf]), dtype=float)
+    span = reach * (trajectory.tf - trajectory.t0)
+
+    def at(t: float) -> float:
+        nearest = exact[np.argmin(np.abs(exact - t))]
+        return float(nearest) if abs(nearest - t) <= span else float(t)
+
+    return at
+
+
 def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n: int = 801) -> None:
     """The control history of a direct solution (thin, grey) and of its extremal (:func:`ocpkit.indirect.to_extremal`)
-    drawn arc by arc (the extremal's own structure) in the colour of its kind, with a legend of the kinds and the
-    junctions dotted; ``scale`` divides the control (e.g. its maximum)."""
+    drawn arc by arc (the extremal's own structure, each junction at the extremal's converged time) in the colour of
+    its kind, with a legend of the kinds and the junctions dotted; ``scale`` divides the control (e.g. its maximum)."""
     from ocpkit.structure import control_structure
 
     i = direct.problem.control_names.index(control)
@@ -114,14 +130,15 @@ def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n:
     ax.plot(t, direct.control(t)[:, i] / scale, color="0.6", lw=0.8, label="direct (Radau)")
     tr = extremal.trajectory
     found = control_structure(tr)
+    exact = _junction_times(tr)
     seen = set()
     for arc in found.of(control):
-        s = np.linspace(arc.start, arc.end, 200)
+        s = np.linspace(exact(arc.start), exact(arc.end), 200)
         kind = arc.kind if arc.constraint is None else f"boundary ({arc.constraint})"
         ax.plot(s, tr.control(s)[:, i] / scale, color=ARC_COLOURS[arc.kind], lw=2, label=None if kind in seen else kind)
         seen.add(kind)
     for tj in found.junctions(control):
-        ax.axvline(tj, color="k", ls=":", lw=0.7)
+        ax.axvline(exact(tj), color="k", ls=":", lw=0.7)
     ax.set_xlabel("t")
     ax.set_ylabel(control if scale == 1.0 else f"{control} / {scale:g}")
     ax.legend(fontsize=7, loc="best")
