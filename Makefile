@@ -94,10 +94,11 @@ report: notebooks mathjax
 test: lint unit nbval guard docs
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
-# into build/docs/index.html; every warning is an error (a broken cross-reference, a docstring that does not parse)
+# into build/docs/index.html; every warning is an error, and -n (nitpicky) makes every cross-reference one that must
+# resolve: a broken link or reference, a docstring that does not parse
 docs: setup mathjax
 	rm -rf build/docs
-	$(PY) -m sphinx -W --keep-going -q -b html docs build/docs
+	$(PY) -m sphinx -n -W --keep-going -q -b html docs build/docs
 	@echo "the documentation site: build/docs/index.html"
 
 lint: setup

@@ -29,7 +29,7 @@ nb_merge_streams = True
 
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
-autodoc_member_order = "bysource"
+autodoc_member_order = "groupwise"  # classes, then functions, then data: the user-facing names first
 autodoc_typehints = "description"
 
 # Every cross-reference must resolve (make docs passes -n, nitpicky, with -W). Names of the libraries ocpkit builds
@@ -78,6 +78,21 @@ def _public_alias(app, env, node, contnode):
     ``ocpkit.Solution.linear_solver``) to where it is documented (``ocpkit.solution.Solution...``); a bare name
     (``Solution``, ``Transcription.solve``) likewise, from the module whose docstring names it."""
     import importlib
+    from types import ModuleType
+
+    def _annotations(cls: type) -> set[str]:
+        return {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
+
+    def _defining_module(module: ModuleType, name: str, value: object, domain) -> str:
+        for documented, *_ in domain.get_objects():
+            where, _, last = documented.rpartition(".")
+            if last == name and where.startswith(module.__name__ + "."):
+                try:
+                    if getattr(importlib.import_module(where), name, None) is value:
+                        return where
+                except ImportError:  # a class's attribute
+                    continue
+        return module.__name__
 
     if node.get("refdomain") != "py":
         return None
@@ -93,15 +108,30 @@ def _public_alias(app, env, node, contnode):
                 continue
             path = [".".join(parts[:split])]
             try:
-                for part in parts[split:]:
+                for k, part in enumerate(parts[split:], split):
                     owner = obj
-                    obj = getattr(obj, part)
-                    if isinstance(obj, type) or callable(obj) and hasattr(obj, "__qualname__"):
+                    try:
+                        obj = getattr(obj, part)
+                    except AttributeError:
+                        # an attribute a class declares but holds no value of (a dataclass field without a
+                        # default, an annotation the constructor sets): documented by that name all the same
+                        if k == len(parts) - 1 and isinstance(owner, type) and part in _annotations(owner):
+                            path = [owner.__module__, owner.__qualname__, part]
+                            break
+                        raise
+                    if isinstance(obj, ModuleType):
+                        path = [obj.__name__]
+                    elif isinstance(obj, type) or callable(obj) and hasattr(obj, "__qualname__"):
                         path = [obj.__module__, obj.__qualname__]
+                    elif isinstance(owner, ModuleType):
+                        # a constant a package re-exports (ocpkit.shooting.SWITCHING_MODES): where it is defined
+                        path = [_defining_module(owner, part, obj, domain), part]
                     else:
                         path = [getattr(owner, "__module__", path[0]), getattr(owner, "__qualname__", ""), part]
             except AttributeError:
                 break
+            if isinstance(obj, ModuleType) and node.get("reftype") not in ("mod", "obj"):
+                break  # (:attr:`problem` is no reference to the module ocpkit.problem)
             real = ".".join(p for p in path if p)
             for role in ("class", "func", "meth", "attr", "obj", "data", "mod"):
                 found = domain.resolve_xref(env, node["refdoc"], app.builder, role, real, node, contnode)

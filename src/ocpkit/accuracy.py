@@ -377,7 +377,7 @@ class Accuracy:
 
     @property
     def parts(self) -> dict[str, float]:
-        """Every part by name: ``state``, ``objective``, ``path <label>``."""
+        """Every part by name, ``state``, ``objective``, ``path <label>``."""
         return {"state": self.state, "objective": self.objective, **{f"path {k}": v for k, v in self.path.items()}}
 
     def failing(self, tolerance: float) -> list[str]:

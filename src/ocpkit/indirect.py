@@ -105,13 +105,13 @@ class Extremal:
     structure: Structure
     certificate: Certificate
     timings: dict[str, float] = field(default_factory=dict)
-    #: the direct solution the certificate compares with: the one the chain started from, or, where the extremal
-    #: differs from it, the same transcription re-solved from the extremal (``first_direct`` is then the first)
+    #: the direct solution the certificate compares with (the one the chain started from, or, where the extremal
+    #: differs from it, the same transcription re-solved from the extremal; ``first_direct`` is then the first)
     direct: Solution | None = None
     first_direct: Solution | None = None
-    #: how the shooting was solved: ``"arc shooting (K arcs)"``, ``"single shooting"``, or, where single shooting
+    #: how the shooting was solved, as ``"arc shooting (K arcs)"``, ``"single shooting"`` or, where single shooting
     #: from the direct costates failed, ``"multiple shooting (K segments), then single shooting"`` or ``"multiple
-    #: shooting (K segments)"`` (``shooting`` is then a :class:`~ocpkit.shooting.MultipleShootingResult`; :func:`_shoot`)
+    #: shooting (K segments)"`` (``shooting`` is then a :class:`~ocpkit.shooting.MultipleShootingResult`; ``_shoot``)
     route: str = ""
     #: the terminal equalities :func:`ocpkit.monotone.as_terminal` added for budgets (their multipliers' signs are
     #: certified)

@@ -60,8 +60,10 @@ def piecewise_polynomial(breaks: ArrayLike, monomial: np.ndarray) -> PiecewisePo
 
     Parameters
     ----------
-    breaks : (n + 1,) segment boundaries in time.
-    monomial : (degree + 1, n, dim) coefficients ``a_k`` of ``sum_k a_k s^k`` with
+    breaks : ArrayLike
+        Segment boundaries in time, shape ``(n + 1,)``.
+    monomial : numpy.ndarray
+        Coefficients ``a_k`` of ``sum_k a_k s^k``, shape ``(degree + 1, n, dim)``, with
         ``s = (t - breaks[i]) / h_i`` on segment ``i``.
     """
     breaks = np.asarray(breaks, dtype=float)

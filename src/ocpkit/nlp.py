@@ -77,9 +77,10 @@ WARM_START = {
     "warm_start_slack_bound_frac": 1e-9,
     "warm_start_mult_bound_push": 1e-9,
 }
-"""IPOPT options of a start from a previous solution of the same NLP with its multipliers: the iterate is kept
-(almost) where it is instead of being pushed into the interior, and the barrier starts small. From its own
-solution, the entry landing (Radau 4 x 20) takes 1 iteration instead of 15."""
+"""IPOPT options of a start from a previous solution of the same NLP with its multipliers.
+
+The iterate is kept (almost) where it is instead of being pushed into the interior, and the barrier starts small.
+From its own solution, the entry landing (Radau 4 x 20) takes 1 iteration instead of 15."""
 
 
 @dataclass
@@ -91,16 +92,16 @@ class Block:
     name : str
     function : casadi.Function
         SX function with inputs ``z`` (nz) and ``p`` (np) and one column output (nout).
-    variables : int array (nz, count)
-        Global NLP variable index of each entry of ``z``, per instance.
-    constants : float array (np, count)
-        The block's constant inputs ``p`` per instance (mesh data, a fixed final time); ``parameters`` is their
-        deprecated name.
-    rows : int array (nout, count) or None
-        Constraint rows that receive each output (summed where shared); ``None``
-        makes the block an objective term (``nout == 1``, summed into ``f``).
-    linear : float array (nout, nz) or None
-        For a block that is the linear map ``out = linear @ z`` (the same for every
+    variables : numpy.ndarray
+        Integers, shape ``(nz, count)``: the global NLP variable index of each entry of ``z``, per instance.
+    constants : numpy.ndarray
+        Floats, shape ``(np, count)``: the block's constant inputs ``p`` per instance (mesh data, a fixed final
+        time); ``parameters`` is their deprecated name.
+    rows : numpy.ndarray or None
+        Integers, shape ``(nout, count)``: the constraint rows that receive each output (summed where shared);
+        ``None`` makes the block an objective term (``nout == 1``, summed into ``f``).
+    linear : numpy.ndarray or None
+        Floats, shape ``(nout, nz)``. For a block that is the linear map ``out = linear @ z`` (the same for every
         instance): its Jacobian is this constant and its Hessian zero, so neither is
         differentiated symbolically (a dense map of a few hundred variables would
         take seconds).
@@ -381,7 +382,7 @@ class SeparableNLP:
 
     @cached_property
     def constraint_function(self) -> ca.Function:
-        """``g(w)``, the constraint values (built when first asked for: a solve does not need it)."""
+        """``g(w)``, the constraint values (built when first asked for; a solve does not need it)."""
         return ca.Function("g", [self.w], [self.g])
 
     @cached_property
@@ -410,7 +411,7 @@ class SeparableNLP:
         return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
 
 
-#: Work budget of :func:`least_squares_multipliers`: nonzeros of the normal matrix (8 bytes each, before fill).
+#: Work budget of :func:`least_squares_multipliers`, in nonzeros of the normal matrix (8 bytes each, before fill).
 NORMAL_MATRIX_BUDGET = 4_000_000
 
 

@@ -21,13 +21,13 @@ SQRT21 = np.sqrt(21.0)
 # -- Fifth-degree Gauss-Lobatto (Herman & Conway 1996; Desai & Conway Eqs. 6-7) ------
 
 HLGL_STATE_NODES = np.array([0.0, 0.5, 1.0])
-"""Normalised times of the three state nodes of a segment: t_i, t_c, t_{i+2}."""
+"""Normalised times of the three state nodes of a segment, t_i, t_c and t_{i+2}."""
 
 HLGL_COLLOCATION = np.array([0.5 - 0.5 * np.sqrt(3.0 / 7.0), 0.5 + 0.5 * np.sqrt(3.0 / 7.0)])
 """Normalised collocation points s_a, s_b = 1/2 -/+ sqrt(3/7)/2 (interior Lobatto points)."""
 
 HLGL_CONTROL_NODES = np.array([0.0, HLGL_COLLOCATION[0], 0.5, HLGL_COLLOCATION[1], 1.0])
-"""Normalised times of the five control parameters of a segment: t_i, t_a, t_c, t_b, t_{i+2}."""
+"""Normalised times of the five control parameters of a segment, t_i, t_a, t_c, t_b and t_{i+2}."""
 
 HLGL_QUADRATURE = np.array([1 / 20, 49 / 180, 16 / 45, 49 / 180, 1 / 20])
 """Five-point Gauss-Lobatto weights on [0, 1] at :data:`HLGL_CONTROL_NODES` (exact to degree 7)."""

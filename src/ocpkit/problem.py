@@ -39,10 +39,11 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 Bound = None | float | tuple[float, float]
-"""A boundary condition: ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
+"""A boundary condition, one of ``None`` (free), a value (fixed) or a ``(lower, upper)`` tuple."""
 
 GuessSpec = None | float | tuple[float, float] | Callable
-"""A guess: ``None`` (derived from bounds), a constant, ``(start, end)`` linear in time, or a function of time."""
+"""A guess, one of ``None`` (derived from bounds), a constant, ``(start, end)`` linear in time, or a function of
+time."""
 
 
 def _as_interval(spec: Bound, what: str) -> tuple[float, float]:
@@ -248,12 +249,16 @@ class State(Variable):
 class Control(Variable):
     """A control with box bounds.
 
-    ``period``: an angle, or any control the problem's functions see only through periodic functions of this
-    period (``Control("beta", period=2 * math.pi)``). The NLP may then move a node's value by whole periods at no
-    cost (orbit raising on Radau 4 x 20: node values 233.7, -109.7 and -417 degrees in one interval), and a
-    polynomial through such values sweeps whole turns between the nodes. A solution's control interpolant unwraps
-    each interval's node values first (:func:`unwrap_periodic`): between nodes it takes the short way round, which is
-    the control the dynamics saw. Give such a control no bounds, or bounds at least a period apart.
+    Attributes
+    ----------
+    period : float or None
+        Set for an angle, or any control the problem's functions see only through periodic functions of this
+        period (``Control("beta", period=2 * math.pi)``). The NLP may then move a node's value by whole periods at
+        no cost (orbit raising on Radau 4 x 20: node values 233.7, -109.7 and -417 degrees in one interval), and a
+        polynomial through such values sweeps whole turns between the nodes. A solution's control interpolant
+        unwraps each interval's node values first (:func:`unwrap_periodic`): between nodes it takes the short way
+        round, which is the control the dynamics saw. Give such a control no bounds, or bounds at least a period
+        apart.
     """
 
     period: float | None = None
@@ -351,7 +356,7 @@ class ConstraintSet:
 
     @property
     def labels(self) -> list[str]:
-        """One label per expression: the constraint's name, indexed when it has several."""
+        """One label per expression, the constraint's name, indexed when it has several."""
         return [n if k == 1 else f"{n}[{i}]" for n, k in zip(self.names, self.sizes) for i in range(k)]
 
 
@@ -436,6 +441,8 @@ class ProblemFunctions:
 
     @cached_property
     def hamiltonian(self) -> Hamiltonian:
+        """The Hamiltonian ``H = L + p' f`` of these functions (:class:`Hamiltonian`, on its own symbols), built
+        once."""
         return Hamiltonian.of(self)
 
     @cached_property
@@ -492,30 +499,36 @@ class OptimalControlProblem:
     Parameters
     ----------
     name : str
-    states, controls : sequences of :class:`State` and :class:`Control`.
-    dynamics : callable ``f(x, u, t)`` on CasADi column vectors returning dx/dt
+    states : Sequence[State]
+    controls : Sequence[Control]
+    dynamics : callable
+        ``f(x, u, t)`` on CasADi column vectors returning dx/dt
         (a CasADi expression or a list of ``len(states)`` expressions; use CasADi's
         functions, ``ca.cos``, ``ca.vertcat``: ``math`` functions and numpy arrays are rejected).
         ``x`` and ``u`` answer to the declared names, ``x["h"]`` (:mod:`ocpkit.names`); so do
         ``x0`` and ``xf`` of ``mayer`` and of the constraints.
-    t0 : float
-        Initial time (fixed).
-    tf : float, :class:`FreeFinalTime` or :class:`Duration` (``tf = t0 + d``)
-    mayer : callable ``phi(x0, xf, t0, tf)`` returning a scalar, optional.
-    lagrange : callable ``L(x, u, t)`` returning a scalar, optional. Without either the cost is 0: a
+    t0 : float or FreeInitialTime
+        Initial time, fixed (a number) or free (:class:`FreeInitialTime`). A free initial time must lie below
+        every admissible final time.
+    tf : float, FreeFinalTime or Duration
+        Final time, fixed (a number), free (:class:`FreeFinalTime`) or given by the phase's duration
+        (:class:`Duration`, ``tf = t0 + d``).
+    mayer : callable, optional
+        ``phi(x0, xf, t0, tf)`` returning a scalar.
+    lagrange : callable, optional
+        ``L(x, u, t)`` returning a scalar. Without either the cost is 0: a
         feasibility problem, or a phase of a :class:`~ocpkit.MultiPhase` whose cost lies in other phases.
     objective_scale : float
         The NLP minimises ``J / objective_scale``.
-    parameters : mapping name -> value, optional
-        Named constants that may change between solves without rebuilding the
+    parameters : Mapping[str, float], optional
+        Named constants, name -> value, that may change between solves without rebuilding the
         problem's functions (a homotopy parameter, a thrust level). A callable that
         takes one argument more than its inputs, ``f(x, u, t, p)``, receives them by
         name, ``p["thrust"]``; one that does not use them need not take them.
-    free_parameters : sequence of :class:`FreeParameter`, optional
+    free_parameters : Sequence[FreeParameter], optional
         Static parameters the transcriptions optimise; in the same ``p``.
-    path_constraints, boundary_constraints : sequences of :class:`Constraint`, optional.
-    t0 : float or :class:`FreeInitialTime`
-        A free initial time must lie below every admissible final time.
+    path_constraints, boundary_constraints : Sequence[Constraint], optional
+        The path and the boundary constraints.
 
     Notes
     -----
@@ -525,18 +538,33 @@ class OptimalControlProblem:
     """
 
     # what the constructor sets (the object is immutable: object.__setattr__ in __init__)
+    #: the problem's name
     name: str
+    #: a description of the problem (``description=``)
     description: str
+    #: the states, in the order of ``x``
     states: tuple[State, ...]
+    #: the controls, in the order of ``u``
     controls: tuple[Control, ...]
+    #: the NLP minimises ``J / objective_scale``
     objective_scale: float
+    #: the free initial time (:class:`FreeInitialTime`), or None where ``t0`` is fixed
     initial_time: FreeInitialTime | None
+    #: the initial time (a free one's guess)
     t0: float
+    #: the final time, or the :class:`FreeFinalTime` (or :class:`Duration`) where it is free
     tf: float | FreeFinalTime
+    #: the fixed parameters' values by name, first in the parameter vector ``P`` (:meth:`parameter_vector`); a copy
+    #: with other values is ``replace(parameters={...})`` (:meth:`replace`)
     parameters: dict[str, float]
+    #: the free parameters (:class:`FreeParameter`), after the fixed ones in ``P``
     free_parameters: tuple[FreeParameter, ...]
+    #: the path constraints (``path_constraints=``), names distinct
     path_constraints: tuple[Constraint, ...]
+    #: the boundary constraints (``boundary_constraints=``), names distinct
     boundary_constraints: tuple[Constraint, ...]
+    #: the problem's CasADi functions (:class:`ProblemFunctions`, ``P`` the last input of each), built once; a copy
+    #: whose parameter values alone change shares them
     functions: ProblemFunctions
     _spec: dict[str, Any]
 
@@ -720,7 +748,7 @@ class OptimalControlProblem:
 
     @property
     def parameter_names(self) -> list[str]:
-        """The names in the parameter vector ``P`` and in a callable's ``p``: the fixed ones, then the free ones."""
+        """The names in the parameter vector ``P`` and in a callable's ``p``, the fixed ones, then the free ones."""
         return [*self.parameters, *(v.name for v in self.free_parameters)]
 
     @property
@@ -796,7 +824,7 @@ class OptimalControlProblem:
     def dynamics(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """``f(x, u, t)`` with this problem's parameters, or ``P`` (numbers give a DM, CasADi symbols an expression).
 
-        Here and below, ``P`` (default :attr:`_P`) is the full parameter vector: the fixed
+        Here and below, ``P`` (default ``_P``) is the full parameter vector: the fixed
         values, then the free parameters (their guesses by default; a transcription passes
         its NLP symbols).
         """

@@ -53,10 +53,12 @@ class Solution(Trajectory):
     objective: float
     t0: float
     tf: float
+    #: the NLP's free variables (Desai & Conway's "NLP parameters"; ``nlp_parameters`` is its deprecated name)
     decision_variables: int
     defect_equations: int
     constraints: int
     build_s: float
+    #: the wall time of the IPOPT solve, in seconds
     solve_s: float
     state_times: np.ndarray
     state_values: np.ndarray
@@ -71,19 +73,22 @@ class Solution(Trajectory):
     converged: bool = True
     path_times: np.ndarray | None = field(default=None, repr=False)
     path_values: np.ndarray | None = field(default=None, repr=False)
+    #: the KKT multipliers of the path constraints at ``path_times`` (points, expressions), in the problem's units
+    #: (positive where the upper bound is active, negative where the lower one is, zero where inactive; a discrete
+    #: measure, whose sum over an interval estimates the integral of the continuous multiplier)
     path_multipliers: np.ndarray | None = field(default=None, repr=False)
     boundary_values: np.ndarray | None = field(default=None, repr=False)
     boundary_multipliers: np.ndarray | None = field(default=None, repr=False)
     estimate_breakpoints: np.ndarray | None = field(default=None, repr=False)
     estimate_points: np.ndarray | int | None = field(default=None, repr=False)
     mesh_history: list[Any] | None = field(default=None, repr=False)
-    #: how a refinement (``solve(mesh_tolerance=...)``) ended: ``"met"`` (every part of the estimate within the
-    #: tolerance), ``"stalled"``, ``"stopped"`` (the next mesh would have been this one), ``"not met"`` (out of
-    #: meshes) or ``"failed"`` (the last mesh's solve did not succeed, with ``raise_on_failure=False``); None for a
-    #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
     #: the solved free parameters (:class:`~ocpkit.FreeParameter`) by name; the problem's constants, and these
     #: fixed at their solved values, are ``problem.parameters``
     parameters: dict[str, float] = field(default_factory=dict)
+    #: how a refinement (``solve(mesh_tolerance=...)``) ended, ``"met"`` (every part of the estimate within the
+    #: tolerance), ``"stalled"``, ``"stopped"`` (the next mesh would have been this one), ``"not met"`` (out of
+    #: meshes) or ``"failed"`` (the last mesh's solve did not succeed, with ``raise_on_failure=False``); None for a
+    #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
 
@@ -108,13 +113,13 @@ class Solution(Trajectory):
 
     @property
     def error_estimate(self) -> float:
-        """The largest of :attr:`interval_errors`: the solution's estimated relative state error (the other parts
+        """The largest of :attr:`interval_errors`, the solution's estimated relative state error (the other parts
         of its error, the objective's and the path constraints', are in :attr:`accuracy`)."""
         return float(self.interval_errors.max())
 
     @cached_property
     def accuracy(self) -> Accuracy:
-        """Every part of the solution's estimated error (:class:`ocpkit.accuracy.Accuracy`): the state's, the
+        """Every part of the solution's estimated error (:class:`ocpkit.accuracy.Accuracy`), the state's, the
         objective's (the cost its admissible control achieves against the NLP's) and each path constraint's
         largest violation between the scheme's points."""
         from .accuracy import Accuracy

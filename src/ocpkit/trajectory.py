@@ -59,8 +59,8 @@ class Trajectory(ABC):
     """State, control and costates of a problem as functions of time (see the module docstring).
 
     Subclasses provide ``problem``, ``t0``, ``tf``, ``objective`` (the cost as the method
-    computed it), ``breakpoints`` (increasing, from t0 to tf inclusive) and the evaluators :meth:`_state`, :meth:`_control` (and
-    :meth:`_costate` where available).
+    computed it), ``breakpoints`` (increasing, from t0 to tf inclusive) and the evaluators ``_state``, ``_control`` (and
+    ``_costate`` where available).
     """
 
     problem: OptimalControlProblem

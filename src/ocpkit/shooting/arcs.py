@@ -362,7 +362,15 @@ class ArcResult:
 
 class ArcShooting:
     """Multiple shooting of ``problem`` over the arcs ``arcs`` (``[(ArcType, start, end), ...]`` from
-    :func:`arc_sequence`; start and end are estimates); module docstring. ``rtol``/``atol``: CVODES's."""
+    :func:`arc_sequence`; start and end are estimates); module docstring. ``rtol``/``atol``: CVODES's.
+
+    Attributes
+    ----------
+    layout : list[tuple[str, int]]
+        The unknowns ``z`` block by block, as ``[(name, size), ...]`` in order: ``x0`` the free initial states,
+        ``p0`` the initial costates, ``t<k>`` and ``y<k>`` the time and ``(x, p)`` at junction ``k``, ``tf`` where
+        free, ``nu`` the boundary multipliers, ``w<k>`` the starting values of arc ``k``'s implicit regular controls.
+    """
 
     def __init__(
         self,

@@ -45,7 +45,8 @@ def generate_c(system: HamiltonianSystem) -> str:
 
 
 def build_library(system: HamiltonianSystem) -> Path:
-    """Compile (or reuse from the cache, :func:`cache_dir`) the integrator for ``system``; returns the library path."""
+    """Compile (or reuse from the cache, ``cache_dir()``: ``OCPKIT_CACHE_DIR``, else ``<user cache>/ocpkit/shooting``)
+    the integrator for ``system``; returns the library path."""
     return _ccompile.shared_library("ocp", generate_c(system), [_SOURCE], purpose="the shooting integrator")
 
 

@@ -397,14 +397,20 @@ class HamiltonianSystem:
             varflows.append(ca.jtimes(phi, y, Psi))
         sel = ca.conditional
         zero_phi = ca.SX.zeros(self.n)
+        #: ``flow(y, mode, P) -> dy/dt``, ``mode`` the regimes' mixed radix index (every mode through a switch)
         self.flow = ca.Function("ocp_flow", [y, mode, P], [sel(mode, flows, zero_phi)], ["y", "mode", "P"], ["ydot"])
+        #: ``hamiltonian(y, mode, P) -> H``
         self.hamiltonian = ca.Function("ocp_ham", [y, mode, P], [sel(mode, hams, ca.SX(0))], ["y", "mode", "P"], ["H"])
+        #: ``control(y, mode, P) -> u``
         self.control = ca.Function(
             "ocp_control", [y, mode, P], [sel(mode, ctrls, ca.SX.zeros(law.nu))], ["y", "mode", "P"], ["u"]
         )
         g = law.switching()
+        #: ``switching(y, P) -> g``, the switching functions
         self.switching = ca.Function("ocp_switching", [y, P], [g], ["y", "P"], ["g"])
+        #: ``dswitch(y, P) -> dg/dy``
         self.dswitch = ca.Function("ocp_dswitch", [y, P], [ca.densify(ca.jacobian(g, y))], ["y", "P"], ["dg"])
+        #: ``varflow(y, Psi, mode, P) -> (dy/dt, dPsi/dt)`` with ``dPsi/dt = (d phi_mode / dy) Psi``
         self.varflow = ca.Function(
             "ocp_varflow",
             [y, Psi, mode, P],

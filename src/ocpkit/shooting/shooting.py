@@ -81,13 +81,16 @@ class ShootingResult:
     n_integrations: int
     cpu_s: float
     objective: float
+    #: the switching treatment of the run (a name in :data:`~ocpkit.shooting.SWITCHING_MODES`); ``detection`` is its
+    #: deprecated name
     switching: str
     jacobian: str
     parameters: np.ndarray
     #: None where the integration at the last iterate failed (``solve(raise_on_failure=False)``)
     integration: Integration | None = field(repr=False)
     system: HamiltonianSystem | None = field(repr=False, default=None)
-    #: the solved free parameters by name (states of the shooting's problem, :meth:`parameters_as_states`)
+    #: the solved free parameters by name (states of the shooting's problem,
+    #: :meth:`~ocpkit.OptimalControlProblem.parameters_as_states`)
     free_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -173,12 +176,15 @@ class Shooting:
     law : ControlLaw
         ``control_law(problem, "box" | "ball", ...)`` (derived) or ``control_law(problem, u_star)``
         (the user's minimiser of H: one smooth mode, for which ``switching`` changes nothing).
-    switching : ``"none" | "detection" | "correction"``
-        How the integrator meets a switching (:data:`~ocpkit.shooting.SWITCHING_MODES`): not at all, located
-        (switching detection), or located and the step corrected onto it (Martinon & Gergaud). ``detection`` is
-        its deprecated name.
-    jacobian : ``"fd" | "variational"``
-    rtol, atol : integrator tolerances.
+    switching : str
+        ``"none"``, ``"detection"`` or ``"correction"`` (default): how the integrator meets a switching
+        (:data:`~ocpkit.shooting.SWITCHING_MODES`), not at all, located (switching detection), or located and the
+        step corrected onto it (Martinon & Gergaud). ``detection`` is its deprecated name.
+    jacobian : str or callable
+        ``"fd"``, ``"central"`` or ``"variational"`` (default), a name in :data:`~ocpkit.shooting.JACOBIANS`, or a
+        Jacobian strategy object (:mod:`ocpkit.shooting.strategies`).
+    rtol, atol : float
+        Integrator tolerances.
     interior_check : bool
         Also detect a pair of switchings inside one integration step (a short arc); see
         :meth:`CompiledSystem.integrate`. Off: the sign test at the step's ends only.
@@ -187,6 +193,15 @@ class Shooting:
         switching detection and ``sqrt(eps)`` with it (see the module docstring).
     system : CompiledSystem, optional
         Reuse an already compiled system for the same problem and law.
+
+    Attributes
+    ----------
+    problem : OptimalControlProblem
+        The statement shot: ``problem``, or, where it has free parameters, its
+        :meth:`~ocpkit.OptimalControlProblem.parameters_as_states`.
+    switching : str
+        How the integrator meets a switching (a name in :data:`~ocpkit.shooting.SWITCHING_MODES`); ``detection``
+        is its deprecated name.
     """
 
     @property

@@ -26,6 +26,9 @@ if TYPE_CHECKING:
 
     from .shooting import Shooting
 
+#: the ways the integrator meets a switching, by name, ``"none"`` (not at all), ``"detection"`` (located) or
+#: ``"correction"`` (located and the step corrected onto it; Martinon & Gergaud), in the order ``dopri5.c`` numbers
+#: them
 SWITCHING_MODES = ("none", "detection", "correction")
 
 
@@ -87,6 +90,7 @@ class Variational:
         return shooting.residual_and_derivatives(z, P, res, variational=True)
 
 
+#: the Jacobian strategies by name, as a :class:`~ocpkit.shooting.Shooting` takes them (``jacobian="fd"``)
 JACOBIANS: dict[str, FiniteDifferences | Variational] = {
     "fd": FiniteDifferences(),
     "central": FiniteDifferences(central=True),
@@ -200,6 +204,8 @@ class DampedNewton:
         return best[1], message
 
 
+#: the root solvers by name, as :meth:`Shooting.solve <ocpkit.shooting.shooting.Shooting.solve>` takes them
+#: (``solver="newton"``)
 SOLVERS: dict[str, MinpackHybrid | DampedNewton] = {"hybr": MinpackHybrid(), "newton": DampedNewton()}
 
 

@@ -128,7 +128,7 @@ class Transcription(session.SolveSession[Solution], ABC):
     #: IPOPT options this scheme prefers over :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (user options win).
     ipopt_defaults: dict[str, Any] = {}
 
-    #: Whether the NLP's Jacobian and Hessian blocks are compiled to C (:mod:`ocpkit._compiled_blocks`): ``"auto"``
+    #: Whether the NLP's Jacobian and Hessian blocks are compiled to C (``ocpkit._compiled_blocks``), ``"auto"``
     #: (where one evaluation is large, the compilation is repaid and a C compiler is found), True or False; set it on
     #: the object before its NLP is built (the meshes of a refinement from it keep it).
     compile: str | bool = "auto"
@@ -478,6 +478,7 @@ class Transcription(session.SolveSession[Solution], ABC):
 
     @property
     def nlp(self) -> SeparableNLP:
+        """The transcription's NLP (:class:`~ocpkit.nlp.SeparableNLP`), built on first access (:meth:`build`)."""
         return cast(SeparableNLP, self.build()._nlp)  # (built)
 
     def effective_ipopt_options(self, ipopt_options: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -606,7 +607,7 @@ class Transcription(session.SolveSession[Solution], ABC):
 
     @property
     def n_decision_variables(self) -> int:
-        """The NLP's free variables (the paper's "NLP parameters"): all but the pinned problem parameters."""
+        """The NLP's free variables (the paper's "NLP parameters"), all but the pinned problem parameters."""
         return self.n_variables - len(self.problem.parameters)
 
     @property

@@ -102,9 +102,11 @@ class HLGL(Transcription):
     intervals : int
         Number of equal mesh intervals, Herman & Conway's segments (or give ``mesh``); ``segments`` is its
         deprecated name.
-    mesh : array of positive fractions, optional
-        Segment lengths as fractions of ``tf - t0`` (normalised to sum to one).
+    mesh : ArrayLike, optional
+        Segment lengths as positive fractions of ``tf - t0`` (normalised to sum to one).
 
+    Notes
+    -----
     NLP variable layout: states node by node (``nx`` per node, ``2n+1`` nodes),
     then controls point by point (``nu`` per point, ``4n+1`` points), then ``tf``
     if it is free. Everything is scaled by the problem's scales.
@@ -121,6 +123,7 @@ class HLGL(Transcription):
         super().__init__(problem)
         intervals = renamed_argument("segments", "intervals", segments, intervals, None, "HLGL")
         self.mesh = Mesh.from_spec(intervals, mesh)
+        #: the number of mesh intervals, Herman & Conway's segments (``segments`` is its deprecated name)
         self.intervals = self.mesh.n
 
     @property

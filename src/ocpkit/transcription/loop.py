@@ -41,8 +41,10 @@ class LoopResult:
     ----------
     w : ndarray
         The scaled NLP vector (the transcription's layout, :meth:`~ocpkit.Transcription.unpack`).
-    lam_g, lam_w : ndarray
-        IPOPT's multipliers of the constraints and of the variable bounds (an exact warm start, as ``guess=``).
+    lam_g : ndarray
+        IPOPT's multipliers of the constraints (with ``lam_w`` an exact warm start, as ``guess=``).
+    lam_w : ndarray
+        IPOPT's multipliers of the variable bounds (with ``lam_g`` an exact warm start, as ``guess=``).
     objective : float
         The objective, in the problem's units (the NLP's times ``objective_scale``).
     status : str

@@ -4,14 +4,14 @@ Every scheme lays its points on segments given as fractions of ``tf - t0``; with
 initial or final time the map from normalised time ``s`` in [0, 1] to physical time
 ``t0 + (tf - t0) s`` involves NLP variables. This module is the one place that map is
 written, numerically (:meth:`Mesh.times`) and symbolically (:func:`segment_clock`,
-:func:`initial_time`, :func:`final_time`).
+:meth:`GlobalVariables.t0`, :meth:`GlobalVariables.tf`).
 
 The problem-wide NLP variables (:class:`GlobalVariables`) close the NLP vector and every block
 that needs them: the problem's (fixed) parameters, pinned by their bounds to the values of
 the solve (unscaled; IPOPT treats a variable whose bounds are equal as a constant, so they
 add nothing to the KKT system, and a new value is a new bound, not a new NLP), then the free
 parameters (scaled by their own scaling), then ``t0`` (scaled) when free, then ``tf``
-(scaled) when free; :func:`parameter_vector` and the two time functions read them from the
+(scaled) when free; :meth:`GlobalVariables.P` and the two time functions read them from the
 end of a block's variables ``z``.
 """
 
@@ -174,7 +174,7 @@ class GlobalVariables:
 
     @property
     def constants(self) -> list[float]:
-        """The block constants the times need: ``[tf]`` when it is fixed (a block's ``q`` holds it, so that one
+        """The block constants the times need, ``[tf]`` when it is fixed (a block's ``q`` holds it, so that one
         compiled block serves any fixed final time), else none."""
         return [] if self.problem.free_final_time else [float(cast(float, self.problem.tf))]
 

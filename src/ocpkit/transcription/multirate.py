@@ -158,16 +158,21 @@ class MultiRateHLGL(Transcription):
         deprecated name.
     ratio : int
         Fine segments per coarse segment, ``M >= 1``.
-    slow, fast : sequences of state names
-        The partition; give either (the other is its complement) or both.
-    coupling : ``"coarse"`` (default, the paper's reading), ``"fine"``, ``"quadrature"`` or ``"galerkin"``
-        How the slow defects see the fast states (module docstring). ``fast_interpolation`` is its deprecated
+    slow, fast : Sequence[str], optional
+        State names, the partition; give either (the other is its complement) or both.
+    coupling : str
+        ``"coarse"`` (default, the paper's reading), ``"fine"``, ``"quadrature"`` or ``"galerkin"``: how the slow
+        defects see the fast states (module docstring). ``fast_interpolation`` is its deprecated
         name (two of its values are not interpolations).
-    control_mesh : ``"coarse"`` (default, the paper's: one quartic per coarse segment) or ``"fine"`` (one quartic
+    control_mesh : str
+        ``"coarse"`` (default, the paper's: one quartic per coarse segment) or ``"fine"`` (one quartic
         per fine segment; with the couplings of :data:`WEAK_COUPLINGS` only). Path constraints hold at every
         control point.
-    mesh : positive fractions of the coarse segments, optional.
+    mesh : ArrayLike, optional
+        The coarse segments' lengths as positive fractions of ``tf - t0`` (normalised to sum to one).
 
+    Notes
+    -----
     NLP variable layout: slow states node by node on the coarse nodes, fast
     states node by node on the fine nodes, controls at their points, then tf.
     """
@@ -206,10 +211,13 @@ class MultiRateHLGL(Transcription):
                 "from the fast trajectory it drives (the NLP then exploits the difference)"
             )
         self.ratio = int(ratio)
+        #: how the slow defects see the fast states (``"coarse"``, ``"fine"``, ``"quadrature"`` or ``"galerkin"``;
+        #: ``fast_interpolation`` is its deprecated name)
         self.coupling = coupling
         self.control_mesh = control_mesh
         self.slow, self.fast = state_partition(problem, slow, fast)
         self.mesh = Mesh.from_spec(intervals, mesh)
+        #: the number of coarse mesh intervals, the paper's coarse segments (``segments`` is its deprecated name)
         self.intervals = self.mesh.n
 
     @property
@@ -243,7 +251,7 @@ class MultiRateHLGL(Transcription):
 
     @property
     def control_quartics(self) -> int:
-        """Control quartics per coarse segment: 1, or ``M`` with the controls on the fine mesh."""
+        """Control quartics per coarse segment (1, or ``M`` with the controls on the fine mesh)."""
         return self.ratio if self.control_mesh == "fine" else 1
 
     @property

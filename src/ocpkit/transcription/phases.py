@@ -141,19 +141,20 @@ class MultiPhase(session.SolveSession["MultiPhaseSolution"]):
 
     Parameters
     ----------
-    phases : sequence of :class:`~ocpkit.transcription.Transcription`, or a mapping name -> transcription
-        One transcription per phase, in time order. Unnamed phases are named by their problems' names
+    phases : Sequence[Transcription] or Mapping[str, Transcription]
+        One transcription per phase (:class:`~ocpkit.transcription.Transcription`), in time order, or a mapping
+        name -> transcription. Unnamed phases are named by their problems' names
         (by their indices when two problems share a name).
-    links : sequence of :class:`Link`, optional
+    links : Sequence[Link], optional
         Default: each phase continues the previous one in every state and in time.
     cost : callable, optional
         A trajectory-level cost added to the phases' own: ``cost(ends)`` or ``cost(ends, p)``, ``ends`` the
         phases' :class:`PhaseEnds` by name or index (``lambda ends: ends["climb"].tf``: a Mayer term stated once,
         where one in every phase would be counted once per phase), ``p`` the trajectory's parameters by name.
-    constraints : sequence of :class:`~ocpkit.Constraint`, optional
+    constraints : Sequence[Constraint], optional
         Linkage constraints between any phases' boundary values, their functions called as ``cost`` is
         (``Constraint("bounce", lambda e: e[1].x0["v"] + 0.9 * e[0].xf["v"], lower=0, upper=0)``).
-    local_parameters : sequence of str, optional
+    local_parameters : Sequence[str], optional
         Free parameters that each phase naming them keeps to itself; every other free parameter named by
         several phases is one parameter shared by all of them (the module docstring).
     objective_scale : float, optional
@@ -856,12 +857,14 @@ class MultiPhaseSolution(Trajectory):
     status: str
     iterations: int
     objective: float
+    #: the one NLP's free variables (``nlp_parameters`` is its deprecated name)
     decision_variables: int
     constraints: int
     build_s: float
     solve_s: float
     converged: bool
     link_residual: float
+    #: the solved free parameters of the trajectory by name (each shared one once)
     parameters: dict[str, float] = field(default_factory=dict)
     trajectory_cost: float = 0.0
     names: list[str] = field(default_factory=list)

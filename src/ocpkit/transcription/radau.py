@@ -94,12 +94,15 @@ class Radau(Transcription):
     Parameters
     ----------
     problem : OptimalControlProblem
-    nodes : int or sequence of int
+    nodes : int or Sequence[int]
         Collocation points per interval (at least 2), the same for all or one per interval.
     intervals : int
         Number of equal mesh intervals (default 1: global collocation), or give ``mesh``.
-    mesh : positive fractions of the intervals, optional.
+    mesh : ArrayLike, optional
+        The intervals' lengths as positive fractions of ``tf - t0`` (normalised to sum to one).
 
+    Notes
+    -----
     NLP variable layout: states point by point (``nx`` per point, ``sum N_i + 1``
     points), controls point by point at the collocation points, then tf if free.
     """
@@ -263,7 +266,7 @@ class Radau(Transcription):
     #: :meth:`refine` on the mesh it returns)
     _raised: list[float | None]
 
-    #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015): nodes per interval in [N_MIN, N_MAX]
+    #: Degree bounds of the ph refinement (Patterson, Hager & Rao 2015), nodes per interval in [N_MIN, N_MAX]
     N_MIN, N_MAX = 3, 12
     #: An interval of at least STALL_NODES nodes whose degree was raised and whose error fell by less than
     #: STALL_FACTOR is split instead (below, a raise can change the solution nearby more than its own error)

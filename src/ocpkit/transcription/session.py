@@ -49,6 +49,7 @@ class MeshIteration:
     transcription: str
     fractions: np.ndarray
     collocation_points: int
+    #: the NLP's free variables on this mesh (``nlp_parameters`` is its deprecated name)
     decision_variables: int
     error_estimate: float
     ipopt_iterations: int
@@ -58,8 +59,8 @@ class MeshIteration:
     #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
     #: met it; empty where the state part did not (the other parts are not computed then) or all met it
     failing: tuple[str, ...] = ()
-    #: what drives the refinement on this mesh, which the stall rule follows: the state part while it is over the
-    #: tolerance, else the largest of the others (path violations between points, the objective)
+    #: what drives the refinement on this mesh, which the stall rule follows (the state part while it is over the
+    #: tolerance, else the largest of the others: path violations between points, the objective)
     worst: float = float("nan")
 
     @property
@@ -91,7 +92,7 @@ class SolveSession(Generic[SolutionType]):
         ----------
         guess : Guess, Solution or None
             A :class:`~ocpkit.Solution` of this same transcription object is an exact warm start: its NLP
-            vector and IPOPT's multipliers, with IPOPT's warm-start options (:data:`WARM_START`); another
+            vector and IPOPT's multipliers, with IPOPT's warm-start options (:data:`~ocpkit.nlp.WARM_START`); another
             Solution is interpolated onto this mesh. Linked phases take one guess per phase, or a
             :class:`~ocpkit.MultiPhaseSolution` (of the same object: an exact warm start).
         ipopt_options : dict
@@ -110,8 +111,9 @@ class SolveSession(Generic[SolutionType]):
             None: no estimate at solve time. The objective's part of the error costs an integration
             of the flown control: it is in :attr:`Solution.accuracy`, and refinement checks it.
         mesh_tolerance : float or None
-            Refine the mesh (:meth:`refine`) until every part of the error estimate
-            (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
+            Refine the mesh (:meth:`Transcription.refine <ocpkit.transcription.base.Transcription.refine>`,
+            :meth:`MultiPhase.refine <ocpkit.transcription.phases.MultiPhase.refine>`) until every part of the
+            error estimate (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
             violation between points) is at most this, at most ``max_mesh_iterations`` solves, each
             warm-started from the previous solution; the returned solution's ``mesh_history`` lists
             every iteration (and a warning names the parts if the tolerance is not met). Where the
@@ -125,7 +127,7 @@ class SolveSession(Generic[SolutionType]):
         max_mesh_iterations : int
             At most this many meshes (default 25: bang-bang and singular problems from coarse meshes
             take 13 to 20; a stalled refinement stops sooner).
-        parameters : mapping, optional
+        parameters : Mapping[str, float], optional
             New values of some of the problem's parameters (:attr:`OptimalControlProblem.parameters`) for
             this solve. They are NLP variables pinned by their bounds, so the NLP and the IPOPT instance are
             built once and reused for any values: a study of many values builds once. The solution's
