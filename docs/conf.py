@@ -48,7 +48,10 @@ html_static_path = ["_static"]
 # MathJax 2 served from the site itself with its TeX web fonts (compendium.mathjax, the report's too; Debian's
 # libjs-mathjax and fonts-mathjax, which `make mathjax` installs): no request leaves the machine. The tree is copied
 # into _static/mathjax when the build finishes; the URL is relative to _static.
-mathjax_path = "mathjax/MathJax.js?config=local/ocpkit"
+from compendium.mathjax import find_mathjax  # noqa: E402  (src/ is on the environment's path)
+
+MATHJAX = find_mathjax()  # Debian's with the TeX fonts, else jupyter-server-mathjax's STIX fonts (and it says so)
+mathjax_path = MATHJAX.url("mathjax")
 # myst-nb marks a notebook's sections tex2jax_ignore and its math (and outputs) as classes to process again
 mathjax2_config = {"tex2jax": {"processClass": "tex2jax_process|mathjax_process|math|output_area"}}
 html_css_files = ["site.css"]
@@ -145,9 +148,7 @@ def _copy_mathjax(app, exception) -> None:
     if exception is None and app.builder.format == "html":
         from compendium.mathjax import copy_mathjax
 
-        url = copy_mathjax(Path(app.outdir) / "_static" / "mathjax")
-        if url != mathjax_path:
-            raise RuntimeError(f"compendium.mathjax serves {url}, the site asks for {mathjax_path}")
+        copy_mathjax(Path(app.outdir) / "_static" / "mathjax", MATHJAX)
 
 
 def setup(app):

@@ -45,6 +45,8 @@ PAGES = {
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
+    if not mathjax.find_mathjax().tex_fonts:
+        pytest.skip("no MathJax 2 with TeX fonts (make mathjax); tests/test_report.py says so")
     out = tmp_path_factory.mktemp("site")
     proc = subprocess.run(
         [sys.executable, "-m", "sphinx", "-n", "-W", "--keep-going", "-q", "-b", "html", str(DOCS), str(out)],
@@ -59,8 +61,6 @@ def site(tmp_path_factory):
 
 @needs_chromium
 def test_pages_of_the_site_in_chromium(site, tmp_path, monkeypatch):
-    if not mathjax.find_mathjax().tex_fonts:
-        pytest.skip("no MathJax 2 with TeX fonts (make mathjax); tests/test_report.py says so")
     (tmp_path / "fonts").mkdir()
     (tmp_path / "fonts" / "fonts.conf").write_text(FONTCONFIG.format(cache=tmp_path / "fonts" / "cache"))
     monkeypatch.setenv("FONTCONFIG_FILE", str(tmp_path / "fonts" / "fonts.conf"))

@@ -204,9 +204,15 @@ def git_state(root: Path | None = None) -> dict | None:
     root = Path(root) if root is not None else paths.repo_root()
 
     def git(*args: str) -> str | None:
-        done = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True)
+        try:
+            done = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True)
+        except OSError:  # no git on this machine
+            return None
         return done.stdout if done.returncode == 0 else None
 
+    top = git("rev-parse", "--show-toplevel")
+    if top is None or Path(top.strip()).resolve() != root.resolve():  # a copy inside another repository's tree
+        return None
     commit = git("rev-parse", "HEAD")
     if commit is None:
         return None
@@ -330,13 +336,19 @@ def verdicts(nb) -> list[Verdict]:
                     if m:
                         parts = m.groupdict()
                         found.append(
-                            Verdict(parts["name"], parts.get("value", ""), parts.get("criterion", ""), True, cell.id)
+                            Verdict(
+                                parts["name"],
+                                parts.get("value", ""),
+                                parts.get("criterion", ""),
+                                True,
+                                cell.get("id", ""),
+                            )
                         )
             elif out.get("output_type") == "error" and out.get("ename") == "AssertionError":
                 m = _FAILED.match(out.get("evalue", ""))
                 if m:
                     value, criterion = m.group("value") or "", m.group("criterion") or ""
-                    found.append(Verdict(m.group("name"), value, criterion, False, cell.id))
+                    found.append(Verdict(m.group("name"), value, criterion, False, cell.get("id", "")))
     return found
 
 
