@@ -73,8 +73,11 @@ $(STAMP): environment.txt pyproject.toml
 	@exec $(PYTHON) -P src/compendium/bootstrap.py --venv $(VENV) --stamp $@ --requirements environment.txt \
 	  --kernel $(KERNEL) --display-name "Python (ocpkit)" --root "$(CURDIR)" --changed "$?"
 
-# the published runs, then whether they reproduce the committed record by its contract (notebooks/contract.toml)
-reproduce: notebooks report
+# the published runs and their report, then whether they reproduce the committed record by its contract
+# (notebooks/contract.toml). A notebook that fails publishes nothing and stops nothing: the others run, the report
+# is built with the failure on its page, and then make reproduce fails, naming it, without the comparison.
+reproduce: setup mathjax
+	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --report build/report --kernel $(KERNEL)
 	@if git rev-parse --verify -q HEAD >/dev/null 2>&1; then \
 		$(PY) -m compendium.guard . --reference-commit HEAD || { \
 		echo "make reproduce: the regenerated record (figures/, data/derived/) differs from the committed one beyond"; \
@@ -82,7 +85,8 @@ reproduce: notebooks report
 	else echo "make reproduce: not a git checkout, so nothing to compare the regenerated record with"; fi
 
 # the published runs: each notebook with the parameters notebooks/published.toml gives it (the orbit transfer's
-# full run; the others' defaults), each run copied into figures/ and data/derived/ when it completes
+# full run; the others' defaults), each run copied into figures/ and data/derived/ when it completes; the executed
+# notebooks replace those of an earlier run in build/notebooks
 notebooks: setup
 	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
 

@@ -255,3 +255,34 @@ def test_the_runner_says_where_a_copy_s_figures_went(compendium):
         proc.stderr
     )
     assert (compendium / "build" / "runs" / NOTEBOOK / "defaults" / "figures" / "tiny.png").is_file()
+
+
+def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
+    """make reproduce's runner: a notebook that raises publishes nothing; the next one still runs and publishes, the
+    report is built with the failure on its page, the runner fails naming it, and no executed notebook of an earlier
+    run is left in the report."""
+    broken = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
+    broken.cells.insert(4, _cell('raise RuntimeError("the solver said no")'))
+    broken.cells[2].source = broken.cells[2].source.replace(f'"{NOTEBOOK}"', '"09_broken"')
+    for cell in broken.cells[3:]:
+        cell.source = cell.source.replace('"tiny"', '"broken"')
+    nbformat.write(broken, str(compendium / "notebooks" / "09_broken.ipynb"))
+    (compendium / "notebooks" / "contract.toml").write_text(
+        (compendium / "notebooks" / "contract.toml").read_text() + '["09_broken".figures.broken]\n'
+    )
+    executed = compendium / "build" / "notebooks"
+    executed.mkdir(parents=True)
+    (executed / "08_earlier.ipynb").write_bytes((compendium / "notebooks" / f"{NOTEBOOK}.ipynb").read_bytes())
+    args = ["notebooks/09_broken.ipynb", f"notebooks/{NOTEBOOK}.ipynb", "--output", "build/notebooks"]
+    proc = _run(["-m", "compendium.notebooks", "reproduce", *args, "--report", "build/report"], compendium)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert "error: notebooks/09_broken.ipynb did not complete, nothing of it was published" in proc.stderr
+    assert "RuntimeError: the solver said no" in proc.stderr
+    assert sorted(p.name for p in executed.iterdir()) == ["09_broken.ipynb", f"{NOTEBOOK}.ipynb"]
+    published = _published(compendium)
+    assert "figures/tiny.png" in published and not [p for p in published if "broken" in p]
+    report = compendium / "build" / "report"
+    assert sorted(p.name for p in report.glob("*.html")) == ["09_broken.html", f"{NOTEBOOK}.html", "index.html"]
+    assert "the solver said no" in (report / "09_broken.html").read_text()
+    assert "1 of 2 notebooks failed" in proc.stderr
+    assert "1 notebook stopped before the end" in (report / "index.html").read_text()

@@ -3,7 +3,7 @@
 Command line::
 
     python -m compendium.notebooks run notebooks/01_lunar_ascent.ipynb -p segments 40   # build/runs/01_lunar_ascent/segments-40/
-    python -m compendium.notebooks reproduce notebooks/*.ipynb   # the published runs (notebooks/published.toml), published
+    python -m compendium.notebooks reproduce notebooks/*.ipynb --report build/report   # the published runs, published
     python -m compendium.notebooks store notebooks/*.ipynb       # re-execute in place (nbval reference), published
     python -m compendium.notebooks publish build/runs/01_lunar_ascent/defaults   # a complete run, into the record
     python -m compendium.notebooks report build/notebooks --output build/report
@@ -388,6 +388,48 @@ def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False
     return folder, publishes
 
 
+def reproduce(
+    notebooks: list[Path], output: str | Path, *, kernel: str = KERNEL_NAME, report: str | Path | None = None
+) -> dict[Path, str]:
+    """The published runs: each notebook executed with its published parameters (notebooks/published.toml) into
+    ``output``, and its run published (:func:`publish_run`); then, if ``report`` names a folder, the report of the
+    executed notebooks in it (:func:`build_report`). The notebooks an earlier call left in ``output`` are removed
+    first, so that the report is of this call's runs only.
+
+    A notebook that stops (a cell raised, a check failed) publishes nothing; the others still run, the report is
+    still built, with the failure on that notebook's page, and the failures are returned: ``{notebook: reason}``,
+    empty when every run completed and was published.
+    """
+    output = Path(output)
+    stale = sorted(output.glob("*.ipynb")) if output.is_dir() else []
+    for path in stale:
+        path.unlink()
+    from .outputs import run_folder
+
+    failed: dict[Path, str] = {}
+    for nb in _each(notebooks, "reproduce"):
+        params = published_overrides(nb)
+        try:
+            out = execute(nb, output / nb.name, params, kernel=kernel, progress=True)
+            files = publish_run(run_folder(nb.stem, _run_parameters(nb, params)))
+        except Exception as exc:  # every kind of stop is reported, and none stops the other notebooks
+            failed[nb] = _stopped(exc)
+            _say(f"FAILED {nb}: {failed[nb]}")
+            continue
+        _say(f"executed {nb} -> {out}; published {len(files)} files")
+    if report is not None:
+        index = build_report(output, report)
+        _say(f"report: {index}" + (f" ({len(failed)} of {len(notebooks)} notebooks failed)" if failed else ""))
+    return failed
+
+
+def _stopped(exc: Exception) -> str:
+    """What stopped a notebook's run, in a line: the cell and its error for a cell that raised."""
+    if type(exc).__name__ == "PapermillExecutionError":
+        return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
+    return f"{type(exc).__name__}: {exc}"
+
+
 def build_report(executed: str | Path, output: str | Path) -> Path:
     """The HTML report of every executed notebook in ``executed``, written into ``output``; the index's path
     (:func:`compendium.report.build_report`)."""
@@ -443,6 +485,7 @@ def main(argv: list[str] | None = None) -> int:
     rp.add_argument("notebooks", nargs="+", type=Path)
     rp.add_argument("--output", type=Path, default=Path("build/notebooks"), help="the executed notebooks (report)")
     rp.add_argument("--kernel", default=KERNEL_NAME)
+    rp.add_argument("--report", type=Path, default=None, help="also build the report of the runs into this folder")
     st = sub.add_parser("store", help="re-execute notebooks in place with default parameters (published if those are)")
     st.add_argument("notebooks", nargs="+", type=Path)
     st.add_argument("--kernel", default=KERNEL_NAME)
@@ -452,8 +495,6 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("executed", type=Path)
     rep.add_argument("--output", type=Path, default=Path("build/report"))
     args = parser.parse_args(argv)
-
-    from .outputs import run_folder
 
     try:
         if args.command == "run":
@@ -465,12 +506,11 @@ def main(argv: list[str] | None = None) -> int:
                 else:
                     _say(f"executed {nb} into {_where(folder)}; its figures and tables are in {_where(outputs)}")
         elif args.command == "reproduce":
-            for nb in _each(args.notebooks, "reproduce"):
-                params = published_overrides(nb)
-                out = execute(nb, args.output / nb.name, params, kernel=args.kernel, progress=True)
-                folder = run_folder(nb.stem, _run_parameters(nb, params))
-                files = publish_run(folder)
-                _say(f"executed {nb} -> {out}; published {len(files)} files from {_where(folder)}")
+            failed = reproduce(args.notebooks, args.output, kernel=args.kernel, report=args.report)
+            if failed:
+                for nb, reason in failed.items():
+                    print(f"error: {nb} did not complete, nothing of it was published: {reason}", file=sys.stderr)
+                return 1
         elif args.command == "store":
             for nb in _each(args.notebooks, "store"):
                 folder, published = store(nb, kernel=args.kernel, progress=True)
