@@ -140,30 +140,29 @@ chromium:
 	fi
 
 # MathJax 2 and its TeX web fonts for the report's equations offline (src/compendium/mathjax.py): nothing to do when
-# they are installed, else Debian's libjs-mathjax and fonts-mathjax from apt-get, as root or via sudo. Where neither
-# works this says so and goes on: the report then takes jupyter-server-mathjax's STIX-Web fonts (and says so too),
-# and under `make unit` the report's font test fails (OCPKIT_REQUIRE_BROWSER, as for Chromium above).
-MATHJAX_DIR := /usr/share/javascript/mathjax
+# they are installed where python -m compendium.mathjax looks (its TEX_FONT_ROOTS: Debian's, Fedora's, Arch's), else
+# Debian's libjs-mathjax and fonts-mathjax from apt-get, as root or via sudo. Where neither works this says so and
+# goes on: the report then takes jupyter-server-mathjax's STIX-Web fonts (and says so too), and under `make unit` the
+# report's font test fails (OCPKIT_REQUIRE_BROWSER, as for Chromium above).
 .PHONY: mathjax
-mathjax:
+mathjax: setup
 	@set -e; \
-	if [ -f $(MATHJAX_DIR)/MathJax.js ] && [ -f $(MATHJAX_DIR)/fonts/HTML-CSS/TeX/woff/MathJax_Main-Regular.woff ]; \
-	then :; \
+	if $(PY) -m compendium.mathjax >/dev/null 2>&1; then :; \
 	else \
 	  how="the report's equations fall back to jupyter-server-mathjax's STIX-Web fonts (Debian: apt-get install"; \
 	  how="$$how libjs-mathjax fonts-mathjax)"; \
 	  if ! command -v apt-get >/dev/null 2>&1; then \
-	    echo "mathjax: no MathJax with TeX fonts in $(MATHJAX_DIR), and no apt-get here to install it: $$how"; exit 0; \
+	    echo "mathjax: no MathJax with TeX fonts, and no apt-get here to install it: $$how"; exit 0; \
 	  elif [ "$$(id -u)" = 0 ]; then as=; \
 	  elif command -v sudo >/dev/null 2>&1; then as=sudo; \
-	  else echo "mathjax: no MathJax with TeX fonts in $(MATHJAX_DIR); apt-get can install it as root only, this is" \
+	  else echo "mathjax: no MathJax with TeX fonts; apt-get can install it as root only, this is" \
 	            "user $$(id -un) and there is no sudo: $$how"; exit 0; \
 	  fi; \
 	  echo "mathjax: none installed: apt-get installs Debian's libjs-mathjax and fonts-mathjax$${as:+ (with sudo)}"; \
 	  { $$as apt-get update -q && \
 	    $$as env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends libjs-mathjax fonts-mathjax; } \
 	    || { echo "mathjax: apt-get could not install them: $$how"; exit 0; }; \
-	  test -f $(MATHJAX_DIR)/MathJax.js || { echo "mathjax: apt-get finished, but there is no $(MATHJAX_DIR): $$how"; exit 0; }; \
+	  $(PY) -m compendium.mathjax >/dev/null || { echo "mathjax: apt-get finished, but still: $$how"; exit 0; }; \
 	fi
 
 # tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above); tests/test_report.py

@@ -342,7 +342,7 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
 
 def test_tex_fonts_are_installed():
     """`make mathjax` installs Debian's MathJax with its TeX fonts; `make unit` (OCPKIT_REQUIRE_BROWSER) needs them."""
-    if not any((root / "MathJax.js").is_file() for root in mathjax.TEX_FONT_ROOTS):
+    if mathjax.tex_fonts_root() is None:
         if REQUIRE_BROWSER:
             pytest.fail("no MathJax 2 with TeX fonts (make mathjax installs Debian's libjs-mathjax and fonts-mathjax)")
         pytest.skip("no MathJax 2 with TeX fonts (make mathjax)")
@@ -387,6 +387,22 @@ def test_without_tex_fonts_mathjax_falls_back_to_stix_and_says_so(tmp_path, monk
     assert url == "mj/MathJax.js?config=TeX-AMS-MML_HTMLorMML-full,local/ocpkit"
     assert (tmp_path / "mj" / "fonts" / "HTML-CSS" / "STIX-Web" / "woff").is_dir()
     assert '"webFont": "STIX-Web"' in (tmp_path / "mj" / "config" / "local" / "ocpkit.js").read_text()
+
+
+def test_make_mathjax_asks_where_the_report_looks(tmp_path, monkeypatch, capsys):
+    """`make mathjax` installs nothing when `python -m compendium.mathjax` finds the TeX fonts in any of the roots
+    the report looks in (not only Debian's), and installs them when it finds none."""
+    fedora = tmp_path / "mathjax2"
+    (fedora / "fonts/HTML-CSS/TeX/woff").mkdir(parents=True)
+    (fedora / "MathJax.js").write_text("")
+    monkeypatch.setattr(mathjax, "TEX_FONT_ROOTS", (tmp_path / "javascript" / "mathjax", tmp_path / "mathjax2"))
+    assert mathjax.tex_fonts_root() is None and mathjax.main() == 1
+    (fedora / "fonts/HTML-CSS/TeX/woff/MathJax_Main-Regular.woff").write_bytes(b"")
+    capsys.readouterr()
+    assert mathjax.tex_fonts_root() == fedora and mathjax.main() == 0
+    assert capsys.readouterr().out == f"{fedora}\n" and mathjax.find_mathjax().root == fedora
+    recipe = (paths.repo_root() / "Makefile").read_text().split("\nmathjax:", 1)[1].split("\n\n", 1)[0]
+    assert "$(PY) -m compendium.mathjax" in recipe and "/usr/share" not in recipe
 
 
 def test_copy_mathjax_replaces_nothing_but_a_copy(tmp_path):

@@ -99,9 +99,9 @@ def _has_tex_fonts(root: Path) -> bool:
 def find_mathjax() -> MathJax:
     """The MathJax 2 with the TeX web fonts of :data:`TEX_FONT_ROOTS`, else ``jupyter-server-mathjax``'s (STIX-Web
     fonts, HTML-CSS output, from its combined configuration), with a note on standard error saying so."""
-    for root in TEX_FONT_ROOTS:
-        if _has_tex_fonts(root):
-            return MathJax(root, "TeX")
+    root = tex_fonts_root()
+    if root is not None:
+        return MathJax(root, "TeX")
     import jupyter_server_mathjax
 
     print(
@@ -140,3 +140,23 @@ def copy_mathjax(target: str | Path, mathjax: MathJax | None = None) -> str:
     config.parent.mkdir(parents=True, exist_ok=True)
     config.write_text(config_script(mathjax), encoding="utf-8")
     return mathjax.url(target.name)
+
+
+def tex_fonts_root() -> Path | None:
+    """The first of :data:`TEX_FONT_ROOTS` that holds MathJax 2 with its TeX web fonts, or ``None``."""
+    return next((root for root in TEX_FONT_ROOTS if _has_tex_fonts(root)), None)
+
+
+def main() -> int:
+    """``python -m compendium.mathjax``: where the TeX fonts are (exit 0), or that there are none (exit 1); what
+    ``make mathjax`` asks before it installs them."""
+    root = tex_fonts_root()
+    if root is None:
+        print(f"no MathJax 2 with its TeX web fonts in {', '.join(map(str, TEX_FONT_ROOTS))}", file=sys.stderr)
+        return 1
+    print(root)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
