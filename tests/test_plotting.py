@@ -43,3 +43,20 @@ def test_junctions_drawn_at_the_extremals_converged_times():
     assert at(0.1363875) == 0.13629903 and at(0.725125) == 0.72523011 and at(1.0) == 1.0
     assert at(0.5) == 0.5
     assert _junction_times(SimpleNamespace(t0=0.0, tf=2.0))(0.999) == 0.999
+
+
+def test_a_junction_snaps_only_to_its_own_controls_junctions():
+    """Two controls switching 0.005 apart: each control's junction read from the samples goes to its own converged
+    time, not to the other control's nearer one."""
+    from types import SimpleNamespace
+
+    from ocpkit.shooting.arcs import ArcType
+
+    from compendium.plotting import _junction_times
+
+    extremal = SimpleNamespace(t0=0.0, tf=1.0, breakpoints=[0.0, 0.400, 0.405, 1.0])
+    kinds = [ArcType(("upper", "lower")), ArcType(("lower", "lower")), ArcType(("lower", "upper"))]
+    first, second = (_junction_times(extremal, kinds=kinds, control=i) for i in (0, 1))
+    assert first(0.4049) == 0.400 and second(0.4001) == 0.405
+    assert first(1.0) == 1.0 and second(0.0) == 0.0
+    assert _junction_times(extremal)(0.4049) == 0.405, "without the arc types, every breakpoint is a candidate"

@@ -103,13 +103,18 @@ def time_histories(
 ARC_COLOURS = {"lower": "C0", "upper": "C3", "zero": "C7", "singular": "C2", "regular": "C1", "boundary": "C4"}
 
 
-def _junction_times(trajectory, reach: float = 0.01):
+def _junction_times(trajectory, reach: float = 0.01, kinds=None, control: int | None = None):
     """A junction read from an extremal's control samples moved to the extremal's own junction nearest it, within
     ``reach`` of the horizon: an arc's end or a switching time, which the shooting converged
     (``trajectory.breakpoints``). Reading the samples locates a junction of a singular arc only to the sampling
     grid, and where exactly on it depends on rounding (catalyst mixing's, 1e-4 off, moved by 2.5e-5 from one machine
-    to another)."""
+    to another). Given the shooting's arc types (``kinds``, one :class:`ocpkit.shooting.arcs.ArcType` per arc
+    between the breakpoints) and a control's index, only that control's junctions are candidates: the breakpoints
+    where its kind or the active inequality changes, and the ends, never another control's switch nearby."""
     exact = np.asarray(getattr(trajectory, "breakpoints", [trajectory.t0, trajectory.tf]), dtype=float)
+    if kinds is not None and control is not None and len(kinds) == len(exact) - 1:
+        own = [k for k in range(1, len(exact) - 1) if _changes(kinds[k - 1], kinds[k], control)]
+        exact = exact[[0, *own, len(exact) - 1]]
     span = reach * (trajectory.tf - trajectory.t0)
 
     def at(t: float) -> float:
@@ -117,6 +122,11 @@ def _junction_times(trajectory, reach: float = 0.01):
         return float(nearest) if abs(nearest - t) <= span else float(t)
 
     return at
+
+
+def _changes(before, after, control: int) -> bool:
+    """Whether the control's arc ends where the arc type ``before`` gives way to ``after``."""
+    return before.kinds[control] != after.kinds[control] or before.constraint != after.constraint
 
 
 def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n: int = 801) -> None:
@@ -130,7 +140,7 @@ def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n:
     ax.plot(t, direct.control(t)[:, i] / scale, color="0.6", lw=0.8, label="direct (Radau)")
     tr = extremal.trajectory
     found = control_structure(tr)
-    exact = _junction_times(tr)
+    exact = _junction_times(tr, kinds=getattr(extremal.shooting, "kinds", None), control=i)
     seen = set()
     for arc in found.of(control):
         s = np.linspace(exact(arc.start), exact(arc.end), 200)
