@@ -123,3 +123,100 @@ def write_tables(target: Path) -> None:
     target.mkdir(exist_ok=True)
     for name, table in TABLES.items():
         (target / f"{name}.md").write_text(table() + "\n")
+
+
+# -- the values the pages' prose quotes ----------------------------------------------------------------------------
+# A page writes {{ name }} (MyST substitutions, conf.py) where its prose gives a number of a published run, so that
+# the sentence says what data/ holds, not what it held when it was written.
+
+
+def _one(df: pd.DataFrame, column: str, **where) -> float:
+    """The value of ``column`` in the one row of ``df`` that matches ``where``."""
+    rows = df
+    for key, value in where.items():
+        rows = rows[rows[key] == value]
+    if len(rows) != 1:
+        raise LookupError(f"{len(rows)} rows match {where}, not one")
+    return float(rows[column].iloc[0])
+
+
+def _span(values, spec: str) -> str:
+    """``a`` or ``a to b``: the least and the largest value, formatted."""
+    low, high = format(min(values), spec), format(max(values), spec)
+    return low if low == high else f"{low} to {high}"
+
+
+def _percent(fraction: float) -> str:
+    return f"{100 * fraction:.0f} %"
+
+
+def _desai_conway() -> dict[str, str]:
+    paper = {n: _read(PAPER / f"{n}.csv") for n in ("table1", "table2")}
+    ours = {n: _read(DERIVED / f"{n}.csv") for n in ("table1", "table2")}
+    solvers = _read(DERIVED / "two_timescale_solvers.csv")
+    partitions = _read(DERIVED / "two_timescale_partitions.csv")
+    couplings = _read(DERIVED / "two_timescale_couplings.csv")
+    flat = _read(DERIVED / "two_timescale_couplings_flat_moon.csv")
+    study = _read(DERIVED / "fast_slow_study.csv")
+    reach = _read(DERIVED / "fast_slow_cost_to_reach.csv")
+    values = {}
+    for n in ("table1", "table2"):
+        values[f"{n}_standard_size"] = (
+            f"{_one(ours[n], 'nlp_parameters', scheme='standard'):.0f} parameters and "
+            f"{_one(ours[n], 'defect_equations', scheme='standard'):.0f} defects"
+        )
+        standard = _one(paper[n], "iterations", scheme="standard")
+        (other,) = set(paper[n].scheme) - {"standard"}
+        fewer = _one(paper[n], "iterations", scheme=other)
+        values[f"paper_{n}_iterations"] = f"{standard:.0f} -> {fewer:.0f}"
+        values[f"paper_{n}_drop"] = _percent(fewer / standard - 1)
+    values["table1_slsqp_standard"] = (
+        f"{_one(solvers, 'iterations', table='table1', scheme='standard', solver='SLSQP, BFGS Hessian'):.0f}"
+    )
+    values["paper_table1_standard"] = f"{_one(paper['table1'], 'iterations', scheme='standard'):.0f}"
+    values["all_fast_control_order"] = f"{_one(partitions, 'control_order', partition='every state fast'):.1f}"
+    split = partitions[~partitions.partition.isin(["every state fast", "standard (same fine mesh)"])]
+    values["split_control_orders"] = _span(split.control_order, ".1f")
+    values["flat_moon_quadrature_order"] = _span(flat[flat.coupling == "quadrature"].control_order, ".1f")
+    values["flat_moon_coarse_order"] = _span(flat[flat.coupling == "coarse"].control_order, ".1f")
+    galerkin = couplings[(couplings.coupling == "galerkin") & (couplings.ratio > 1)]
+    values["galerkin_control_order"] = _span(galerkin.control_order, ".1f")
+    values["galerkin_state_order"] = _span(galerkin.state_order, ".1f")
+    values["galerkin_m2_control_error_40"] = f"{_one(galerkin, 'control_error_40', ratio=2):.1e}"
+    values["all_fast_control_error_40"] = f"{_one(partitions, 'control_error_40', partition='every state fast'):.1e}"
+
+    standard = study[study.design == "standard"].set_index("fine_segments")
+    paper_design = study[study.design == "paper's design, attitude fast"]
+    on_the_same_fine_mesh = standard.loc[paper_design.fine_segments]  # the standard scheme's errors, row by row
+    for error in ("control", "attitude"):
+        factor = paper_design[f"{error}_error"].to_numpy() / on_the_same_fine_mesh[f"{error}_error"].to_numpy()
+        values[f"paper_design_{error}_factor"] = f"{factor.min():.0f}"
+    base = standard.loc[40]
+    fast_rows = study[(study.design == "Galerkin, attitude fast") & (study.ratio == 2)]
+    same = standard.loc[fast_rows.fine_segments]
+    off = max(
+        abs(fast_rows[e].to_numpy() / same[e].to_numpy() - 1).max() for e in ("attitude_error", "control_error")
+    )  # on every fine mesh of the study
+    values["galerkin_attitude_fast_m2_within"] = _percent(off)
+    fast = fast_rows[fast_rows.fine_segments == 40].iloc[0]
+    values["galerkin_attitude_fast_m2_fewer"] = _percent(1 - fast.nlp_parameters / base.nlp_parameters)
+    slow = study[(study.design == "Galerkin, positions slow") & (study.ratio == 8) & (study.fine_segments == 40)]
+    slow = slow.iloc[0]
+    values["positions_slow_m8_fewer"] = _percent(1 - slow.nlp_parameters / base.nlp_parameters)
+    target = "nlp_parameters (control_error 0.0001)"
+    cost = reach.set_index(["design", "ratio"])[target]
+    values["control_target"] = "1e-4"
+    values["attitude_fast_m4_cost"] = f"{cost['Galerkin, attitude fast', 4] / cost['standard', 1]:.2f}"
+    values["positions_slow_m8_cost"] = f"{cost['Galerkin, positions slow', 8] / cost['standard', 1]:.2f}"
+    times = [c for c in reach.columns if c.startswith("end_to_end_s")]
+    designs = reach[reach.design != "standard"].dropna(subset=times)
+    slowest = min(
+        (designs[c] / float(reach[reach.design == "standard"][c].iloc[0])).min() for c in times
+    )  # the least time any design takes, against the standard's, to reach a target
+    values["designs_time_factor"] = f"{slowest:.1f}"
+    return values
+
+
+def values() -> dict[str, str]:
+    """Every value the pages quote, by name (``{{ name }}`` on a page)."""
+    return _desai_conway()

@@ -8,6 +8,7 @@ NumPy-style docstrings (napoleon). Warnings are errors (``make docs`` passes ``-
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -22,7 +23,12 @@ extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 exclude_patterns = ["_build", "_generated", "ocpkit.md", "**/.ipynb_checkpoints"]
 
-myst_enable_extensions = ["dollarmath", "amsmath"]
+myst_enable_extensions = ["dollarmath", "amsmath", "substitution"]
+# the numbers the pages' prose quotes ({{ name }}), computed from data/ as the tables are (docs/_tables.py)
+sys.path.insert(0, str(HERE))
+from _tables import values  # noqa: E402
+
+myst_substitutions = values()
 myst_heading_anchors = 3
 nb_execution_mode = "off"  # the notebooks' stored outputs, as nbval checks them
 nb_merge_streams = True
@@ -68,9 +74,6 @@ def _copy_notebooks(app) -> None:
 
 
 def _write_tables(app) -> None:
-    import sys
-
-    sys.path.insert(0, str(HERE))
     from _tables import write_tables
 
     write_tables(HERE / "_generated")

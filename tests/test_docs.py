@@ -108,6 +108,17 @@ def test_generated_tables_do_not_depend_on_the_csv_files_row_order(monkeypatch):
     reordered = {name: make() for name, make in _tables.TABLES.items()}
     keyed = ("two_timescale_solvers",)  # tables whose rows are keyed, not listed in the run's order
     assert {name: reordered[name] for name in keyed} == {name: written[name] for name in keyed}
+    quoted = _tables.values()
+    monkeypatch.setattr(_tables, "_read", read)
+    assert quoted == _tables.values()
+
+
+def test_every_number_the_prose_quotes_from_data_is_on_a_page_and_defined():
+    """A page writes ``{{ name }}`` for a number of a published run (MyST substitutions, docs/_tables.py values)."""
+    quoted = _tables_module().values()
+    used = {name for page in PAGES for name in re.findall(r"\{\{ *(\w+) *\}\}", page.read_text())}
+    assert used == set(quoted)
+    assert all(value and "nan" not in value for value in quoted.values())
 
 
 def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
