@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from compendium.tables import markdown_table
@@ -217,6 +218,147 @@ def _desai_conway() -> dict[str, str]:
     return values
 
 
+def _slashed(values, spec: str = "") -> str:
+    return " / ".join(format(v, spec) for v in values)
+
+
+def _thrusts(thrusts) -> str:
+    """``5, 1 and 0.5 N``."""
+    names = [f"{t:g}" for t in sorted(thrusts, reverse=True)]
+    return (", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else "".join(names)) + " N"
+
+
+def _switching_detection() -> dict[str, str]:
+    slides = _read(PAPER / "switching_detection.csv")
+    calibration = _read(DERIVED / "orbit_transfer_calibration.csv").sort_values("multiplier")
+    time_reading = _read(DERIVED / "orbit_transfer_time_reading.csv")
+    minima = _read(DERIVED / "orbit_transfer_tmin_minima.csv")
+    runs = _read(DERIVED / "orbit_transfer.csv")
+    vs = _read(DERIVED / "orbit_transfer_vs_slides.csv")
+    short = _read(DERIVED / "orbit_transfer_short_arcs.csv").sort_values("thrust_N", ascending=False)
+    summary = _read(DERIVED / "orbit_transfer_summary.csv")
+    none = _read(DERIVED / "orbit_transfer_no_detection.csv")
+    values = {}
+    values["calibration_multipliers"] = ", ".join(f"{c:g}" for c in calibration.multiplier)
+    values["calibration_fuels"] = ", ".join(f"{f:.2f}" for f in calibration.fuel_kg)
+    values["calibration_switchings"] = ", ".join(f"{n:.0f}" for n in calibration.switchings)
+    chosen = calibration[calibration.multiplier == 1.25].iloc[0]
+    values["calibration_slides"] = f"{chosen.fuel_kg_slides:g} kg and {chosen.switchings_slides:.0f}"
+    values["tf_5N_h"] = f"{chosen.tf_h:.1f} h"
+    below = time_reading[time_reading.converged & (time_reading.thrust_N < 5)]
+    values["time_reading_fuel"] = f"{below.fuel_kg.mean():.0f} kg"
+    share = below.switchings / below["slides' reading: switchings"]
+    values["time_reading_switchings"] = _span(share, ".1f").replace(" to ", "-")
+    values["time_reading_fuel_below"] = _percent(1 - (below.fuel_kg / below["slides' reading: fuel_kg"]).mean())
+    count = minima.groupby("thrust_N").size()
+    values["minima_found"] = f"{count[5.0]} found at 5 N, {count[1.0]} at 1 N"
+    at5 = minima[minima.thrust_N == 5]
+    values["continuation_tmin_5N"] = f"{_one(at5, 'tmin_h', continuation=True):.2f} h"
+    values["best_tmin_5N"] = f"{_one(at5, 'tmin_h', best=True):.2f} h"
+    detection = vs[(vs.detection == "detection") & (vs.jacobian == "fd")].sort_values("thrust_N", ascending=False)
+    reached = detection[detection.norm_S <= 1e-5]
+    values["extremal_fuels"] = _slashed(reached.fuel_kg, ".2f") + " kg"
+    values["extremal_switchings"] = _slashed(reached.switchings, ".0f")
+    published = slides[(slides.detection == "detection") & (slides.jacobian == "fd")]
+    published = published.set_index("thrust_N").loc[reached.thrust_N]
+    values["slides_fuels"] = _slashed(published.objective_kg, "g") + " kg"
+    values["slides_switchings"] = _slashed(published.switchings, ".0f")
+    steps = detection[detection.converged]
+    values["detection_steps"] = _slashed(steps.steps, ".0f")
+    values["slides_detection_steps"] = _slashed(steps.steps_slides, ".0f")
+    at = short[short.thrust_N == 0.5].iloc[0]
+    values["short_arcs_05N"] = (
+        f"{at['switchings, end-of-step test only']:.0f} switchings instead of {at.switchings:.0f}"
+    )
+    differ = short[short.switchings != short["switchings slides"]]
+    values["short_arcs_differ"] = "; ".join(
+        f"{r.switchings:.0f} against {r['switchings slides']:.0f} at {r.thrust_N:g} N" for _, r in differ.iterrows()
+    )
+    converged = summary[summary["converged hybr"] | summary["converged newton"]]
+    values["goal_converged_thrusts"] = _thrusts(converged.thrust_N)
+    values["slides_cpu"] = _span(converged["cpu_s slides"], ".0f") + " s"
+    values["goal_met_thrusts"] = _thrusts(summary[summary["|S| goal met"]].thrust_N)
+    values["goal_missed_thrusts"] = _thrusts(summary[~summary["|S| goal met"]].thrust_N)
+    noise = summary.set_index("thrust_N")["noise of S"]
+    values["noise_growth_orders"] = f"{np.floor(np.log10(noise.max() / noise.min())):.0f}"
+    without = none.set_index("thrust_N")["noise of S, no detection"]
+    values["noise_without_detection"] = f"{without[5.0]:.0e} at 5 N up to {without[0.1]:.0e} at 0.1 N"
+    values["no_detection_rejected"] = _span(none["rejected % at the solution"], ".0f") + " %"
+    at5 = runs[(runs.thrust_N == 5) & (runs.solver == "hybr") & (runs.jacobian == "fd")].set_index("detection")
+    values["hamiltonian_with_detection"] = f"{at5.loc[['detection', 'correction'], 'hamiltonian_drift'].max():.0e}"
+    values["hamiltonian_without_detection"] = f"{at5.loc['none', 'hamiltonian_drift']:.0e}"
+    return values
+
+
+def _metres(x: float) -> str:
+    return f"{1000 * x:.0f} mm" if x < 0.5 else f"{x:.0f} m"
+
+
+def _refinement() -> dict[str, str]:
+    """Notebook 07's refinement studies, as the accuracy guide quotes them."""
+    hyper = _read(DERIVED / "mesh_refinement_hyper_sensitive.csv")
+    landing = _read(DERIVED / "mesh_refinement_entry_landing.csv")
+    lunar = _read(DERIVED / "mesh_refinement_lunar_ascent.csv")
+    goddard = _read(DERIVED / "mesh_refinement_goddard.csv")
+    scaling = _read(DERIVED / "mesh_refinement_shuttle_scaling.csv").set_index("statement").ipopt_iterations
+    cops = _read(PAPER / "goddard_cops.csv").set_index("quantity").value
+    values = {}
+    row = hyper[hyper.tolerance == 1e-6].iloc[0]
+    values["hyper_sensitive"] = (
+        f"{row.collocation_points:.0f} points to {row.error_estimate:.0e}, where a uniform mesh of the same size "
+        f"estimates {row.uniform_error_estimate:.0f}"
+    )
+    refined = landing[(landing.mesh == "refined") & (landing.tolerance == 1e-6)].iloc[0]
+    uniform = landing[landing.mesh == "uniform"].sort_values("collocation_points").iloc[-1]
+    values["entry_landing_refined"] = (
+        f"{refined.collocation_points:.0f} refined points land within {_metres(refined.position_error_m)} with the "
+        f"admissible control; {uniform.collocation_points:.0f} uniform points, {_metres(uniform.position_error_m)}"
+    )
+    radau = lunar[lunar.scheme == "Radau"]
+    closer = (radau.uniform_position_error_m / radau.position_error_m).max()
+    values["lunar_ascent_closer"] = f"{float(f'{closer:.2g}'):.0f}"
+    plain = goddard[(goddard.scheme == "HLGL") & (goddard.weight == 0)].set_index("mesh").thrust_variation
+    values["goddard_chatter"] = f"{plain['uniform 20']:.0f} on 20 HLGL segments, {plain['uniform 160']:.0f} on 160"
+    best = goddard[(goddard.scheme == "Radau") & (goddard.weight == 0)].iloc[0]  # refined to 1e-6
+    penalised = goddard[(goddard.scheme == "Radau") & (goddard.weight == 1e-3)].iloc[0]
+    values["goddard_penalised_variation"] = f"{penalised.thrust_variation:.1f}"
+    values["goddard_penalty_altitude"] = f"{best.final_altitude - penalised.final_altitude:.0e}"
+    values["goddard_refined_altitude"] = f"{best.final_altitude:.8g}"
+    values["goddard_cops_altitude"] = f"{cops['final_altitude']:g}"
+    values["shuttle_iterations"] = (
+        f"{scaling['unscaled']} IPOPT iterations on Radau 4 x 40, autoscaled {scaling['unscaled + autoscale']}, "
+        f"scaled by hand {scaling['scaled by hand']}"
+    )
+    return values
+
+
+def _published_elsewhere() -> dict[str, str]:
+    """Published values the guide measures against, as ``data/paper/`` holds them, and what notebook 06 reached."""
+    gasoil = _read(PAPER / "cops_gasoil.csv").set_index("quantity")
+    fit = _read(DERIVED / "cops_gasoil_fit.csv").set_index("statement").objective
+    delta3 = _read(PAPER / "delta3_gpops2.csv").set_index("quantity").value
+    digits = int(gasoil.digits["objective"])
+    return {
+        "gasoil_published": f"{gasoil.value['objective']:.{digits - 1}e}",
+        "gasoil_fit": f"{fit['one set of rate constants']:.{digits - 1}e}",
+        "delta3_published": f"{float(delta3['final_mass']):.2f} kg",
+    }
+
+
+def _direct_to_indirect() -> dict[str, str]:
+    """Notebook 10's extremals against their references, as the indirect-shooting guide quotes them."""
+    df = _read(DERIVED / "direct_to_indirect.csv")
+    goddard = df[df.problem == "goddard_speed_limit"]
+    transfer = df[df.problem == "gto_geo_5N"].set_index("quantity")
+    return {
+        "goddard_junctions_error": f"{goddard.error.max():.1e}",
+        "transfer_extremal": (
+            f"{transfer.value['fuel_kg']:.2f} kg, {transfer.value['switchings']:.0f} switchings, against their "
+            f"{transfer.reference['fuel_kg']:.2f} kg and {transfer.reference['switchings']:.0f}"
+        ),
+    }
+
+
 def values() -> dict[str, str]:
     """Every value the pages quote, by name (``{{ name }}`` on a page)."""
-    return _desai_conway()
+    return _desai_conway() | _switching_detection() | _refinement() | _published_elsewhere() | _direct_to_indirect()
