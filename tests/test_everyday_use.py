@@ -272,7 +272,9 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     )
     executed = compendium / "build" / "notebooks"
     executed.mkdir(parents=True)
-    (executed / "08_earlier.ipynb").write_bytes((compendium / "notebooks" / f"{NOTEBOOK}.ipynb").read_bytes())
+    earlier = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
+    earlier.metadata["papermill"] = {"parameters": {}}  # an executed notebook of an earlier run
+    nbformat.write(earlier, str(executed / "08_earlier.ipynb"))
     args = ["notebooks/09_broken.ipynb", f"notebooks/{NOTEBOOK}.ipynb", "--output", "build/notebooks"]
     proc = _run(["-m", "compendium.notebooks", "reproduce", *args, "--report", "build/report"], compendium)
     assert proc.returncode == 1, proc.stderr[-2000:]
@@ -286,3 +288,20 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     assert "the solver said no" in (report / "09_broken.html").read_text()
     assert "1 of 2 notebooks failed" in proc.stderr
     assert "1 notebook stopped before the end" in (report / "index.html").read_text()
+
+
+def test_reproduce_checks_every_notebook_and_its_output_before_it_removes_or_runs_anything(compendium):
+    """A wrong notebook name, published parameters it cannot use, an output folder that is the notebooks' own: all
+    named at once, exit status 2, and nothing removed nor run."""
+    notebooks = compendium / "notebooks"
+    before = sorted(p.name for p in notebooks.iterdir())
+    (notebooks / "published.toml").write_text(f'[{NOTEBOOK}]\nsize = "not python("\n')
+    args = [f"notebooks/{NOTEBOOK}.ipynb", "notebooks/09_missing.ipynb", "--output", "notebooks"]
+    proc = _run(["-m", "compendium.notebooks", "reproduce", *args], compendium)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "error: nothing was run:" in proc.stderr
+    assert "notebooks/09_missing.ipynb: no such notebook" in proc.stderr
+    assert f"--output notebooks is the folder of notebooks/{NOTEBOOK}.ipynb" in proc.stderr
+    assert f"notebooks/{NOTEBOOK}.ipynb: its published parameters (notebooks/published.toml)" in proc.stderr
+    assert sorted(p.name for p in notebooks.iterdir()) == before
+    assert not (compendium / "figures").exists() or not any((compendium / "figures").iterdir())

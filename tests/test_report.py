@@ -337,6 +337,39 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
     assert "no: <code>n</code> differs from the published run" in page
 
 
+def test_runs_not_published_or_not_run_are_on_the_report_and_earlier_pages_go(tmp_path, monkeypatch):
+    """make reproduce's report: a complete run it could not publish says why on its page and the index; a notebook
+    that left no executed notebook has an index row; a page of an earlier build that this one does not write is
+    removed, and no other file of the folder."""
+    root = tmp_path / "root"
+    _compendium(root)
+    monkeypatch.setenv("OCPKIT_ROOT", str(root))
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "notes.html").write_text("mine")
+    executed = _executed_demo(root, tmp_path / "executed", tmp_path / "run", fails=False, n=3)
+    shutil.copy(executed, executed.parent / "old.ipynb")
+    build_report(executed.parent, out)
+    assert (out / "old.html").exists()
+    (executed.parent / "old.ipynb").unlink()
+    why = {"demo.ipynb": "ran to the end, but its run was not published: demo is not committed"}
+    why["gone.ipynb"] = "did not run: OSError: no kernel"
+    build_report(executed.parent, out, why)
+    page, index = (out / "demo.html").read_text(), (out / "index.html").read_text()
+    for text in (page, index):
+        assert 'completed, <span class="report-fail">not published</span>: ran to the end, but' in text
+    assert '<code>gone.ipynb</code></td><td><span class="report-fail">did not run</span>: did not run: OSError' in index
+    assert "1 complete run not published; 1 notebook did not run" in index
+    assert sorted(p.name for p in out.glob("*.html")) == ["demo.html", "index.html", "notes.html"]
+
+    empty = tmp_path / "none"
+    empty.mkdir()
+    index = build_report(empty, tmp_path / "report2", {"demo.ipynb": "did not run: OSError: no kernel"}).read_text()
+    assert "1 notebook did not run" in index
+    with pytest.raises(FileNotFoundError, match="no executed notebooks"):
+        build_report(empty, tmp_path / "report3")
+
+
 # -- MathJax -------------------------------------------------------------------------------------------------------
 
 

@@ -22,6 +22,7 @@ import argparse
 import ast
 import re
 import sys
+import traceback
 from pathlib import Path
 
 KERNEL_NAME = "ocpkit"
@@ -393,49 +394,95 @@ def reproduce(
 ) -> dict[Path, str]:
     """The published runs: each notebook executed with its published parameters (notebooks/published.toml) into
     ``output``, and its run published (:func:`publish_run`); then, if ``report`` names a folder, the report of the
-    executed notebooks in it (:func:`build_report`). The notebooks an earlier call left in ``output`` are removed
-    first, so that the report is of this call's runs only.
+    executed notebooks in it (:func:`build_report`). The executed notebooks an earlier call left in ``output`` (those
+    papermill wrote) are removed first, so that the report is of this call's runs only.
 
-    A notebook that stops (a cell raised, a check failed) publishes nothing; the others still run, the report is
-    still built, with the failure on that notebook's page, and the failures are returned: ``{notebook: reason}``,
-    empty when every run completed and was published.
+    Every notebook and its published parameters are checked before anything is removed or run: a missing notebook, a
+    parameter it does not declare or one ``published.toml`` cannot give as a Python literal, or an ``output`` that
+    is a file or the notebooks' own folder raise ``ValueError`` naming them all.
+
+    A notebook that stops (a cell raised, a check failed) or whose run may not be published publishes nothing; the
+    others still run, the report is still built, with the reason on that notebook's page, and the reasons are
+    returned: ``{notebook: reason}``, empty when every run completed and was published.
     """
-    output = Path(output)
-    stale = sorted(output.glob("*.ipynb")) if output.is_dir() else []
-    for path in stale:
-        path.unlink()
     from .outputs import run_folder
 
+    output = Path(output)
+    published = _published_parameters_of(notebooks, output)
+    if output.is_dir():
+        for path in sorted(output.glob("*.ipynb")):
+            if _executed_by_papermill(path):
+                path.unlink()
     failed: dict[Path, str] = {}
     for nb in _each(notebooks, "reproduce"):
-        params = published_overrides(nb)
+        params = published[nb]
         try:
             out = execute(nb, output / nb.name, params, kernel=kernel, progress=True)
             files = publish_run(run_folder(nb.stem, _run_parameters(nb, params)))
         except Exception as exc:  # every kind of stop is reported, and none stops the other notebooks
             failed[nb] = _stopped(exc)
             _say(f"FAILED {nb}: {failed[nb]}")
+            if not isinstance(exc, ValueError | OSError) and type(exc).__name__ != "PapermillExecutionError":
+                _say(traceback.format_exc().rstrip())  # not a stop the notebook explains: where it came from
             continue
         _say(f"executed {nb} -> {out}; published {len(files)} files")
     if report is not None:
-        index = build_report(output, report)
+        index = build_report(output, report, {nb.name: why for nb, why in failed.items()})
         _say(f"report: {index}" + (f" ({len(failed)} of {len(notebooks)} notebooks failed)" if failed else ""))
     return failed
 
 
+def _published_parameters_of(notebooks: list[Path], output: Path) -> dict[Path, dict]:
+    """Each notebook's published parameters, checked (:func:`reproduce`): every problem found, in one ``ValueError``."""
+    problems, published = [], {}
+    if output.exists() and not output.is_dir():
+        problems.append(f"--output {output} is a file, not a folder")
+    for nb in notebooks:
+        if not nb.is_file():
+            problems.append(f"{nb}: no such notebook")
+            continue
+        if output.exists() and output.resolve() == nb.parent.resolve():
+            problems.append(f"--output {output} is the folder of {nb}: the executed notebooks would replace it")
+        try:
+            published[nb] = published_overrides(nb)
+            check_parameters(nb, published[nb])
+        except (ValueError, SyntaxError) as exc:
+            problems.append(f"{nb}: its published parameters (notebooks/published.toml): {exc}")
+    if problems:
+        raise ValueError("nothing was run:\n  " + "\n  ".join(problems))
+    return published
+
+
+def _executed_by_papermill(path: Path) -> bool:
+    """Whether ``path`` is a notebook papermill wrote (its record in the metadata): one :func:`reproduce` may remove."""
+    import json
+
+    try:
+        return "papermill" in json.loads(path.read_text(encoding="utf-8")).get("metadata", {})
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def _stopped(exc: Exception) -> str:
-    """What stopped a notebook's run, in a line: the cell and its error for a cell that raised."""
+    """Why a notebook's run was not published, in a line: the cell and its error for a cell that raised."""
     if type(exc).__name__ == "PapermillExecutionError":
-        return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
-    return f"{type(exc).__name__}: {exc}"
+        return f"did not complete, nothing of it was published: {_cell_error(exc)}"
+    if isinstance(exc, PublishError):
+        return f"ran to the end, but its run was not published: {exc}"
+    return f"did not run: {type(exc).__name__}: {exc}"
 
 
-def build_report(executed: str | Path, output: str | Path) -> Path:
+def _cell_error(exc: Exception) -> str:
+    """papermill's error, in a line: the cell that raised and its error."""
+    return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
+
+
+def build_report(executed: str | Path, output: str | Path, unfinished: dict[str, str] | None = None) -> Path:
     """The HTML report of every executed notebook in ``executed``, written into ``output``; the index's path
-    (:func:`compendium.report.build_report`)."""
+    (:func:`compendium.report.build_report`, which says what ``unfinished`` is)."""
     from .report import build_report as build
 
-    return build(executed, output)
+    return build(executed, output, unfinished)
 
 
 def _parse_value(text: str):
@@ -483,7 +530,12 @@ def main(argv: list[str] | None = None) -> int:
         help="the published runs: each notebook with the parameters of notebooks/published.toml, then published",
     )
     rp.add_argument("notebooks", nargs="+", type=Path)
-    rp.add_argument("--output", type=Path, default=Path("build/notebooks"), help="the executed notebooks (report)")
+    rp.add_argument(
+        "--output",
+        type=Path,
+        default=Path("build/notebooks"),
+        help="the executed notebooks (default build/notebooks; the ones an earlier run left there are replaced)",
+    )
     rp.add_argument("--kernel", default=KERNEL_NAME)
     rp.add_argument("--report", type=Path, default=None, help="also build the report of the runs into this folder")
     st = sub.add_parser("store", help="re-execute notebooks in place with default parameters (published if those are)")
@@ -509,7 +561,7 @@ def main(argv: list[str] | None = None) -> int:
             failed = reproduce(args.notebooks, args.output, kernel=args.kernel, report=args.report)
             if failed:
                 for nb, reason in failed.items():
-                    print(f"error: {nb} did not complete, nothing of it was published: {reason}", file=sys.stderr)
+                    print(f"error: {nb} {reason}", file=sys.stderr)
                 return 1
         elif args.command == "store":
             for nb in _each(args.notebooks, "store"):
@@ -531,7 +583,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # a cell that raised: papermill's error names it; the executed notebook shows it
         if type(exc).__name__ != "PapermillExecutionError":
             raise
-        print(f"error: the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}", file=sys.stderr)
+        print(f"error: {_cell_error(exc)}", file=sys.stderr)
         return 1
     return 0
 

@@ -21,6 +21,7 @@ import os
 import platform
 import re
 import subprocess
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from html.parser import HTMLParser
@@ -364,6 +365,8 @@ class Page:
     title: str
     facts: RunFacts
     verdicts: list[Verdict]
+    #: why a run that completed was not published (:func:`compendium.notebooks.reproduce`), or ``None``
+    not_published: str | None = None
 
     @property
     def href(self) -> str:
@@ -556,6 +559,8 @@ def _published(facts: RunFacts) -> str:
 
 
 def _outcome(page: Page) -> str:
+    if page.facts.failure is None and page.not_published:
+        return f'completed, <span class="report-fail">not published</span>: {html.escape(page.not_published)}'
     if page.facts.failure is None:
         return '<span class="report-pass">completed</span>'
     cell, ename, evalue = page.facts.failure
@@ -656,9 +661,13 @@ def _count(n: int, what: str) -> str:
     return f"{n} {what}{'' if n == 1 else 's'}"
 
 
-def index_html(pages: list[Page], env: dict, git: dict | None, built: str, executed: Path) -> str:
+def index_html(
+    pages: list[Page], env: dict, git: dict | None, built: str, executed: Path, not_run: Mapping[str, str] | None = None
+) -> str:
     """The index page: the report's provenance, every notebook with its title, outcome, checks, parameters and
-    where its figures and tables went, and the tally of the checks."""
+    where its figures and tables went, and the tally of the checks; ``not_run``: the notebooks that left no executed
+    notebook (file name -> why), each on a row of its own."""
+    not_run = dict(not_run or {})
     rows = []
     for k, page in enumerate(pages):
         facts = page.facts
@@ -670,9 +679,15 @@ def index_html(pages: list[Page], env: dict, git: dict | None, built: str, execu
             f"<small><code>{html.escape(page.path.name)}</code></small></td><td>{_outcome(page)}</td>"
             f"<td>{_tally(page)}</td><td>{html.escape(published)}</td><td>{figures_went(facts)}</td></tr>"
         )
+    for k, (name, why) in enumerate(sorted(not_run.items()), start=len(pages)):
+        rows.append(
+            f'<tr><td>{k + 1}</td><td><code>{html.escape(name)}</code></td><td><span class="report-fail">did not '
+            f"run</span>: {html.escape(why)}</td><td>none</td><td>—</td><td>nothing written</td></tr>"
+        )
     checks = [v for p in pages for v in p.verdicts]
     failed = sum(not v.passed for v in checks)
     stopped = sum(p.facts.failure is not None for p in pages)
+    unpublished = sum(p.facts.failure is None and bool(p.not_published) for p in pages)
     dated = sorted(p.facts.executed for p in pages if p.facts.executed)
     when = (
         f"executed by papermill from {dated[0]} to {dated[-1]}"
@@ -684,11 +699,13 @@ def index_html(pages: list[Page], env: dict, git: dict | None, built: str, execu
         f"{len(checks)} printed checks ok</span> in {_count(len(pages), 'notebook')}"
         + (f"; {failed} failed" if failed else "")
         + (f"; {_count(stopped, 'notebook')} stopped before the end" if stopped else "")
+        + (f"; {_count(unpublished, 'complete run')} not published" if unpublished else "")
+        + (f"; {_count(len(not_run), 'notebook')} did not run" if not_run else "")
     )
     box = f"""<section class="report-box">
 <h2>Provenance</h2>
 <dl>
-<dt>Notebooks</dt><dd>{len(pages)} from <code>{html.escape(_where(executed))}</code>, {when}</dd>
+<dt>Notebooks</dt><dd>{len(pages)} executed, from <code>{html.escape(_where(executed))}</code>, {when}</dd>
 <dt>Report built</dt><dd>{built}</dd>
 <dt>Commit</dt><dd>{_commit(git)}</dd>
 {_environment_rows(env)}
@@ -705,24 +722,52 @@ def index_html(pages: list[Page], env: dict, git: dict | None, built: str, execu
     return _INDEX.format(title=title_, intro=intro, box=box, rows="\n".join(rows), css=CSS)
 
 
-def build_report(executed: str | Path, output: str | Path) -> Path:
+#: the pages a build wrote, in its output folder: the next build removes those it does not write again
+PAGES_WRITTEN = ".report-pages"
+
+
+def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[str, str] | None = None) -> Path:
     """Write the report of every executed notebook in ``executed`` into ``output``: one page per notebook
     (:func:`render_page`), ``index.html`` (:func:`index_html`) and the MathJax they load
-    (:func:`compendium.mathjax.copy_mathjax`); the index's path."""
+    (:func:`compendium.mathjax.copy_mathjax`); the index's path. The pages an earlier build wrote there and this
+    one does not are removed (they would be of other runs); nothing else in ``output`` is touched.
+
+    ``unfinished``: notebook file name -> why its run did not complete or was not published (from
+    :func:`compendium.notebooks.reproduce`). Its page says so; a notebook that left no executed notebook gets a row of
+    the index of its own.
+    """
     from .mathjax import copy_mathjax
 
     executed, output = Path(executed), Path(output)
-    notebooks = sorted(executed.glob("*.ipynb"))
-    if not notebooks:
+    unfinished = dict(unfinished or {})
+    notebooks = sorted(executed.glob("*.ipynb")) if executed.is_dir() else []
+    if not notebooks and not unfinished:
         raise FileNotFoundError(f"no executed notebooks in {executed}")
+    if output.exists() and not output.is_dir():
+        raise NotADirectoryError(f"the report's folder {output} is a file")
     output.mkdir(parents=True, exist_ok=True)
     export = exporter(copy_mathjax(output / "mathjax"))
     env, git = environment(), git_state()
     pages = [read_page(path) for path in notebooks]
+    for page in pages:
+        page.not_published = unfinished.get(page.path.name)
     for k, page in enumerate(pages):
         previous = pages[k - 1] if k > 0 else None
         following = pages[k + 1] if k + 1 < len(pages) else None
         (output / page.href).write_text(render_page(export, page, previous, following, env, git), encoding="utf-8")
+    _remove_earlier_pages(output, {page.href for page in pages})
+    not_run = {name: why for name, why in unfinished.items() if name not in {p.path.name for p in pages}}
     built = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    (output / "index.html").write_text(index_html(pages, env, git, built, executed), encoding="utf-8")
+    (output / "index.html").write_text(index_html(pages, env, git, built, executed, not_run), encoding="utf-8")
     return output / "index.html"
+
+
+def _remove_earlier_pages(output: Path, written: set[str]) -> None:
+    """Remove the pages an earlier build listed in ``output``'s :data:`PAGES_WRITTEN` that this one did not write,
+    and list this build's."""
+    listed = output / PAGES_WRITTEN
+    earlier = set(listed.read_text().split()) if listed.is_file() else set()
+    for name in sorted(earlier - written):
+        if re.fullmatch(r"[\w.-]+\.html", name):
+            (output / name).unlink(missing_ok=True)
+    listed.write_text("".join(f"{name}\n" for name in sorted(written)))
