@@ -7,6 +7,7 @@ table rather than repeating the table's numbers.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -147,8 +148,25 @@ def _span(values, spec: str) -> str:
     return low if low == high else f"{low} to {high}"
 
 
-def _percent(fraction: float) -> str:
-    return f"{100 * fraction:.0f} %"
+def _percent(fraction: float, bound: str | None = None) -> str:
+    """``fraction`` in per cent, rounded to the nearest, or (``bound``) to the side a sentence can claim: ``"most"``
+    up (``within 7 %`` for 6.3 %), ``"least"`` down (``85 % fewer`` for 85.6 %)."""
+    percent = 100 * fraction
+    rounded = {None: round, "most": math.ceil, "least": math.floor}[bound](percent)
+    return f"{rounded:.0f} %"
+
+
+def _sci(x: float, bound: str | None = None) -> str:
+    """``x`` to one significant digit as prose writes it, ``3e-5`` (not Python's ``3e-05``); rounded to the nearest,
+    or (``bound="most"``) up, for a sentence that says "at or below" (``3e-13`` for 2.1e-13)."""
+    if bound == "most" and x > 0:
+        exponent = math.floor(math.log10(x))
+        mantissa = math.ceil(round(x / 10.0**exponent, 9))
+        if mantissa == 10:
+            mantissa, exponent = 1, exponent + 1
+        return f"{mantissa}e{exponent}"
+    mantissa, exponent = f"{x:.0e}".split("e")
+    return f"{mantissa}e{int(exponent)}"
 
 
 def _desai_conway() -> dict[str, str]:
@@ -162,9 +180,12 @@ def _desai_conway() -> dict[str, str]:
     reach = _read(DERIVED / "fast_slow_cost_to_reach.csv")
     values = {}
     for n in ("table1", "table2"):
+        sizes = {c: _one(ours[n], c, scheme="standard") for c in ("nlp_parameters", "defect_equations")}
+        printed = {c: _one(paper[n], c, scheme="standard") for c in sizes}
+        if sizes != printed:  # the page says they reproduce exactly
+            raise ValueError(f"{n}: the standard scheme's NLP sizes {sizes} are not the paper's {printed}")
         values[f"{n}_standard_size"] = (
-            f"{_one(ours[n], 'nlp_parameters', scheme='standard'):.0f} parameters and "
-            f"{_one(ours[n], 'defect_equations', scheme='standard'):.0f} defects"
+            f"{sizes['nlp_parameters']:.0f} parameters and {sizes['defect_equations']:.0f} defects"
         )
         standard = _one(paper[n], "iterations", scheme="standard")
         (other,) = set(paper[n].scheme) - {"standard"}
@@ -198,12 +219,12 @@ def _desai_conway() -> dict[str, str]:
     off = max(
         abs(fast_rows[e].to_numpy() / same[e].to_numpy() - 1).max() for e in ("attitude_error", "control_error")
     )  # on every fine mesh of the study
-    values["galerkin_attitude_fast_m2_within"] = _percent(off)
+    values["galerkin_attitude_fast_m2_within"] = _percent(off, "most")
     fast = fast_rows[fast_rows.fine_segments == 40].iloc[0]
-    values["galerkin_attitude_fast_m2_fewer"] = _percent(1 - fast.nlp_parameters / base.nlp_parameters)
+    values["galerkin_attitude_fast_m2_fewer"] = _percent(1 - fast.nlp_parameters / base.nlp_parameters, "least")
     slow = study[(study.design == "Galerkin, positions slow") & (study.ratio == 8) & (study.fine_segments == 40)]
     slow = slow.iloc[0]
-    values["positions_slow_m8_fewer"] = _percent(1 - slow.nlp_parameters / base.nlp_parameters)
+    values["positions_slow_m8_fewer"] = _percent(1 - slow.nlp_parameters / base.nlp_parameters, "least")
     target = "nlp_parameters (control_error 0.0001)"
     cost = reach.set_index(["design", "ratio"])[target]
     values["control_target"] = "1e-4"
@@ -263,8 +284,8 @@ def _switching_detection() -> dict[str, str]:
     published = published.set_index("thrust_N").loc[reached.thrust_N]
     values["slides_fuels"] = _slashed(published.objective_kg, "g") + " kg"
     values["slides_switchings"] = _slashed(published.switchings, ".0f")
-    steps = detection[detection.converged]
-    values["detection_steps"] = _slashed(steps.steps, ".0f")
+    steps = detection[(detection.norm_S <= 1e-5) & (detection.norm_S_slides <= 1e-5)]  # both runs converged
+    values["detection_steps"] = f"{_slashed(steps.steps, '.0f')} integration steps at {_slashed(steps.thrust_N, 'g')} N"
     values["slides_detection_steps"] = _slashed(steps.steps_slides, ".0f")
     at = short[short.thrust_N == 0.5].iloc[0]
     values["short_arcs_05N"] = (
@@ -282,11 +303,15 @@ def _switching_detection() -> dict[str, str]:
     noise = summary.set_index("thrust_N")["noise of S"]
     values["noise_growth_orders"] = f"{np.floor(np.log10(noise.max() / noise.min())):.0f}"
     without = none.set_index("thrust_N")["noise of S, no detection"]
-    values["noise_without_detection"] = f"{without[5.0]:.0e} at 5 N up to {without[0.1]:.0e} at 0.1 N"
+    values["noise_without_detection"] = (
+        f"from {_sci(without.min())} (at {without.idxmin():g} N) to {_sci(without.max())} (at {without.idxmax():g} N)"
+    )
+    ratio = (none["noise of S, no detection"] / none["noise of S, correction"]).min()
+    values["noise_orders_above_correction"] = f"{math.floor(math.log10(ratio)):.0f}"
     values["no_detection_rejected"] = _span(none["rejected % at the solution"], ".0f") + " %"
     at5 = runs[(runs.thrust_N == 5) & (runs.solver == "hybr") & (runs.jacobian == "fd")].set_index("detection")
-    values["hamiltonian_with_detection"] = f"{at5.loc[['detection', 'correction'], 'hamiltonian_drift'].max():.0e}"
-    values["hamiltonian_without_detection"] = f"{at5.loc['none', 'hamiltonian_drift']:.0e}"
+    values["hamiltonian_with_detection"] = _sci(at5.loc[["detection", "correction"], "hamiltonian_drift"].max(), "most")
+    values["hamiltonian_without_detection"] = _sci(at5.loc["none", "hamiltonian_drift"])
     return values
 
 
@@ -305,7 +330,7 @@ def _refinement() -> dict[str, str]:
     values = {}
     row = hyper[hyper.tolerance == 1e-6].iloc[0]
     values["hyper_sensitive"] = (
-        f"{row.collocation_points:.0f} points to {row.error_estimate:.0e}, where a uniform mesh of the same size "
+        f"{row.collocation_points:.0f} points to {_sci(row.error_estimate)}, where a uniform mesh of the same size "
         f"estimates {row.uniform_error_estimate:.0f}"
     )
     refined = landing[(landing.mesh == "refined") & (landing.tolerance == 1e-6)].iloc[0]
@@ -322,9 +347,16 @@ def _refinement() -> dict[str, str]:
     best = goddard[(goddard.scheme == "Radau") & (goddard.weight == 0)].iloc[0]  # refined to 1e-6
     penalised = goddard[(goddard.scheme == "Radau") & (goddard.weight == 1e-3)].iloc[0]
     values["goddard_penalised_variation"] = f"{penalised.thrust_variation:.1f}"
-    values["goddard_penalty_altitude"] = f"{best.final_altitude - penalised.final_altitude:.0e}"
+    values["goddard_penalty_altitude"] = _sci(best.final_altitude - penalised.final_altitude)
     values["goddard_refined_altitude"] = f"{best.final_altitude:.8g}"
     values["goddard_cops_altitude"] = f"{cops['final_altitude']:g}"
+    values["goddard_cops_difference"] = _sci(abs(best.final_altitude - cops["final_altitude"]), "most")
+    beyond = _read(DERIVED / "mesh_refinement_beyond_the_seeds.csv")
+    tumour = beyond[(beyond.problem == "tumour") & (beyond.start == "Radau 4 x 10")].iloc[0]
+    reached = "met the tolerance" if tumour.met else f"stopped ({tumour.outcome})"
+    values["tumour_radau"] = f"{reached} after {tumour.mesh_iterations:.0f} meshes (J = {tumour.objective:.3f})"
+    values["tumour_hlgl"] = f"{_one(beyond, 'objective', problem='tumour', start='HLGL 10'):.3f}"
+    values["tumour_published"] = f"{tumour.published:.3f}"
     values["shuttle_iterations"] = (
         f"{scaling['unscaled']} IPOPT iterations on Radau 4 x 40, autoscaled {scaling['unscaled + autoscale']}, "
         f"scaled by hand {scaling['scaled by hand']}"
@@ -338,7 +370,9 @@ def _published_elsewhere() -> dict[str, str]:
     fit = _read(DERIVED / "cops_gasoil_fit.csv").set_index("statement").objective
     delta3 = _read(PAPER / "delta3_gpops2.csv").set_index("quantity").value
     digits = int(gasoil.digits["objective"])
+    overfit = fit["one set of rate constants"] / fit["one set per phase"]
     return {
+        "gasoil_overfit": f"1/{overfit:.0f}",
         "gasoil_published": f"{gasoil.value['objective']:.{digits - 1}e}",
         "gasoil_fit": f"{fit['one set of rate constants']:.{digits - 1}e}",
         "delta3_published": f"{float(delta3['final_mass']):.2f} kg",
@@ -350,7 +384,26 @@ def _direct_to_indirect() -> dict[str, str]:
     df = _read(DERIVED / "direct_to_indirect.csv")
     goddard = df[df.problem == "goddard_speed_limit"]
     transfer = df[df.problem == "gto_geo_5N"].set_index("quantity")
+    weakest = _read(DERIVED / "direct_to_indirect_multiple_shooting.csv")
+    weakest = weakest[weakest.thrust_N == weakest.thrust_N.min()]
+    oscillator = _read(DERIVED / "shooting_validation.csv")
+    oscillator = oscillator[oscillator.problem == "harmonic oscillator"].set_index("detection")
+    blind, seen = oscillator.loc[["none"]], oscillator.drop(index="none")
+    rejected = seen.rejected_pct.max()
     return {
+        "weakest_thrust": (
+            f"{weakest.thrust_N.iloc[0]:g} N, {weakest.switchings.max():.0f} switchings over {weakest.tf_h.max():,.0f} h"
+        ),
+        "oscillator_switchings": f"{seen.switchings.max():.0f}",
+        "oscillator_rejected": (
+            f"{_percent(blind.rejected_pct.max() / 100)} of the steps rejected without detection and "
+            + ("none" if rejected == 0 else _percent(rejected / 100, "most"))
+            + " with it"
+        ),
+        "oscillator_norm_S": (
+            f"|S| stalls at {_sci(blind.norm_S.max())} without detection and reaches {_sci(seen.norm_S.max(), 'most')} or "
+            "below with it"
+        ),
         "goddard_junctions_error": f"{goddard.error.max():.1e}",
         "transfer_extremal": (
             f"{transfer.value['fuel_kg']:.2f} kg, {transfer.value['switchings']:.0f} switchings, against their "

@@ -121,6 +121,16 @@ def test_every_number_the_prose_quotes_from_data_is_on_a_page_and_defined():
     assert all(value and "nan" not in value for value in quoted.values())
 
 
+def test_bounds_the_prose_states_are_rounded_to_the_side_it_claims():
+    """"within 7 %" for 6.3 %, "24 % fewer" for 24.9 %, "at or below 3e-13" for 2.1e-13: a bound is never rounded
+    past the value it bounds."""
+    tables = _tables_module()
+    assert tables._percent(0.063) == "6 %" and tables._percent(0.063, "most") == "7 %"
+    assert tables._percent(0.249, "least") == "24 %" and tables._percent(0.25, "most") == "25 %"
+    assert tables._sci(3.2e-5) == "3e-5" and tables._sci(2.14e-13, "most") == "3e-13"
+    assert tables._sci(9.5e-8, "most") == "1e-7" and tables._sci(2e-13, "most") == "2e-13"
+
+
 def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
     """Both commands, as printed, in a fresh clone: they work, and the published record stays as it was."""
     text = section(DOCS / "guide" / "notebooks-and-lab.md", "One notebook with other parameters")
