@@ -60,3 +60,7 @@ def test_a_junction_snaps_only_to_its_own_controls_junctions():
     assert first(0.4049) == 0.400 and second(0.4001) == 0.405
     assert first(1.0) == 1.0 and second(0.0) == 0.0
     assert _junction_times(extremal)(0.4049) == 0.405, "without the arc types, every breakpoint is a candidate"
+    # a state constraint becomes active at 0.405 for the second control (a boundary arc): not the first's junction
+    kinds = [ArcType(("upper", "lower")), ArcType(("lower", "lower")), ArcType(("lower", "boundary"), "x.upper")]
+    first, second = (_junction_times(extremal, kinds=kinds, control=i) for i in (0, 1))
+    assert first(0.4049) == 0.400 and second(0.4001) == 0.405

@@ -125,8 +125,10 @@ def _junction_times(trajectory, reach: float = 0.01, kinds=None, control: int | 
 
 
 def _changes(before, after, control: int) -> bool:
-    """Whether the control's arc ends where the arc type ``before`` gives way to ``after``."""
-    return before.kinds[control] != after.kinds[control] or before.constraint != after.constraint
+    """Whether the control's arc ends where the arc type ``before`` gives way to ``after``: its kind changes, or it
+    is on a boundary arc on either side and the active inequality changes (another control's does not count)."""
+    kind = before.kinds[control], after.kinds[control]
+    return kind[0] != kind[1] or ("boundary" in kind and before.constraint != after.constraint)
 
 
 def arcs_over_control(ax, direct, extremal, control: str, scale: float = 1.0, n: int = 801) -> None:
