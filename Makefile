@@ -90,9 +90,10 @@ reproduce: setup mathjax
 notebooks: setup
 	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
 
-# the executed notebooks as an HTML report (src/compendium/report.py), readable offline: equations in MathJax's TeX
-# fonts (make mathjax), figures inline, no request leaves the machine
-report: notebooks mathjax
+# the notebooks make notebooks or make reproduce executed into build/notebooks, as an HTML report
+# (src/compendium/report.py; it runs none), readable offline: equations in MathJax's TeX fonts (make mathjax), figures
+# inline, no request leaves the machine
+report: setup mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
 test: lint unit nbval guard docs
@@ -147,7 +148,11 @@ chromium:
 .PHONY: mathjax
 mathjax: setup
 	@set -e; \
-	if $(PY) -m compendium.mathjax >/dev/null 2>&1; then :; \
+	err=$$(mktemp); found=0; $(PY) -m compendium.mathjax >/dev/null 2>$$err || found=$$?; \
+	if [ $$found != 0 ] && [ $$found != 1 ]; then cat $$err >&2; rm -f $$err; \
+	  echo "mathjax: python -m compendium.mathjax failed (exit status $$found), above" >&2; exit 1; fi; \
+	rm -f $$err; \
+	if [ $$found = 0 ]; then :; \
 	else \
 	  how="the report's equations fall back to jupyter-server-mathjax's STIX-Web fonts (Debian: apt-get install"; \
 	  how="$$how libjs-mathjax fonts-mathjax)"; \

@@ -742,7 +742,10 @@ def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[s
     unfinished = dict(unfinished or {})
     notebooks = sorted(executed.glob("*.ipynb")) if executed.is_dir() else []
     if not notebooks and not unfinished:
-        raise FileNotFoundError(f"no executed notebooks in {executed}")
+        raise FileNotFoundError(
+            f"no executed notebooks in {executed} (python -m compendium.notebooks reproduce, or make reproduce, "
+            "executes them there)"
+        )
     if output.exists() and not output.is_dir():
         raise NotADirectoryError(f"the report's folder {output} is a file")
     output.mkdir(parents=True, exist_ok=True)
