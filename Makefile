@@ -149,7 +149,7 @@ chromium:
 mathjax: setup
 	@set -e; \
 	err=$$(mktemp); found=0; $(PY) -m compendium.mathjax >/dev/null 2>$$err || found=$$?; \
-	if [ $$found != 0 ] && [ $$found != 1 ]; then cat $$err >&2; rm -f $$err; \
+	if [ $$found != 0 ] && [ $$found != 3 ]; then cat $$err >&2; rm -f $$err; \
 	  echo "mathjax: python -m compendium.mathjax failed (exit status $$found), above" >&2; exit 1; fi; \
 	rm -f $$err; \
 	if [ $$found = 0 ]; then :; \

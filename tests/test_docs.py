@@ -122,7 +122,7 @@ def test_every_number_the_prose_quotes_from_data_is_on_a_page_and_defined():
 
 
 def test_bounds_the_prose_states_are_rounded_to_the_side_it_claims():
-    """"within 7 %" for 6.3 %, "24 % fewer" for 24.9 %, "at or below 3e-13" for 2.1e-13: a bound is never rounded
+    """ "within 7 %" for 6.3 %, "24 % fewer" for 24.9 %, "at or below 3e-13" for 2.1e-13: a bound is never rounded
     past the value it bounds."""
     tables = _tables_module()
     assert tables._percent(0.063) == "6 %" and tables._percent(0.063, "most") == "7 %"

@@ -280,7 +280,9 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert "error: notebooks/09_broken.ipynb did not complete, nothing of it was published" in proc.stderr
     assert "RuntimeError: the solver said no" in proc.stderr
-    assert sorted(p.name for p in executed.iterdir()) == ["09_broken.ipynb", f"{NOTEBOOK}.ipynb"]
+    assert sorted(p.name for p in executed.glob("*.ipynb")) == ["09_broken.ipynb", f"{NOTEBOOK}.ipynb"]
+    recorded = json.loads((executed / "unfinished-runs.json").read_text())
+    assert list(recorded) == ["09_broken.ipynb"] and recorded["09_broken.ipynb"][0] == "stopped"
     published = _published(compendium)
     assert "figures/tiny.png" in published and not [p for p in published if "broken" in p]
     report = compendium / "build" / "report"
@@ -288,20 +290,41 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     assert "the solver said no" in (report / "09_broken.html").read_text()
     assert "1 of 2 notebooks failed" in proc.stderr
     assert "1 notebook stopped before the end" in (report / "index.html").read_text()
+    (report / "09_broken.html").unlink()
+    again = _run(["-m", "compendium.notebooks", "report", "build/notebooks", "--output", "build/report"], compendium)
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert "1 notebook stopped before the end" in (report / "index.html").read_text(), "make report says the same"
 
 
 def test_reproduce_checks_every_notebook_and_its_output_before_it_removes_or_runs_anything(compendium):
-    """A wrong notebook name, published parameters it cannot use, an output folder that is the notebooks' own: all
-    named at once, exit status 2, and nothing removed nor run."""
+    """A wrong notebook name, a notebook outside notebooks/, published parameters it cannot use, an output folder
+    that is the notebooks' own, a report folder that is a file: all named at once, exit status 2, and nothing removed
+    nor run."""
     notebooks = compendium / "notebooks"
-    before = sorted(p.name for p in notebooks.iterdir())
     (notebooks / "published.toml").write_text(f'[{NOTEBOOK}]\nsize = "not python("\n')
-    args = [f"notebooks/{NOTEBOOK}.ipynb", "notebooks/09_missing.ipynb", "--output", "notebooks"]
+    (compendium / "elsewhere.ipynb").write_bytes((notebooks / f"{NOTEBOOK}.ipynb").read_bytes())
+    (compendium / "report.html").write_text("")
+    before = sorted(p.name for p in notebooks.iterdir())
+    args = [f"notebooks/{NOTEBOOK}.ipynb", "notebooks/09_missing.ipynb", "elsewhere.ipynb"]
+    args += ["--output", "notebooks", "--report", "report.html"]
     proc = _run(["-m", "compendium.notebooks", "reproduce", *args], compendium)
     assert proc.returncode == 2, proc.stderr[-2000:]
     assert "error: nothing was run:" in proc.stderr
     assert "notebooks/09_missing.ipynb: no such notebook" in proc.stderr
-    assert f"--output notebooks is the folder of notebooks/{NOTEBOOK}.ipynb" in proc.stderr
+    assert "elsewhere.ipynb: not one of the compendium's notebooks" in proc.stderr
+    assert "--output notebooks is the notebooks' own folder" in proc.stderr
+    assert "--report report.html is a file, not a folder" in proc.stderr
     assert f"notebooks/{NOTEBOOK}.ipynb: its published parameters (notebooks/published.toml)" in proc.stderr
     assert sorted(p.name for p in notebooks.iterdir()) == before
     assert not (compendium / "figures").exists() or not any((compendium / "figures").iterdir())
+
+
+def test_reproduce_with_a_kernel_that_does_not_exist_says_so_and_publishes_nothing(compendium):
+    proc = _run(
+        ["-m", "compendium.notebooks", "reproduce", f"notebooks/{NOTEBOOK}.ipynb", "--kernel", "no-such-kernel"],
+        compendium,
+    )
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert f"error: notebooks/{NOTEBOOK}.ipynb " in proc.stderr and "NoSuchKernel" in proc.stderr
+    assert "Traceback" in proc.stderr, "a stop the notebook does not explain shows where it came from"
+    assert _published(compendium) == [] or not [p for p in _published(compendium) if "tiny" in p]

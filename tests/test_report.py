@@ -28,6 +28,8 @@ from compendium.report import (
     HIDE_CELL,
     PACKAGES,
     REMOVE_CELL,
+    UNFINISHED,
+    Unfinished,
     build_report,
     environment,
     strip_markers,
@@ -338,9 +340,10 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
 
 
 def test_runs_not_published_or_not_run_are_on_the_report_and_earlier_pages_go(tmp_path, monkeypatch):
-    """make reproduce's report: a complete run it could not publish says why on its page and the index; a notebook
-    that left no executed notebook has an index row; a page of an earlier build that this one does not write is
-    removed, and no other file of the folder."""
+    """make reproduce's report: a complete run it could not publish says why on its page and the index, apart from a
+    stop; a notebook that left no executed notebook has an index row; what reproduce recorded beside the executed
+    notebooks is read by a later build; a page of an earlier build that this one does not write is removed, and no
+    other file of the folder."""
     root = tmp_path / "root"
     _compendium(root)
     monkeypatch.setenv("OCPKIT_ROOT", str(root))
@@ -348,24 +351,32 @@ def test_runs_not_published_or_not_run_are_on_the_report_and_earlier_pages_go(tm
     out.mkdir()
     (out / "notes.html").write_text("mine")
     executed = _executed_demo(root, tmp_path / "executed", tmp_path / "run", fails=False, n=3)
-    shutil.copy(executed, executed.parent / "old.ipynb")
+    shutil.copy(executed, executed.parent / "old page.ipynb")
     build_report(executed.parent, out)
-    assert (out / "old.html").exists()
-    (executed.parent / "old.ipynb").unlink()
-    why = {"demo.ipynb": "ran to the end, but its run was not published: demo is not committed"}
-    why["gone.ipynb"] = "did not run: OSError: no kernel"
-    build_report(executed.parent, out, why)
+    assert (out / "old page.html").exists()
+    (executed.parent / "old page.ipynb").unlink()
+    why = {"demo.ipynb": Unfinished("not published", "demo is not committed")}
+    why["gone.ipynb"] = Unfinished("did not run", "NoSuchKernel: no kernel")
+    (executed.parent / UNFINISHED).write_text(json.dumps({k: list(v) for k, v in why.items()}))
+    build_report(executed.parent, out)  # reads what reproduce recorded
     page, index = (out / "demo.html").read_text(), (out / "index.html").read_text()
     for text in (page, index):
-        assert 'completed, <span class="report-fail">not published</span>: ran to the end, but' in text
-    assert '<code>gone.ipynb</code></td><td><span class="report-fail">did not run</span>: did not run: OSError' in index
-    assert "1 complete run not published; 1 notebook did not run" in index
+        assert 'completed, <span class="report-fail">not published</span>: demo is not committed' in text
+    assert '<code>gone.ipynb</code></td><td><span class="report-fail">did not run</span>: NoSuchKernel' in index
+    assert (
+        'class="report-fail">1 of 1 printed checks ok</span> in 1 notebook; 1 complete run not published; 1 ' in index
+    )
     assert sorted(p.name for p in out.glob("*.html")) == ["demo.html", "index.html", "notes.html"]
+
+    stopped = {"demo.ipynb": Unfinished("stopped", "DeadKernelError: the kernel died")}
+    page = (build_report(executed.parent, out, stopped).parent / "demo.html").read_text()
+    assert '<span class="report-fail">stopped</span>: DeadKernelError: the kernel died' in page
+    assert "1 notebook stopped before the end" in (out / "index.html").read_text()
 
     empty = tmp_path / "none"
     empty.mkdir()
-    index = build_report(empty, tmp_path / "report2", {"demo.ipynb": "did not run: OSError: no kernel"}).read_text()
-    assert "1 notebook did not run" in index
+    index = build_report(empty, tmp_path / "report2", {"demo.ipynb": why["gone.ipynb"]}).read_text()
+    assert "1 notebook did not run" in index and "0 executed" in index and '<span class="report-pass">' not in index
     with pytest.raises(FileNotFoundError, match="no executed notebooks"):
         build_report(empty, tmp_path / "report3")
 
@@ -429,13 +440,14 @@ def test_make_mathjax_asks_where_the_report_looks(tmp_path, monkeypatch, capsys)
     (fedora / "fonts/HTML-CSS/TeX/woff").mkdir(parents=True)
     (fedora / "MathJax.js").write_text("")
     monkeypatch.setattr(mathjax, "TEX_FONT_ROOTS", (tmp_path / "javascript" / "mathjax", tmp_path / "mathjax2"))
-    assert mathjax.tex_fonts_root() is None and mathjax.main() == 1
+    assert mathjax.tex_fonts_root() is None and mathjax.main() == mathjax.NO_TEX_FONTS == 3
     (fedora / "fonts/HTML-CSS/TeX/woff/MathJax_Main-Regular.woff").write_bytes(b"")
     capsys.readouterr()
     assert mathjax.tex_fonts_root() == fedora and mathjax.main() == 0
     assert capsys.readouterr().out == f"{fedora}\n" and mathjax.find_mathjax().root == fedora
     recipe = (paths.repo_root() / "Makefile").read_text().split("\nmathjax:", 1)[1].split("\n\n", 1)[0]
     assert "$(PY) -m compendium.mathjax" in recipe and "/usr/share" not in recipe
+    assert "[ $$found != 3 ]" in recipe, "only 'no fonts' installs them; any other failure is shown and stops"
 
 
 def test_copy_mathjax_replaces_nothing_but_a_copy(tmp_path):

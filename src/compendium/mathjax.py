@@ -147,13 +147,17 @@ def tex_fonts_root() -> Path | None:
     return next((root for root in TEX_FONT_ROOTS if _has_tex_fonts(root)), None)
 
 
+#: ``python -m compendium.mathjax``'s exit status when it finds no TeX fonts (1 is Python's for an uncaught error)
+NO_TEX_FONTS = 3
+
+
 def main() -> int:
-    """``python -m compendium.mathjax``: where the TeX fonts are (exit 0), or that there are none (exit 1); what
-    ``make mathjax`` asks before it installs them."""
+    """``python -m compendium.mathjax``: where the TeX fonts are (exit 0), or that there are none (exit
+    :data:`NO_TEX_FONTS`); what ``make mathjax`` asks before it installs them."""
     root = tex_fonts_root()
     if root is None:
         print(f"no MathJax 2 with its TeX web fonts in {', '.join(map(str, TEX_FONT_ROOTS))}", file=sys.stderr)
-        return 1
+        return NO_TEX_FONTS
     print(root)
     return 0
 

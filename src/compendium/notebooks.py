@@ -23,7 +23,10 @@ import ast
 import re
 import sys
 import traceback
+from collections.abc import Mapping
 from pathlib import Path
+
+from .report import Unfinished
 
 KERNEL_NAME = "ocpkit"
 
@@ -391,63 +394,93 @@ def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False
 
 def reproduce(
     notebooks: list[Path], output: str | Path, *, kernel: str = KERNEL_NAME, report: str | Path | None = None
-) -> dict[Path, str]:
+) -> dict[Path, Unfinished]:
     """The published runs: each notebook executed with its published parameters (notebooks/published.toml) into
     ``output``, and its run published (:func:`publish_run`); then, if ``report`` names a folder, the report of the
     executed notebooks in it (:func:`build_report`). The executed notebooks an earlier call left in ``output`` (those
-    papermill wrote) are removed first, so that the report is of this call's runs only.
+    papermill wrote; a notebook put there by hand stays, and is reported too) are removed first.
 
-    Every notebook and its published parameters are checked before anything is removed or run: a missing notebook, a
-    parameter it does not declare or one ``published.toml`` cannot give as a Python literal, or an ``output`` that
-    is a file or the notebooks' own folder raise ``ValueError`` naming them all.
+    Everything is checked before anything is removed or run, and every problem named in one ``ValueError``: each
+    notebook exists and is one of the compendium's ``notebooks/`` (only those publish; one given twice runs once),
+    ``published.toml`` gives its parameters as Python literals and the notebook declares them, and ``output`` and
+    ``report`` are folders (or do not exist yet), ``output`` not the notebooks' own.
 
-    A notebook that stops (a cell raised, a check failed) or whose run may not be published publishes nothing; the
-    others still run, the report is still built, with the reason on that notebook's page, and the reasons are
-    returned: ``{notebook: reason}``, empty when every run completed and was published.
+    A notebook that stops (a cell raised, a check failed, the kernel died) or whose complete run may not be published
+    publishes nothing; the others still run, the report is still built, with the reason on that notebook's page, and
+    the reasons are returned, ``{notebook: Unfinished}``, empty when every run completed and was published. They are
+    also written beside the executed notebooks (:data:`compendium.report.UNFINISHED`), so that a report built from
+    them later says the same.
     """
+    import json
+
     from .outputs import run_folder
+    from .report import UNFINISHED
 
     output = Path(output)
-    published = _published_parameters_of(notebooks, output)
+    published = _checked_runs(notebooks, output, None if report is None else Path(report))
     if output.is_dir():
         for path in sorted(output.glob("*.ipynb")):
             if _executed_by_papermill(path):
                 path.unlink()
-    failed: dict[Path, str] = {}
-    for nb in _each(notebooks, "reproduce"):
-        params = published[nb]
+        (output / UNFINISHED).unlink(missing_ok=True)
+    failed: dict[Path, Unfinished] = {}
+    for nb in _each(list(published), "reproduce"):
+        params, executed = published[nb], output / nb.name
         try:
-            out = execute(nb, output / nb.name, params, kernel=kernel, progress=True)
+            execute(nb, executed, params, kernel=kernel, progress=True)
             files = publish_run(run_folder(nb.stem, _run_parameters(nb, params)))
         except Exception as exc:  # every kind of stop is reported, and none stops the other notebooks
-            failed[nb] = _stopped(exc)
-            _say(f"FAILED {nb}: {failed[nb]}")
-            if not isinstance(exc, ValueError | OSError) and type(exc).__name__ != "PapermillExecutionError":
+            if isinstance(exc, PublishError):
+                failed[nb] = Unfinished("not published", str(exc))
+            else:
+                failed[nb] = Unfinished("stopped" if executed.is_file() else "did not run", _error(exc))
+            _say(f"FAILED {nb}: {failed[nb].sentence()}")
+            if not isinstance(exc, PublishError) and type(exc).__name__ != "PapermillExecutionError":
                 _say(traceback.format_exc().rstrip())  # not a stop the notebook explains: where it came from
             continue
-        _say(f"executed {nb} -> {out}; published {len(files)} files")
+        _say(f"executed {nb} -> {executed}; published {len(files)} files")
+    if failed:
+        output.mkdir(parents=True, exist_ok=True)
+        (output / UNFINISHED).write_text(json.dumps({nb.name: list(u) for nb, u in failed.items()}, indent=1))
     if report is not None:
-        index = build_report(output, report, {nb.name: why for nb, why in failed.items()})
-        _say(f"report: {index}" + (f" ({len(failed)} of {len(notebooks)} notebooks failed)" if failed else ""))
+        index = build_report(output, report)
+        ran = f" ({len(failed)} of {len(published)} notebooks failed)" if failed else ""
+        _say(f"report: {index}{ran}")
     return failed
 
 
-def _published_parameters_of(notebooks: list[Path], output: Path) -> dict[Path, dict]:
+def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> dict[Path, dict]:
     """Each notebook's published parameters, checked (:func:`reproduce`): every problem found, in one ``ValueError``."""
-    problems, published = [], {}
-    if output.exists() and not output.is_dir():
-        problems.append(f"--output {output} is a file, not a folder")
+    from . import paths
+
+    problems: list[str] = []
+    for option, folder in (("--output", output), ("--report", report)):
+        if folder is not None and folder.exists() and not folder.is_dir():
+            problems.append(f"{option} {folder} is a file, not a folder")
+    home = paths.notebooks_dir().resolve()
+    if output.resolve() == home:
+        problems.append(f"--output {output} is the notebooks' own folder: the executed notebooks would replace them")
+    published: dict[Path, dict] = {}
+    seen: dict[Path, Path] = {}
     for nb in notebooks:
         if not nb.is_file():
             problems.append(f"{nb}: no such notebook")
             continue
-        if output.exists() and output.resolve() == nb.parent.resolve():
-            problems.append(f"--output {output} is the folder of {nb}: the executed notebooks would replace it")
+        if nb.resolve() in seen:
+            continue  # given twice: run once
+        seen[nb.resolve()] = nb
+        if nb.resolve().parent != home:
+            problems.append(f"{nb}: not one of the compendium's notebooks ({home}): only those publish")
+            continue
         try:
             published[nb] = published_overrides(nb)
-            check_parameters(nb, published[nb])
-        except (ValueError, SyntaxError) as exc:
+        except (ValueError, SyntaxError, OSError) as exc:
             problems.append(f"{nb}: its published parameters (notebooks/published.toml): {exc}")
+            continue
+        try:
+            check_parameters(nb, published[nb])
+        except (ValueError, SyntaxError, OSError) as exc:
+            problems.append(f"{nb}: {exc}")
     if problems:
         raise ValueError("nothing was run:\n  " + "\n  ".join(problems))
     return published
@@ -463,13 +496,11 @@ def _executed_by_papermill(path: Path) -> bool:
         return False
 
 
-def _stopped(exc: Exception) -> str:
-    """Why a notebook's run was not published, in a line: the cell and its error for a cell that raised."""
+def _error(exc: Exception) -> str:
+    """An error that stopped a run, in a line: the cell and its error for a cell that raised."""
     if type(exc).__name__ == "PapermillExecutionError":
-        return f"did not complete, nothing of it was published: {_cell_error(exc)}"
-    if isinstance(exc, PublishError):
-        return f"ran to the end, but its run was not published: {exc}"
-    return f"did not run: {type(exc).__name__}: {exc}"
+        return _cell_error(exc)
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _cell_error(exc: Exception) -> str:
@@ -477,7 +508,7 @@ def _cell_error(exc: Exception) -> str:
     return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
 
 
-def build_report(executed: str | Path, output: str | Path, unfinished: dict[str, str] | None = None) -> Path:
+def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[str, Unfinished] | None = None) -> Path:
     """The HTML report of every executed notebook in ``executed``, written into ``output``; the index's path
     (:func:`compendium.report.build_report`, which says what ``unfinished`` is)."""
     from .report import build_report as build
@@ -561,7 +592,7 @@ def main(argv: list[str] | None = None) -> int:
             failed = reproduce(args.notebooks, args.output, kernel=args.kernel, report=args.report)
             if failed:
                 for nb, reason in failed.items():
-                    print(f"error: {nb} {reason}", file=sys.stderr)
+                    print(f"error: {nb} {reason.sentence()}", file=sys.stderr)
                 return 1
         elif args.command == "store":
             for nb in _each(args.notebooks, "store"):

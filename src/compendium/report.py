@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from html.parser import HTMLParser
 from pathlib import Path
+from typing import NamedTuple
 
 #: tags, as myst-nb reads them: the cell, its code or its outputs left out of the page, or folded away
 REMOVE_CELL, REMOVE_INPUT, REMOVE_OUTPUT = "remove-cell", "remove-input", "remove-output"
@@ -356,6 +357,30 @@ def verdicts(nb) -> list[Verdict]:
 # -- pages -------------------------------------------------------------------------------------------------------
 
 
+class Unfinished(NamedTuple):
+    """Why a notebook's run of :func:`compendium.notebooks.reproduce` is not in the published record."""
+
+    #: ``"stopped"`` (it ran and stopped before its end: a cell raised, the kernel died or timed out),
+    #: ``"not published"`` (it ran to its end and :func:`compendium.notebooks.publish_run` refused it) or
+    #: ``"did not run"`` (no executed notebook: the kernel did not start)
+    kind: str
+    #: the error, in a line
+    why: str
+
+    def sentence(self) -> str:
+        """What happened, as a clause after the notebook's name."""
+        said = {
+            "stopped": "did not complete, nothing of it was published",
+            "not published": "ran to the end, but its run was not published",
+            "did not run": "did not run",
+        }
+        return f"{said[self.kind]}: {self.why}"
+
+
+#: the file, beside the executed notebooks, where :func:`compendium.notebooks.reproduce` records its unfinished runs
+UNFINISHED = "unfinished-runs.json"
+
+
 @dataclass
 class Page:
     """One notebook of the report: its file, the notebook as shown (:func:`prepare`), title, run and verdicts."""
@@ -365,8 +390,8 @@ class Page:
     title: str
     facts: RunFacts
     verdicts: list[Verdict]
-    #: why a run that completed was not published (:func:`compendium.notebooks.reproduce`), or ``None``
-    not_published: str | None = None
+    #: why the run is not in the published record (:func:`compendium.notebooks.reproduce`), or ``None``
+    unfinished: Unfinished | None = None
 
     @property
     def href(self) -> str:
@@ -559,8 +584,10 @@ def _published(facts: RunFacts) -> str:
 
 
 def _outcome(page: Page) -> str:
-    if page.facts.failure is None and page.not_published:
-        return f'completed, <span class="report-fail">not published</span>: {html.escape(page.not_published)}'
+    left = page.unfinished
+    if page.facts.failure is None and left is not None:
+        done = "completed, " if left.kind == "not published" else ""
+        return f'{done}<span class="report-fail">{html.escape(left.kind)}</span>: {html.escape(left.why)}'
     if page.facts.failure is None:
         return '<span class="report-pass">completed</span>'
     cell, ename, evalue = page.facts.failure
@@ -686,16 +713,20 @@ def index_html(
         )
     checks = [v for p in pages for v in p.verdicts]
     failed = sum(not v.passed for v in checks)
-    stopped = sum(p.facts.failure is not None for p in pages)
-    unpublished = sum(p.facts.failure is None and bool(p.not_published) for p in pages)
+    kinds = [None if p.unfinished is None else p.unfinished.kind for p in pages]
+    stopped = sum(p.facts.failure is not None or kind == "stopped" for p, kind in zip(pages, kinds))
+    unpublished = sum(p.facts.failure is None and kind == "not published" for p, kind in zip(pages, kinds))
     dated = sorted(p.facts.executed for p in pages if p.facts.executed)
     when = (
         f"executed by papermill from {dated[0]} to {dated[-1]}"
         if dated
         else "their stored outputs (no run date recorded)"
+        if pages
+        else "none"
     )
+    bad = failed or stopped or unpublished or not_run
     summary = (
-        f'<span class="{"report-fail" if failed or stopped else "report-pass"}">{len(checks) - failed} of '
+        f'<span class="{"report-fail" if bad else "report-pass"}">{len(checks) - failed} of '
         f"{len(checks)} printed checks ok</span> in {_count(len(pages), 'notebook')}"
         + (f"; {failed} failed" if failed else "")
         + (f"; {_count(stopped, 'notebook')} stopped before the end" if stopped else "")
@@ -726,40 +757,47 @@ def index_html(
 PAGES_WRITTEN = ".report-pages"
 
 
-def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[str, str] | None = None) -> Path:
+def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[str, Unfinished] | None = None) -> Path:
     """Write the report of every executed notebook in ``executed`` into ``output``: one page per notebook
     (:func:`render_page`), ``index.html`` (:func:`index_html`) and the MathJax they load
     (:func:`compendium.mathjax.copy_mathjax`); the index's path. The pages an earlier build wrote there and this
     one does not are removed (they would be of other runs); nothing else in ``output`` is touched.
 
-    ``unfinished``: notebook file name -> why its run did not complete or was not published (from
-    :func:`compendium.notebooks.reproduce`). Its page says so; a notebook that left no executed notebook gets a row of
-    the index of its own.
+    ``unfinished``: notebook file name -> why its run is not in the published record
+    (:func:`compendium.notebooks.reproduce`); by default what ``reproduce`` recorded beside the executed notebooks
+    (:data:`UNFINISHED`). Its page says so; a notebook that left no executed notebook gets a row of the index.
     """
     from .mathjax import copy_mathjax
 
     executed, output = Path(executed), Path(output)
-    unfinished = dict(unfinished or {})
+    if unfinished is None:
+        recorded = executed / UNFINISHED
+        unfinished = (
+            {k: Unfinished(*v) for k, v in json.loads(recorded.read_text()).items()} if recorded.is_file() else {}
+        )
     notebooks = sorted(executed.glob("*.ipynb")) if executed.is_dir() else []
     if not notebooks and not unfinished:
         raise FileNotFoundError(
-            f"no executed notebooks in {executed} (python -m compendium.notebooks reproduce, or make reproduce, "
-            "executes them there)"
+            f"no executed notebooks in {executed} (python -m compendium.notebooks reproduce, or make reproduce or make "
+            "notebooks, executes them there)"
         )
     if output.exists() and not output.is_dir():
         raise NotADirectoryError(f"the report's folder {output} is a file")
+    if any(path.stem == "index" for path in notebooks):
+        raise ValueError(f"{executed / 'index.ipynb'}: its page would replace the report's index; rename it")
     output.mkdir(parents=True, exist_ok=True)
     export = exporter(copy_mathjax(output / "mathjax"))
     env, git = environment(), git_state()
     pages = [read_page(path) for path in notebooks]
     for page in pages:
-        page.not_published = unfinished.get(page.path.name)
+        page.unfinished = unfinished.get(page.path.name)
     for k, page in enumerate(pages):
         previous = pages[k - 1] if k > 0 else None
         following = pages[k + 1] if k + 1 < len(pages) else None
         (output / page.href).write_text(render_page(export, page, previous, following, env, git), encoding="utf-8")
     _remove_earlier_pages(output, {page.href for page in pages})
-    not_run = {name: why for name, why in unfinished.items() if name not in {p.path.name for p in pages}}
+    shown = {p.path.name for p in pages}
+    not_run = {name: left.why for name, left in unfinished.items() if name not in shown}
     built = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     (output / "index.html").write_text(index_html(pages, env, git, built, executed, not_run), encoding="utf-8")
     return output / "index.html"
@@ -769,8 +807,11 @@ def _remove_earlier_pages(output: Path, written: set[str]) -> None:
     """Remove the pages an earlier build listed in ``output``'s :data:`PAGES_WRITTEN` that this one did not write,
     and list this build's."""
     listed = output / PAGES_WRITTEN
-    earlier = set(listed.read_text().split()) if listed.is_file() else set()
+    try:
+        earlier = set(json.loads(listed.read_text())) if listed.is_file() else set()
+    except ValueError:  # not a list this function wrote: remove nothing
+        earlier = set()
     for name in sorted(earlier - written):
-        if re.fullmatch(r"[\w.-]+\.html", name):
+        if name.endswith(".html") and "/" not in name and name != "index.html":
             (output / name).unlink(missing_ok=True)
-    listed.write_text("".join(f"{name}\n" for name in sorted(written)))
+    listed.write_text(json.dumps(sorted(written)))
