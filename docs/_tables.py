@@ -151,21 +151,22 @@ def _span(values, spec: str) -> str:
 def _percent(fraction: float, bound: str | None = None) -> str:
     """``fraction`` in per cent, rounded to the nearest, or (``bound``) to the side a sentence can claim: ``"most"``
     up (``within 7 %`` for 6.3 %), ``"least"`` down (``85 % fewer`` for 85.6 %)."""
-    percent = 100 * fraction
+    percent = round(100 * fraction, 9)  # 100 * 0.07 is 7.000000000000001: not 8 % "at most"
     rounded = {None: round, "most": math.ceil, "least": math.floor}[bound](percent)
     return f"{rounded:.0f} %"
 
 
-def _sci(x: float, bound: str | None = None) -> str:
-    """``x`` to one significant digit as prose writes it, ``3e-5`` (not Python's ``3e-05``); rounded to the nearest,
-    or (``bound="most"``) up, for a sentence that says "at or below" (``3e-13`` for 2.1e-13)."""
+def _sci(x: float, bound: str | None = None, digits: int = 1) -> str:
+    """``x`` to ``digits`` significant digits as prose writes it, ``3e-5`` (not Python's ``3e-05``); rounded to the
+    nearest, or (``bound="most"``) up, for a sentence that says "at or below" or "within" (``3e-13`` for 2.1e-13)."""
     if bound == "most" and x > 0:
         exponent = math.floor(math.log10(x))
-        mantissa = math.ceil(round(x / 10.0**exponent, 9))
-        if mantissa == 10:
-            mantissa, exponent = 1, exponent + 1
-        return f"{mantissa}e{exponent}"
-    mantissa, exponent = f"{x:.0e}".split("e")
+        scale = 10.0 ** (digits - 1)
+        mantissa = math.ceil(round(x / 10.0**exponent * scale, 9)) / scale
+        if mantissa >= 10:
+            mantissa, exponent = mantissa / 10, exponent + 1
+        return f"{mantissa:.{digits - 1}f}e{exponent}"
+    mantissa, exponent = f"{x:.{digits - 1}e}".split("e")
     return f"{mantissa}e{int(exponent)}"
 
 
@@ -181,10 +182,11 @@ def _desai_conway() -> dict[str, str]:
     reach = _read(DERIVED / "fast_slow_cost_to_reach.csv")
     values = {}
     for n in ("table1", "table2"):
-        sizes = {c: _one(ours[n], c, scheme="standard") for c in ("nlp_parameters", "defect_equations")}
-        printed = {c: _one(paper[n], c, scheme="standard") for c in sizes}
-        if sizes != printed:  # the page says they reproduce exactly
-            raise ValueError(f"{n}: the standard scheme's NLP sizes {sizes} are not the paper's {printed}")
+        size = ["scheme", "nlp_parameters", "defect_equations"]
+        mine, printed = (t[size].sort_values("scheme").reset_index(drop=True) for t in (ours[n], paper[n]))
+        if not mine.equals(printed.astype(mine.dtypes.to_dict())):  # the page says every row reproduces exactly
+            raise ValueError(f"{n}: the NLP sizes\n{mine}\nare not the paper's\n{printed}")
+        sizes = {c: _one(ours[n], c, scheme="standard") for c in size[1:]}
         values[f"{n}_standard_size"] = (
             f"{sizes['nlp_parameters']:.0f} parameters and {sizes['defect_equations']:.0f} defects"
         )
@@ -192,7 +194,7 @@ def _desai_conway() -> dict[str, str]:
         (other,) = set(paper[n].scheme) - {"standard"}
         fewer = _one(paper[n], "iterations", scheme=other)
         values[f"paper_{n}_iterations"] = f"{standard:.0f} -> {fewer:.0f}"
-        values[f"paper_{n}_drop"] = _percent(fewer / standard - 1)
+        values[f"paper_{n}_drop"] = _percent(1 - fewer / standard)
     values["table1_slsqp_standard"] = (
         f"{_one(solvers, 'iterations', table='table1', scheme='standard', solver='SLSQP, BFGS Hessian'):.0f}"
     )
@@ -213,7 +215,7 @@ def _desai_conway() -> dict[str, str]:
     on_the_same_fine_mesh = standard.loc[paper_design.fine_segments]  # the standard scheme's errors, row by row
     for error in ("control", "attitude"):
         factor = paper_design[f"{error}_error"].to_numpy() / on_the_same_fine_mesh[f"{error}_error"].to_numpy()
-        values[f"paper_design_{error}_factor"] = f"{factor.min():.0f}"
+        values[f"paper_design_{error}_factor"] = f"{math.floor(factor.min()):.0f}"  # "or more": rounded down
     base = standard.loc[40]
     fast_rows = study[(study.design == "Galerkin, attitude fast") & (study.ratio == 2)]
     same = standard.loc[fast_rows.fine_segments]
@@ -263,6 +265,12 @@ def _switching_detection() -> dict[str, str]:
     summary = _read(DERIVED / "orbit_transfer_summary.csv")
     none = _read(DERIVED / "orbit_transfer_no_detection.csv")
     values = {}
+    only_theirs = vs[(vs.norm_S_slides <= 1e-5) & (vs.norm_S > 1e-5)].sort_values("thrust_N", ascending=False)
+    treatment = {"none": "no detection", "detection": "detection", "correction": "correction"}
+    jacobian = {"fd": "finite differences", "variational": "the variational Jacobian"}
+    values["converged_in_the_slides_only"] = " and ".join(
+        f"{treatment[r.detection]} with {jacobian[r.jacobian]} at {r.thrust_N:g} N" for _, r in only_theirs.iterrows()
+    )
     values["calibration_multipliers"] = ", ".join(f"{c:g}" for c in calibration.multiplier)
     values["calibration_fuels"] = ", ".join(f"{f:.2f}" for f in calibration.fuel_kg)
     values["calibration_switchings"] = ", ".join(f"{n:.0f}" for n in calibration.switchings)
@@ -318,10 +326,18 @@ def _switching_detection() -> dict[str, str]:
     )
     ratio = (none["noise of S, no detection"] / none["noise of S, correction"]).min()
     values["noise_orders_above_correction"] = f"{math.floor(math.log10(ratio)):.0f}"
+    short = none[none["norm_S ours"] > 1e-5].thrust_N  # short of where the slides call a run converged
+    values["no_detection_stopped"] = (
+        f"at {_thrusts(none[none['norm_S slides'] > 1e-5].thrust_N)} in the slides and at {_thrusts(short)} here"
+    )
     values["no_detection_rejected"] = _span(none["rejected % at the solution"], ".0f") + " %"
-    at5 = runs[(runs.thrust_N == 5) & (runs.solver == "hybr") & (runs.jacobian == "fd")].set_index("detection")
-    values["hamiltonian_with_detection"] = _sci(at5.loc[["detection", "correction"], "hamiltonian_drift"].max(), "most")
-    values["hamiltonian_without_detection"] = _sci(at5.loc["none", "hamiltonian_drift"])
+    at5 = runs[runs.thrust_N == 5]
+    seen, blind = at5[at5.detection != "none"], at5[at5.detection == "none"]
+    values["hamiltonian_with_detection"] = _sci(seen.hamiltonian_drift.max(), "most")
+    values["hamiltonian_without_detection"] = (
+        f"{_sci(blind.hamiltonian_drift.min())} to {_sci(blind.hamiltonian_drift.max())} along the "
+        f"{len(blind)} runs without, each at its own stopping point"
+    )
     return values
 
 
@@ -344,9 +360,11 @@ def _goal_missed_by(summary: pd.DataFrame) -> str:
     )
 
 
-def _metres(x: float) -> str:
-    """A distance in m as prose gives it: ``12 mm`` below half a metre, else whole metres."""
-    return f"{1000 * x:.0f} mm" if x < 0.5 else f"{x:.0f} m"
+def _metres(x: float, bound: str | None = None) -> str:
+    """A distance in m as prose gives it: ``12 mm`` below half a metre, else whole metres; rounded to the nearest,
+    or (``bound="most"``) up, for a sentence that says "within"."""
+    value, unit = (1000 * x, "mm") if x < 0.5 else (x, "m")
+    return f"{math.ceil(round(value, 9)) if bound == 'most' else round(value):.0f} {unit}"
 
 
 def _refinement() -> dict[str, str]:
@@ -366,7 +384,7 @@ def _refinement() -> dict[str, str]:
     refined = landing[(landing.mesh == "refined") & (landing.tolerance == 1e-6)].iloc[0]
     uniform = landing[landing.mesh == "uniform"].sort_values("collocation_points").iloc[-1]
     values["entry_landing_refined"] = (
-        f"{refined.collocation_points:.0f} refined points land within {_metres(refined.position_error_m)} with the "
+        f"{refined.collocation_points:.0f} refined points land within {_metres(refined.position_error_m, 'most')} with the "
         f"admissible control; {uniform.collocation_points:.0f} uniform points, {_metres(uniform.position_error_m)}"
     )
     radau = lunar[lunar.scheme == "Radau"]
@@ -385,6 +403,11 @@ def _refinement() -> dict[str, str]:
     tumour = beyond[(beyond.problem == "tumour") & (beyond.start == "Radau 4 x 10")].iloc[0]
     reached = "met the tolerance" if tumour.met else f"stopped ({tumour.outcome})"
     values["tumour_radau"] = f"{reached} after {tumour.mesh_iterations:.0f} meshes (J = {tumour.objective:.3f})"
+    values["tumour_elsewhere"] = (
+        "has stalled at a worse local optimum, the dose chattering where the drug budget runs out"
+        if tumour.met
+        else "has met the tolerance"
+    )
     values["tumour_hlgl"] = f"{_one(beyond, 'objective', problem='tumour', start='HLGL 10'):.3f}"
     values["tumour_published"] = f"{tumour.published:.3f}"
     values["shuttle_iterations"] = (
@@ -434,7 +457,7 @@ def _direct_to_indirect() -> dict[str, str]:
             f"|S| stalls at {_sci(blind.norm_S.max())} without detection and reaches {_sci(seen.norm_S.max(), 'most')} or "
             "below with it"
         ),
-        "goddard_junctions_error": f"{goddard.error.max():.1e}",
+        "goddard_junctions_error": _sci(goddard.error.max(), "most", digits=2),
         "transfer_extremal": (
             f"{transfer.value['fuel_kg']:.2f} kg, {transfer.value['switchings']:.0f} switchings, against their "
             f"{transfer.reference['fuel_kg']:.2f} kg and {transfer.reference['switchings']:.0f}"

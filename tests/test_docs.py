@@ -129,6 +129,9 @@ def test_bounds_the_prose_states_are_rounded_to_the_side_it_claims():
     assert tables._percent(0.249, "least") == "24 %" and tables._percent(0.25, "most") == "25 %"
     assert tables._sci(3.2e-5) == "3e-5" and tables._sci(2.14e-13, "most") == "3e-13"
     assert tables._sci(9.5e-8, "most") == "1e-7" and tables._sci(2e-13, "most") == "2e-13"
+    assert tables._sci(1.2149e-10, "most", digits=2) == "1.3e-10" and tables._sci(1.2149e-10, digits=2) == "1.2e-10"
+    assert tables._percent(0.07, "most") == "7 %" and tables._percent(0.29, "least") == "29 %"
+    assert tables._metres(0.005158, "most") == "6 mm" and tables._metres(0.005158) == "5 mm"
 
 
 def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
