@@ -174,7 +174,8 @@ def test_provenance_names_commit_machine_python_packages_and_the_run(report, whe
         assert "not a git checkout" in page
     else:
         assert f"<code>{commit[:12]}</code>" in page
-        dirty = bool(_git("status", "--porcelain", "--untracked-files=no"))
+        changed = [line[3:] for line in _git("status", "--porcelain", "--untracked-files=no").splitlines()]
+        dirty = any(not f.startswith(("figures/", "data/derived/")) for f in changed)
         assert ('class="report-fail">dirty</span>' in page) is dirty and ('">clean</span>' in page) is not dirty
     assert env["platform"] in page and "logical CPUs" in page and env["python"] in page
     for name in PACKAGES:
@@ -188,6 +189,32 @@ def test_provenance_names_commit_machine_python_packages_and_the_run(report, whe
     assert published is (where != "05_orbit_transfer")  # notebooks/published.toml: the orbit transfer's full run
     if not published:
         assert '<code class="changed">thrusts = [5.0, 1.0]</code>' in page
+
+
+def test_a_record_rewritten_by_runs_is_not_a_dirty_checkout(tmp_path):
+    """After make reproduce on another machine, the published record differs from the commit's at rounding level:
+    the report says so apart, and the checkout stays clean; a changed source makes it dirty."""
+    import subprocess
+
+    from compendium.report import _commit, git_state
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+
+    git("init", "-q")
+    (tmp_path / "data" / "derived").mkdir(parents=True)
+    (tmp_path / "data" / "derived" / "x.csv").write_text("1\n")
+    (tmp_path / "src.py").write_text("")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "x")
+    (tmp_path / "data" / "derived" / "x.csv").write_text("1.0000000001\n")
+    state = git_state(tmp_path)
+    assert state is not None and not state["dirty"] and state["record"] == ["data/derived/x.csv"]
+    text = _commit(state)
+    assert '">clean</span>; the published record' in text and "differs from the commit's in 1 file," in text
+    (tmp_path / "src.py").write_text("changed")
+    state = git_state(tmp_path)
+    assert state is not None and state["dirty"] and state["changed"] == ["src.py"]
 
 
 def test_verdicts_are_read_from_what_compendium_checks_prints(capsys):

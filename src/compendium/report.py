@@ -198,9 +198,14 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine() or "unknown CPU"
 
 
+#: the published record: what the notebooks' published runs rewrite (not the code or inputs a run is of)
+RECORD = ("figures/", "data/derived/")
+
+
 def git_state(root: Path | None = None) -> dict | None:
-    """The commit checked out in ``root`` (default the repository), its date, and the tracked files changed since
-    (``dirty``); ``None`` outside a git checkout."""
+    """The commit checked out in ``root`` (default the repository), its date, the tracked files changed since but
+    for the published record (``changed``; ``dirty`` if any) and the files of the record changed since (``record``:
+    rewritten by runs, as ``make reproduce``'s are on another machine); ``None`` outside a git checkout."""
     from . import paths
 
     root = Path(root) if root is not None else paths.repo_root()
@@ -218,9 +223,11 @@ def git_state(root: Path | None = None) -> dict | None:
     commit = git("rev-parse", "HEAD")
     if commit is None:
         return None
-    changed = [line[3:] for line in (git("status", "--porcelain", "--untracked-files=no") or "").splitlines()]
+    every = [line[3:] for line in (git("status", "--porcelain", "--untracked-files=no") or "").splitlines()]
+    record = [f for f in every if f.startswith(RECORD)]
+    changed = [f for f in every if f not in record]
     date = (git("log", "-1", "--format=%cI", "HEAD") or "").strip()
-    return {"commit": commit.strip(), "date": date, "dirty": bool(changed), "changed": changed}
+    return {"commit": commit.strip(), "date": date, "dirty": bool(changed), "changed": changed, "record": record}
 
 
 @dataclass
@@ -612,6 +619,13 @@ def _commit(git: dict | None) -> str:
         changed = ", ".join(f"<code>{html.escape(f)}</code>" for f in git["changed"][:6])
         more = f" and {len(git['changed']) - 6} more" if len(git["changed"]) > 6 else ""
         state = f'<span class="report-fail">dirty</span>: tracked files changed since: {changed}{more}'
+    record = git.get("record") or []
+    if record:
+        state += (
+            f"; the published record (<code>figures/</code>, <code>data/derived/</code>) differs from the commit's in "
+            f"{_count(len(record), 'file')}, rewritten by runs since (<code>make reproduce</code> compares them with "
+            "it by the reproducibility contract)"
+        )
     return f"<code>{git['commit'][:12]}</code> of {html.escape(str(git['date'])[:10])}, {state}"
 
 
