@@ -151,6 +151,8 @@ def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
     assert (clone / "build" / "lunar_40.ipynb").is_file()
     record = json.loads((run_dir / "data" / "derived" / "runs" / "01_lunar_ascent.json").read_text())
     assert record["parameters"]["segments"] == 40 and record["published_parameters"] is False
+    head = subprocess.run(["git", "-C", str(clone), "rev-parse", "HEAD"], capture_output=True, text=True).stdout
+    assert record["git"]["commit"] == head.strip() and record["git"]["dirty"] is False, "the checkout it ran at"
     assert json.loads((run_dir / "data" / "derived" / "lunar_ascent_summary.json").read_text())["segments"] == 40
     assert (run_dir / "figures" / "figure6_theta.png").is_file()
     status = subprocess.run(

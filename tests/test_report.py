@@ -333,6 +333,8 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
     monkeypatch.setenv("OCPKIT_ROOT", str(root))
     run = tmp_path / "runs" / "demo" / "defaults"
     record = {"notebook": "demo", "published_parameters": True, "parameters": {"n": 3}, "files": []}
+    checkout = {"commit": "abc123def4567890", "date": "2026-01-01T00:00:00", "dirty": True, "changed": ["src/x.py"]}
+    record["git"] = checkout | {"record": []}  # what Outputs.publish records: the checkout the run was of
     (run / "data" / "derived" / "runs").mkdir(parents=True)
     (run / "data" / "derived" / "runs" / "demo.json").write_text(json.dumps(record))
     shutil.copy(run / "data" / "derived" / "runs" / "demo.json", root / "data" / "derived" / "runs" / "demo.json")
@@ -345,6 +347,8 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
     for text in (page, index):
         assert f"<code>{run}/</code>, and copied into the published record" in text
     assert "not a git checkout" in index  # OCPKIT_ROOT, no repository of its own
+    assert "<code>abc123def456</code> of 2026-01-01" in page and "<code>src/x.py</code>" in page
+    assert "(when the run ended, from its record)" in page
 
     (root / "data" / "derived" / "runs" / "demo.json").write_text("{}")  # another run published since
     executed = _executed_demo(root, tmp_path / "executed", run, fails=True, n=3)

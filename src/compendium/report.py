@@ -629,6 +629,13 @@ def _commit(git: dict | None) -> str:
     return f"<code>{git['commit'][:12]}</code> of {html.escape(str(git['date'])[:10])}, {state}"
 
 
+def _commit_row(facts: RunFacts, git: dict | None) -> str:
+    """The commit the run was of, as its record says, or (a run recorded without it) the checkout's now."""
+    if facts.record is not None and "git" in facts.record:
+        return f"<dt>Commit</dt><dd>{_commit(facts.record['git'])} <small>(when the run ended, from its record)</small></dd>"
+    return f"<dt>Commit</dt><dd>{_commit(git)} <small>(the checkout now; the run recorded none)</small></dd>"
+
+
 def _environment_rows(env: dict, python: str | None = None) -> str:
     packages = ", ".join(f"{html.escape(k)} {html.escape(v)}" for k, v in env["packages"].items())
     kernel = f" (the kernel: Python {html.escape(python)})" if python and python not in env["python"] else ""
@@ -689,7 +696,7 @@ def _page_box(page: Page, env: dict, git: dict | None) -> str:
 <dt>Parameters</dt><dd>{_parameters(facts)} <small>(from {html.escape(facts.parameters_from)})</small></dd>
 <dt>Published run</dt><dd>{_published(facts)}</dd>
 <dt>Figures, tables</dt><dd>{figures_went(facts)}</dd>
-<dt>Commit</dt><dd>{_commit(git)}</dd>
+{_commit_row(facts, git)}
 {_environment_rows(env, facts.python)}
 </dl>
 <h2 id="report-checks">Checks ({_tally(page)})</h2>
