@@ -461,14 +461,14 @@ def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> d
     if output.resolve() == home:
         problems.append(f"--output {output} is the notebooks' own folder: the executed notebooks would replace them")
     published: dict[Path, dict] = {}
-    seen: dict[Path, Path] = {}
+    seen: set[Path] = set()
     for nb in notebooks:
         if not nb.is_file():
             problems.append(f"{nb}: no such notebook")
             continue
         if nb.resolve() in seen:
             continue  # given twice: run once
-        seen[nb.resolve()] = nb
+        seen.add(nb.resolve())
         if nb.resolve().parent != home:
             problems.append(f"{nb}: not one of the compendium's notebooks ({home}): only those publish")
             continue

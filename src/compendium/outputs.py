@@ -366,6 +366,7 @@ class Outputs:
             (self.root / rel).unlink(missing_ok=True)
         inputs = _kernel_inputs()
         from .notebooks import parameters_cell
+        from .report import git_state
 
         tracked = paths.notebooks_dir() / f"{self.notebook}.ipynb"
         record = {
@@ -375,7 +376,7 @@ class Outputs:
             "files": self.files,
             "code": executed_code(inputs, parameters_cell(tracked).source) if inputs is not None else None,
             "timings": self.timings,
-            "git": _checkout(),
+            "git": git_state(),  # the commit the run's code was at when it ended, and what was changed since
         }
         (self.root / RUNS).mkdir(parents=True, exist_ok=True)
         tmp = previous.with_suffix(f".json.{os.getpid()}")
@@ -387,14 +388,6 @@ class Outputs:
         figures = sum(f.startswith("figures/") and not f.startswith(f"{FIGURE_DATA}/") for f in self.files)
         tables = sum(f.startswith("data/") for f in self.files)
         print(f"wrote {figures} figure files and {tables} tables to {self._display(self.root)}")
-
-
-def _checkout() -> dict | None:
-    """The commit the run's code was at when it ended, and what was changed since, for its record (the report's
-    provenance, :func:`compendium.report.git_state`); ``None`` outside a git checkout."""
-    from .report import git_state
-
-    return git_state()
 
 
 def _remove_if_empty(folder: Path) -> None:
