@@ -33,6 +33,15 @@ PUBLIC_MODULES = [
     "ocpkit.nlp",
     "ocpkit.nodes",
     "ocpkit.problem",
+    "ocpkit.statement",
+    "ocpkit.statement.bounds",
+    "ocpkit.statement.constraints",
+    "ocpkit.statement.functions",
+    "ocpkit.statement.guess",
+    "ocpkit.statement.problem",
+    "ocpkit.statement.symbols",
+    "ocpkit.statement.times",
+    "ocpkit.statement.variables",
     "ocpkit.regularisation",
     "ocpkit.scaling",
     "ocpkit.shooting",
@@ -169,7 +178,7 @@ def test_the_public_callables_are_found():
     """The check below sees what a user calls (a change of how the names are collected would skip them silently)."""
     found = _public_callables()
     for name in (
-        "ocpkit.problem.OptimalControlProblem",
+        "ocpkit.statement.problem.OptimalControlProblem",
         "ocpkit.transcription.hlgl.HLGL",
         "ocpkit.transcription.radau.Radau",
         "ocpkit.transcription.phases.MultiPhase",

@@ -1,7 +1,9 @@
 """ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
 
 from .errors import SolverError
-from .problem import (
+from .scaling import autoscale
+from .solution import Reintegration, Solution
+from .statement import (
     Constraint,
     Control,
     Duration,
@@ -12,8 +14,6 @@ from .problem import (
     OptimalControlProblem,
     State,
 )
-from .scaling import autoscale
-from .solution import Reintegration, Solution
 from .trajectory import Trajectory
 from .transcription import (
     HLGL,

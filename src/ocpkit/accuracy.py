@@ -33,8 +33,8 @@ from .nodes import lgr_estimate_points
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .problem import ConstraintSet, OptimalControlProblem
     from .solution import Solution
+    from .statement import ConstraintSet, OptimalControlProblem
     from .trajectory import Trajectory
     from .transcription.phases import MultiPhaseSolution
 

@@ -33,7 +33,7 @@ from numpy.polynomial import chebyshev
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .problem import ProblemFunctions
+    from .statement import ProblemFunctions
     from .trajectory import Trajectory
 
 #: Chebyshev points per interval at least (a transcription's control polynomial has a lower degree)

@@ -41,10 +41,10 @@ from .monotone import as_terminal
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
-    from .problem import OptimalControlProblem
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
     from .solution import Solution
+    from .statement import OptimalControlProblem
     from .trajectory import Trajectory
     from .transcription import Transcription
 
@@ -452,7 +452,7 @@ def _resolved_from(
     parameters, at the parameter values of ``statement``, with the first solve's IPOPT options. None where the
     solution has no transcription, where that transcription warm-started from the solution does not give it back
     (not the NLP it solved: a phase cut from its links), or where a solve fails."""
-    from .problem import Guess
+    from .statement import Guess
 
     transcription = _transcription(solution)
     if transcription is None:

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
-from .problem import Constraint, Control, OptimalControlProblem
+from .statement import Constraint, Control, OptimalControlProblem
 from .structure import Arc, Inequality, Structure, inequalities
 
 if TYPE_CHECKING:

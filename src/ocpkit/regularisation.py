@@ -21,7 +21,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from .problem import OptimalControlProblem
+from .names import call
+from .statement import OptimalControlProblem
 
 
 def penalise_control(
@@ -46,9 +47,10 @@ def penalise_control(
     scale = [problem.controls[i].scale for i in index]
     base = problem._spec["lagrange"]
 
-    def lagrange(x: Any, u: Any, t: Any, *parameters: Any) -> Any:
+    def lagrange(x: Any, u: Any, t: Any, p: Any = None) -> Any:
         penalty = sum(((u[i] - s) / c) ** 2 for i, s, c in zip(index, shift, scale))
-        own = 0 if base is None else base(x, u, t, *parameters)
+        # the problem's own running cost, called as the problem calls it: (x, u, t) or (x, u, t, p)
+        own = 0 if base is None else call(base, [x, u, t], p, has_parameters=p is not None, what="lagrange")
         return own + weight * penalty
 
     return problem.replace(

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .problem import Constraint, FreeFinalTime, Guess, OptimalControlProblem, Variable
+from .statement import Constraint, FreeFinalTime, Guess, OptimalControlProblem, Variable
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from ._deprecation import renamed
-from .problem import OptimalControlProblem
+from .statement import OptimalControlProblem
 from .trajectory import Reintegration, Trajectory
 
 if TYPE_CHECKING:

@@ -33,7 +33,7 @@ import numpy as np
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .problem import OptimalControlProblem
+    from .statement import OptimalControlProblem
     from .trajectory import Trajectory
 
 #: the kinds of arc, in the order of :func:`control_structure`'s classification

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     import pandas as pd
     from numpy.typing import ArrayLike
 
-    from .problem import OptimalControlProblem
+    from .statement import OptimalControlProblem
 
 
 @dataclass

@@ -13,7 +13,7 @@ import math
 
 import casadi as ca
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 from .lunar_ascent import ascent_rates, ascent_states, lunar_ascent_constants

@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ocpkit.problem import Constraint, Control, OptimalControlProblem, State
+from ocpkit import Constraint, Control, OptimalControlProblem, State
 
 
 def bryson_denham(limit: float = 1.0 / 9.0) -> OptimalControlProblem:

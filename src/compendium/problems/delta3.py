@@ -36,7 +36,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocpkit.problem import Constraint, Control, FreeFinalTime, Guess, OptimalControlProblem, State
+from ocpkit import Constraint, Control, FreeFinalTime, Guess, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

@@ -25,7 +25,7 @@ import math
 
 import casadi as ca
 
-from ocpkit.problem import Constraint, Control, OptimalControlProblem, State
+from ocpkit import Constraint, Control, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

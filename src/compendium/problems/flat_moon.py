@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

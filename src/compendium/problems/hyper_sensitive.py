@@ -9,7 +9,7 @@ the last few: a uniform mesh wastes its points in the middle.
 
 from __future__ import annotations
 
-from ocpkit.problem import Control, OptimalControlProblem, State
+from ocpkit import Control, OptimalControlProblem, State
 
 
 def hyper_sensitive(tf: float = 10000.0) -> OptimalControlProblem:

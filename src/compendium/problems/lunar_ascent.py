@@ -7,7 +7,7 @@ import math
 
 import casadi as ca
 
-from ocpkit.problem import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ocpkit.problem import Control, OptimalControlProblem, State
+from ocpkit import Control, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

@@ -13,7 +13,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocpkit.problem import Control, FreeFinalTime, OptimalControlProblem, State
+from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
 
 from ._data import load_problem_data
 

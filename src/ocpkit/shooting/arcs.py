@@ -47,14 +47,14 @@ import numpy as np
 from .._arrays import unique
 from ..errors import SolverError
 from ..nodes import cubic_hermite
-from ..problem import FreeFinalTime
+from ..statement import FreeFinalTime
 from ..structure import Structure, inequalities
 from ..trajectory import Trajectory
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from ..problem import ConstraintSet, OptimalControlProblem
+    from ..statement import ConstraintSet, OptimalControlProblem
 
 BANG = ("lower", "upper", "zero")
 

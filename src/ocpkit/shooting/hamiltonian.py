@@ -43,10 +43,11 @@ import casadi as ca
 import numpy as np
 
 from ..names import Named, NamedParameters, call
-from ..problem import Hamiltonian, OptimalControlProblem, _column
+from ..statement import Hamiltonian, OptimalControlProblem
+from ..statement.symbols import column
 
 if TYPE_CHECKING:
-    from ..problem import State
+    from ..statement import State
 
 CONTROL_SETS = ("box", "ball")
 
@@ -265,7 +266,7 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable[..., Any], sample
     names = problem.state_names
     inputs = [Named(ham.x, names, "state"), Named(ham.p, names, "costate")]
     params = NamedParameters(ham.P, problem.parameter_names)
-    u = _column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
+    u = column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
     if u.shape != (nu, 1):
         raise ValueError(
             f"{what} returned shape {u.shape}, expected ({nu}, 1): one expression per control {problem.control_names}"

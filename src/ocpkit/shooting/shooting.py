@@ -45,7 +45,7 @@ import numpy as np
 
 from .._deprecation import renamed, renamed_argument
 from ..errors import SolverError
-from ..problem import FreeFinalTime, OptimalControlProblem
+from ..statement import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, solver_strategy

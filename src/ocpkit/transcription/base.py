@@ -22,8 +22,8 @@ from ..accuracy import (
 )
 from ..errors import SolverError
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP, failure_hint
-from ..problem import AffineScaling, Guess, OptimalControlProblem, State, Variable
 from ..solution import Solution
+from ..statement import AffineScaling, Guess, OptimalControlProblem, State, Variable
 from . import session
 from .mesh import GlobalVariables, Mesh
 from .session import STALL_FALL, STALL_GROWTH, STALL_MESHES, MeshIteration  # noqa: F401 (their home before)

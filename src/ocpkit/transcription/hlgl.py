@@ -30,7 +30,7 @@ from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
-from ..problem import OptimalControlProblem, unwrap_periodic
+from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, h_refined, segment_clock
 

@@ -25,12 +25,12 @@ import casadi as ca
 import numpy as np
 
 from .._deprecation import renamed
-from ..problem import Duration
+from ..statement import Duration
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from ..problem import FreeFinalTime, FreeInitialTime, OptimalControlProblem
+    from ..statement import FreeFinalTime, FreeInitialTime, OptimalControlProblem
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,7 @@ from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block, NLPResult
-from ..problem import OptimalControlProblem, unwrap_periodic
+from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined, segment_clock

@@ -39,8 +39,10 @@ from .._arrays import unique
 from .._deprecation import renamed
 from ..names import Named, NamedParameters, UnknownName, call
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP
-from ..problem import Constraint, ConstraintSet, OptimalControlProblem, _column, _constraint_set, checked_constraints
 from ..solution import Solution
+from ..statement import Constraint, ConstraintSet, OptimalControlProblem
+from ..statement.constraints import checked_constraints
+from ..statement.symbols import column, constraint_set
 from ..trajectory import Reintegration, Trajectory
 from . import session
 from .base import Transcription
@@ -49,7 +51,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from ..accuracy import MultiPhaseAccuracy
-    from ..problem import Variable
+    from ..statement import Variable
 
 
 @dataclass(frozen=True)
@@ -403,7 +405,7 @@ class MultiPhase(session.SolveSession["MultiPhaseSolution"]):
         if not callable(cost):
             raise TypeError(f"cost must be a callable of the phases' ends, got {cost!r}")
         z, q = self._ends[:2]
-        expr = _column(self._call_on_ends(cost, "the trajectory cost"), "the trajectory cost")
+        expr = column(self._call_on_ends(cost, "the trajectory cost"), "the trajectory cost")
         if expr.shape != (1, 1):
             raise ValueError(f"the trajectory cost must be a scalar, got shape {expr.shape}")
         return ca.Function("trajectory_cost", [z, q], [expr])
@@ -412,7 +414,7 @@ class MultiPhase(session.SolveSession["MultiPhaseSolution"]):
         """The linkage constraints compiled into one function ``(z, q) -> g`` with bounds (None without)."""
         constraints = checked_constraints(constraints, "linkage constraints")
         z, q = self._ends[:2]
-        return _constraint_set("linkage", constraints, [z], ["z"], q, self._call_on_ends)
+        return constraint_set("linkage", constraints, [z], ["z"], q, self._call_on_ends)
 
     def _trajectory_blocks(self, row: int) -> list[Block]:
         """The trajectory cost (scaled by :attr:`objective_scale`) and the linkage rows from ``row``."""

@@ -32,7 +32,7 @@ import numpy as np
 from .._arrays import unique
 from ..nlp import Block, NLPResult
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
-from ..problem import OptimalControlProblem, unwrap_periodic
+from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import PathPoints, Transcription, VariableGroup
 from .mesh import Mesh, segment_clock
 

@@ -1,0 +1,180 @@
+"""Compiling a statement: the symbols its callables are called on, and the functions built from them."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ..names import Named, NamedParameters, call
+from .constraints import Constraint, ConstraintSet
+from .functions import ProblemFunctions
+
+
+@dataclass(frozen=True)
+class StatementSymbols:
+    """The symbols a problem statement's callables are called on, with their named views (:mod:`ocpkit.names`).
+
+    ``x, u, t``: a running expression's inputs; ``x0, xf, t0, tf``: a boundary expression's; ``P``: the
+    parameters (fixed values, then free ones), ``p`` its view by name.
+    """
+
+    x: ca.SX
+    u: ca.SX
+    t: ca.SX
+    x0: ca.SX
+    xf: ca.SX
+    t0: ca.SX
+    tf: ca.SX
+    P: ca.SX
+    views: dict[str, list[Any]]
+    p: NamedParameters
+
+    @classmethod
+    def of(
+        cls, state_names: Sequence[str], control_names: Sequence[str], parameter_names: Sequence[str]
+    ) -> StatementSymbols:
+        nx, nu = len(state_names), len(control_names)
+        x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("t")
+        x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+        P = ca.SX.sym("P", len(parameter_names))
+        views = {
+            "running": [Named(x, state_names, "state"), Named(u, control_names, "control"), t],
+            "boundary": [Named(x0, state_names, "state"), Named(xf, state_names, "state"), t0, tf],
+        }
+        return cls(x, u, t, x0, xf, t0, tf, P, views, NamedParameters(P, parameter_names))
+
+    def inputs(self, kind: str) -> list[ca.SX]:
+        """The plain symbols of ``kind`` (``"running"`` or ``"boundary"``), then ``P``: a Function's inputs."""
+        plain = [self.x, self.u, self.t] if kind == "running" else [self.x0, self.xf, self.t0, self.tf]
+        return [*plain, self.P]
+
+    def call(self, fn: Callable[..., Any], kind: str, what: str, *, has_parameters: bool) -> Any:
+        """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`)."""
+        return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
+
+
+def build_functions(
+    nx: int,
+    nu: int,
+    values: dict[str, float],
+    dynamics: Callable[..., Any],
+    lagrange: Callable[..., Any] | None,
+    mayer: Callable[..., Any] | None,
+    *,
+    with_parameters: bool,
+    state_names: Sequence[str],
+    control_names: Sequence[str] | None = None,
+    free_names: Sequence[str] = (),
+    path_constraints: Sequence[Constraint] = (),
+    boundary_constraints: Sequence[Constraint] = (),
+) -> ProblemFunctions:
+    """The problem's CasADi functions from the user's callables (called once, on named symbols: :mod:`ocpkit.names`)."""
+    control_names = [f"u{k}" for k in range(nu)] if control_names is None else list(control_names)
+    sym = StatementSymbols.of(state_names, control_names, [*values, *free_names])
+    x, u, t, P = sym.x, sym.u, sym.t, sym.P
+    x0, xf, s0, sf = sym.x0, sym.xf, sym.t0, sym.tf
+
+    def user(fn: Callable[..., Any], kind: str, what: str) -> Any:
+        return sym.call(fn, kind, what, has_parameters=with_parameters)
+
+    xdot = column(user(dynamics, "running", "dynamics"), "dynamics")
+    if xdot.shape != (nx, 1):
+        raise ValueError(f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {list(state_names)}")
+    f = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
+    L: ca.Function | None = None
+    phi: ca.Function | None = None
+    if lagrange is not None:
+        expr = column(user(lagrange, "running", "lagrange"), "lagrange")
+        if expr.shape != (1, 1):
+            raise ValueError(f"lagrange must return a scalar, got shape {expr.shape}")
+        L = ca.Function("L_p", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["L"])
+    if mayer is not None:
+        expr = column(user(mayer, "boundary", "mayer"), "mayer")
+        if expr.shape != (1, 1):
+            raise ValueError(f"mayer must return a scalar, got shape {expr.shape}")
+        phi = ca.Function("phi_p", [x0, xf, s0, sf, P], [expr], ["x0", "xf", "t0", "tf", "P"], ["phi"])
+    path = constraint_set(
+        "path", path_constraints, [x, u, t], ["x", "u", "t"], P, lambda fn, what: user(fn, "running", what)
+    )
+    boundary = constraint_set(
+        "boundary",
+        boundary_constraints,
+        [x0, xf, s0, sf],
+        ["x0", "xf", "t0", "tf"],
+        P,
+        lambda fn, what: user(fn, "boundary", what),
+    )
+    return ProblemFunctions(f, L, phi, path, boundary)
+
+
+def constraint_set(
+    kind: str,
+    constraints: Sequence[Constraint],
+    inputs: list[Any],
+    input_names: list[str],
+    P: Any,
+    user: Callable[[Callable[..., Any], str], Any],
+) -> ConstraintSet | None:
+    """Compile constraints of one kind into one stacked function ``(inputs..., P) -> g`` and its bounds.
+
+    ``user(fn, what)`` calls a constraint's callable on the named inputs (and the parameters if it takes them).
+    """
+    if not constraints:
+        return None
+    exprs: list[ca.SX] = []
+    lower: list[np.ndarray] = []
+    upper: list[np.ndarray] = []
+    scale: list[np.ndarray] = []
+    sizes: list[int] = []
+    for c in constraints:
+        what = f"{kind} constraint {c.name!r}"
+        try:
+            e = column(user(c.function, what), what)
+        except (TypeError, ValueError, KeyError) as exc:
+            if what in str(exc):
+                raise
+            raise type(exc)(f"{what}: {exc}") from exc
+        if e.shape[1] != 1 or e.numel() == 0:
+            raise ValueError(f"{kind} constraint {c.name!r} must return one or more scalar expressions, got {e.shape}")
+        lo, hi = c.bounds(e.shape[0])
+        exprs.append(e)
+        lower.append(lo)
+        upper.append(hi)
+        scale.append(np.full(e.shape[0], c.scale))
+        sizes.append(e.shape[0])
+    fun = ca.Function(f"{kind}_constraints", [*inputs, P], [ca.vertcat(*exprs)], [*input_names, "P"], ["g"])
+    return ConstraintSet(
+        fun,
+        np.concatenate(lower),
+        np.concatenate(upper),
+        np.concatenate(scale),
+        tuple(c.name for c in constraints),
+        tuple(sizes),
+    )
+
+
+def column(expr: Any, what: str) -> ca.SX:
+    if isinstance(expr, np.ndarray):
+        raise TypeError(
+            f"{what} returned a numpy array: return CasADi expressions (ca.vertcat(...)) or a list of them; "
+            "numpy turns CasADi symbols into NaN"
+        )
+    if isinstance(expr, (list, tuple)):
+        expr = ca.vertcat(*expr)
+    if isinstance(expr, (int, float, ca.DM)):
+        expr = ca.SX(ca.DM(expr))
+    if not isinstance(expr, ca.SX):
+        raise TypeError(f"{what} must return CasADi SX expressions, got {type(expr).__name__}")
+    for k in range(expr.numel()):
+        e = expr[k]
+        if e.is_constant() and math.isnan(float(e)):
+            raise ValueError(
+                f"{what} returned NaN in entry {k}: a math or numpy function (math.cos, np.sqrt) applied to a CasADi "
+                "symbol gives NaN; use CasADi's (ca.cos, ca.sqrt)"
+            )
+    return expr
