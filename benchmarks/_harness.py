@@ -48,7 +48,7 @@ def timed_solve(make_transcription, ipopt_options: dict) -> dict:
     tr.solver(ipopt_options)
     sol = tr.solve(ipopt_options=ipopt_options, error_threshold=None)
     total = time.perf_counter() - t0
-    stats = sol.raw["stats"]
+    stats = sol.nlp_result.stats
     functions = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
     return {
         "nlp_parameters": sol.decision_variables,

@@ -15,7 +15,7 @@ import time
 
 from _harness import best_of, ipopt_overrides, parser, report
 
-from ocpkit import HLGL, Link, MultiPhase, Radau
+from ocpkit import HLGL, Link, Program, Radau
 
 from compendium.paths import build_dir
 from compendium.problems import bryson_denham, delta3_guesses, delta3_mass_drops, delta3_phases
@@ -26,7 +26,9 @@ def delta3(opts):
     t0 = time.perf_counter()
     drops = delta3_mass_drops()
     phases = delta3_phases()
-    mp = MultiPhase([Radau(p, 8, 4) for p in phases], [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)])
+    mp = Program.from_phases(
+        [Radau(p, 8, 4) for p in phases], [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)]
+    )
     sol = mp.solve(delta3_guesses(), ipopt_options={"tol": 1e-8, **opts})
     return {
         "problem": "Delta III, 4 phases",

@@ -26,7 +26,7 @@ import warnings
 
 from _harness import parser, report
 
-from ocpkit import Link, MultiPhase, Radau
+from ocpkit import Link, Program, Radau
 
 from compendium.paper import paper_table
 from compendium.paths import build_dir
@@ -49,7 +49,7 @@ def solve(control: str, guess: str, options: dict, nodes: int = 8, intervals: in
     t = time.perf_counter()
     drops = delta3_mass_drops()
     phases = [Radau(p, nodes, intervals) for p in delta3_phases(control=control)]
-    mp = MultiPhase(phases, [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)])
+    mp = Program.from_phases(phases, [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)])
     s = mp.solve(
         delta3_guesses(guess), ipopt_options={"tol": 1e-8, **options}, error_threshold=None, raise_on_failure=False
     )

@@ -56,7 +56,7 @@ def run(label, make, start, tolerance, opts):
             return {"problem": label, "tolerance": tolerance, "status": f"{exc.status} (mesh {len(exc.mesh_history)})"}
     total = time.perf_counter() - t0
     status = sol.refinement_outcome
-    final = sol.raw["transcription"]
+    final = sol.program
     # the final mesh on its own: a fresh problem (nothing its refinement built is reused) from the default guess
     alone = _same_mesh(final, make())
     t1 = time.perf_counter()

@@ -88,11 +88,11 @@ def test_refinement_meets_the_tolerance_and_puts_points_in_the_boundary_layers(m
     assert lengths[(mid < 0.1) | (mid > 0.9)].min() < lengths[(mid > 0.3) & (mid < 0.7)].min() / 4
     # a uniform mesh of the final mesh's size is far less accurate: the points went where they were needed
     # (measured: Radau 110 points 5e-7 against 2.8e-2 uniform; HLGL 28 segments 9.5e-7 against 1.8e-2)
-    final = sol.raw["transcription"]
+    final = sol.program.scheme
     if isinstance(final, HLGL):
         uniform = HLGL(hyper_sensitive(), final.intervals)
     else:
-        uniform = Radau(hyper_sensitive(), 4, final.n_collocation_points // 4)
+        uniform = Radau(hyper_sensitive(), 4, final.n_collocation // 4)
     assert uniform.solve(error_threshold=None).error_estimate > 100 * sol.error_estimate
 
 
@@ -115,8 +115,8 @@ def test_multirate_refines_its_coarse_mesh():
     tr = MultiRateHLGL(flat_moon_ascent(), 2, ratio=2, fast=["vx", "vy"])
     sol = tr.solve(mesh_tolerance=1e-8)
     assert sol.error_estimate <= 1e-8
-    assert sol.interval_errors.size == 2 * sol.raw["transcription"].intervals
-    assert sol.raw["transcription"].intervals > 2
+    assert sol.interval_errors.size == 2 * sol.program.scheme.intervals
+    assert sol.program.scheme.intervals > 2
 
 
 def minimum_time_double_integrator():
@@ -211,5 +211,5 @@ def test_multiplier_estimates_shorten_a_refinement_and_change_nothing_else():
     tr = HLGL(minimum_energy(), 6)
     exact = tr.solve()
     lbw, ubw, _, _ = tr.nlp_bounds()
-    lam_g, lam_w = tr.nlp.multiplier_estimate(exact.raw["w"], lbw, ubw)
-    assert np.abs(lam_g - exact.raw["lam_g"]).max() < 1e-8 * np.abs(exact.raw["lam_g"]).max()
+    lam_g, lam_w = tr.nlp.multiplier_estimate(exact.nlp_result.w, lbw, ubw)
+    assert np.abs(lam_g - exact.nlp_result.lam_g).max() < 1e-8 * np.abs(exact.nlp_result.lam_g).max()

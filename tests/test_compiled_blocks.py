@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from test_nlp import TRANSCRIPTIONS
 
-from ocpkit import HLGL, MultiPhase
+from ocpkit import HLGL, Program
 from ocpkit import _compiled_blocks as cb
 from ocpkit.nlp import _assemble
 
@@ -42,10 +42,10 @@ def test_a_compiled_solve_is_the_interpreted_one():
         solutions.append(tr.solve(error_threshold=None))
         assert (tr.nlp.compiled is not None) == compile
     a, b = solutions
-    assert np.array_equal(a.raw["w"], b.raw["w"]) and a.iterations == b.iterations
+    assert np.array_equal(a.nlp_result.w, b.nlp_result.w) and a.iterations == b.iterations
     phases = []
     for compile in (False, True):
-        mp = MultiPhase([HLGL(lunar_ascent(), 100), HLGL(lunar_ascent(), 100)])
+        mp = Program.from_phases([HLGL(lunar_ascent(), 100), HLGL(lunar_ascent(), 100)])
         mp.compile = compile
         phases.append(mp.nlp)
     w = np.random.default_rng(1).normal(size=phases[0].n_variables)
@@ -110,7 +110,7 @@ def test_a_choice_of_compile_survives_refinement():
     tr = HLGL(lunar_ascent(), 1500)
     tr.compile = False
     solution = tr.solve(mesh_tolerance=1e-3, max_mesh_iterations=2)
-    last = solution.raw["transcription"]
+    last = solution.program
     assert last.compile is False and last.nlp.compiled is None
     assert _compiled_blocks._normalised(np.True_) is True and _compiled_blocks._normalised(0) is False
 
@@ -142,9 +142,11 @@ def test_a_compiled_multiphase_solve_is_the_interpreted_one(compile_small_blocks
 
     solutions = []
     for compile in (False, True):
-        mp = MultiPhase([HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 100), HLGL(leg(0.5, 1.0, final=(1.0, 0.0)), 100)])
+        mp = Program.from_phases(
+            [HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 100), HLGL(leg(0.5, 1.0, final=(1.0, 0.0)), 100)]
+        )
         mp.compile = compile
         solutions.append(mp.solve(error_threshold=None))
         assert (mp.nlp.compiled is not None) == compile
-    assert np.array_equal(solutions[0].raw["w"], solutions[1].raw["w"])
+    assert np.array_equal(solutions[0].nlp_result.w, solutions[1].nlp_result.w)
     assert solutions[1].objective == pytest.approx(6.0, rel=1e-9)

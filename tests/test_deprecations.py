@@ -57,12 +57,12 @@ def test_nlp_parameters_is_now_decision_variables():
     with pytest.warns(
         DeprecationWarning, match="Solution.nlp_parameters is deprecated; use Solution.decision_variables"
     ):
-        assert sol.nlp_parameters == sol.decision_variables == sol.raw["transcription"].n_decision_variables
+        assert sol.nlp_parameters == sol.decision_variables == sol.program.n_decision_variables
 
 
 def test_block_and_mesh_parameters_are_now_constants():
     tr = HLGL(double_integrator(), 4)
-    block = tr._blocks()[0]
+    block = tr.nlp.blocks[0]
     with pytest.warns(DeprecationWarning, match="Block.parameters is deprecated; use Block.constants"):
         assert block.parameters is block.constants
     with pytest.warns(DeprecationWarning, match="Mesh.parameters is deprecated; use Mesh.block_constants"):

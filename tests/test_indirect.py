@@ -38,7 +38,8 @@ def test_an_extremal_with_a_free_parameter():
 def test_a_solution_without_costates_is_named():
     import dataclasses
 
-    blind = dataclasses.replace(HLGL(race(), 10).solve(error_threshold=None), costate_values=None)
+    seeing = HLGL(race(), 10).solve(error_threshold=None)
+    blind = dataclasses.replace(seeing, phases=[dataclasses.replace(seeing.phases[0], costate_values=None)])
     with pytest.raises(ValueError, match="needs the direct solution's costate estimates, which .* does not give"):
         to_extremal(blind)
 
@@ -195,9 +196,11 @@ def test_a_phase_cut_from_its_links_is_not_confirmed_by_its_own_transcription():
     certificate's gaps fail by name."""
     from test_phases import leg
 
-    from ocpkit import MultiPhase
+    from ocpkit import Program
 
-    linked = MultiPhase([Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)])
+    linked = Program.from_phases(
+        [Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)]
+    )
     phase = linked.solve().phases[1]
     with pytest.raises(SolverError, match=r"failed checks \['objective_gap', 'state_gap'\]") as info:
         to_extremal(phase)
@@ -310,9 +313,9 @@ def test_a_re_solve_from_the_extremal_keeps_the_first_solves_ipopt_options(monke
     from ocpkit.indirect import _resolved_from, _statement
 
     direct = Radau(race(), 4, 15).solve(error_threshold=None, ipopt_options={"max_iter": 321})
-    assert direct.raw["solve_options"] == {"ipopt_options": {"max_iter": 321}, "allow_acceptable": False}
+    assert direct.solve_options.as_kwargs() == {"ipopt_options": {"max_iter": 321}, "allow_acceptable": False}
     extremal = to_extremal(direct)
-    transcription = direct.raw["transcription"]
+    transcription = direct.program
     seen, solve = [], transcription.solve
 
     def spy(*args, **kwargs):

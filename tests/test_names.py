@@ -5,7 +5,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit import HLGL, Control, FreeParameter, MultiPhase, OptimalControlProblem, Radau, State
+from ocpkit import HLGL, Control, FreeParameter, OptimalControlProblem, Program, Radau, State
 from ocpkit.shooting import control_law
 
 
@@ -26,7 +26,7 @@ def test_callables_see_states_and_controls_by_name():
     named = double_integrator(lambda x, u, t: [x["v"], u["u"]], lambda x, u, t: u["u"] ** 2 / 2)
     positional = double_integrator(lambda x, u, t: ca.vertcat(x[1], u[0]), lambda x, u, t: u[0] ** 2 / 2)
     a, b = HLGL(named, 6).solve(), HLGL(positional, 6).solve()
-    assert a.objective == pytest.approx(6.0, rel=1e-10) and np.array_equal(a.raw["w"], b.raw["w"])
+    assert a.objective == pytest.approx(6.0, rel=1e-10) and np.array_equal(a.nlp_result.w, b.nlp_result.w)
 
 
 def test_an_unknown_name_is_named_with_the_callable():
@@ -84,7 +84,7 @@ def test_sample_across_phases():
         )
 
     first = leg(0.0, 0.5, x={"initial": 0.0}, v={"initial": 0.0})
-    sol = MultiPhase([HLGL(first, 5), HLGL(leg(0.5, 1.0, x={"final": 1.0}, v={"final": 0.0}), 5)]).solve()
+    sol = Program.from_phases([HLGL(first, 5), HLGL(leg(0.5, 1.0, x={"final": 1.0}, v={"final": 0.0}), 5)]).solve()
     t, u = sol.sample(lambda x, u, t: u["u"], grid=np.linspace(0, 1, 9))
     assert np.allclose(u, 6 - 12 * t, atol=1e-8)
 

@@ -114,7 +114,8 @@ def test_costates_dataframe_exports_the_estimates_and_refuses_without_them():
     assert np.array_equal(df.to_numpy()[:, 1:], sol.costate_values)
     import dataclasses
 
-    blind = dataclasses.replace(HLGL(min_energy_double_integrator(), 2).solve(), costate_values=None)
+    seeing = HLGL(min_energy_double_integrator(), 2).solve()
+    blind = dataclasses.replace(seeing, phases=[dataclasses.replace(seeing.phases[0], costate_values=None)])
     with pytest.raises(ValueError, match="no costate estimates"):
         blind.costates_dataframe()
 
@@ -235,7 +236,7 @@ def test_the_ordering_is_recorded_and_an_override_wins():
     algebra it ran with, an override wins, and linked phases share a default only where every phase asks for it."""
     from test_phases import leg  # min 1/2 int u^2 from (0, 0) to (1, 0), split at t = 1/2
 
-    from ocpkit import HLGL, Link, MultiPhase
+    from ocpkit import HLGL, Link, Program
     from ocpkit.nlp import linear_solver
 
     from compendium.problems import delta3_mass_drops, delta3_phases, flat_moon_ascent
@@ -248,7 +249,9 @@ def test_the_ordering_is_recorded_and_an_override_wins():
     assert HLGL(problem, 10).solve(error_threshold=None).linear_solver == "mumps (QAMD ordering)"
     drops = delta3_mass_drops()
     links = [Link(k, k + 1, jumps={"m": drops[k]}) for k in range(3)]
-    assert MultiPhase([Radau(p, 8, 4) for p in delta3_phases()], links).ipopt_defaults == {"mumps_pivot_order": 2}
+    assert Program.from_phases([Radau(p, 8, 4) for p in delta3_phases()], links).ipopt_defaults == {
+        "mumps_pivot_order": 2
+    }
     legs = [HLGL(leg(0.0, 0.5, initial=(0.0, 0.0)), 5), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 6, 2)]
-    two = MultiPhase(legs).solve(error_threshold=None)  # HLGL and Radau: ocpkit's default for the one NLP
-    assert two.linear_solver == "mumps (QAMD ordering)" == two.phases[0].linear_solver
+    two = Program.from_phases(legs).solve(error_threshold=None)  # HLGL and Radau: ocpkit's default for the one NLP
+    assert two.linear_solver == "mumps (QAMD ordering)"

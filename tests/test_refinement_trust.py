@@ -16,6 +16,7 @@ from ocpkit import (
     FreeFinalTime,
     FreeParameter,
     OptimalControlProblem,
+    Program,
     Radau,
     SolverError,
     State,
@@ -129,7 +130,7 @@ def test_a_singular_arc_that_ipopt_cannot_finish_fails_loudly_with_the_best_mesh
 def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_solution(monkeypatch):
     tr = Radau(entry_landing(), 4, 10)
     calls = {"n": 0}
-    original = Radau._solve_once
+    original = Program.solve_once
 
     def fail_on_third(self, *args, **kwargs):
         calls["n"] += 1
@@ -137,7 +138,7 @@ def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_s
             raise MemoryError("not enough memory to perform factorisation")
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(Radau, "_solve_once", fail_on_third)
+    monkeypatch.setattr(Program, "solve_once", fail_on_third)
     with pytest.raises(SolverError) as info:
         tr.solve(mesh_tolerance=1e-7)
     err = info.value
@@ -149,7 +150,7 @@ def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_s
 def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(monkeypatch):
     tr = Radau(entry_landing(), 4, 10)
     calls = {"n": 0}
-    original = Radau._solve_once
+    original = Program.solve_once
 
     def starve_second(self, guess, ipopt_options, *args, **kwargs):
         calls["n"] += 1
@@ -158,7 +159,7 @@ def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(mo
             kwargs["estimate_multipliers"] = False
         return original(self, guess, ipopt_options, *args, **kwargs)
 
-    monkeypatch.setattr(Radau, "_solve_once", starve_second)
+    monkeypatch.setattr(Program, "solve_once", starve_second)
     with pytest.raises(SolverError) as info:
         tr.solve(mesh_tolerance=1e-7)
     err = info.value
@@ -351,7 +352,7 @@ def test_a_refinement_whose_next_mesh_would_be_this_one_stops_and_says_so(monkey
     with pytest.warns(AccuracyWarning, match="the next mesh would be this one"):
         sol = tr.solve(mesh_tolerance=1e-6)
     assert len(sol.mesh_history) == 1 and sol.refinement_outcome == "stopped"
-    assert "next mesh would be this one" in sol.refinement_reason and sol.raw["transcription"] is tr
+    assert "next mesh would be this one" in sol.refinement_reason and sol.program is tr.program
 
 
 def test_a_refinement_says_how_it_ended():
@@ -419,15 +420,15 @@ def test_the_unscaled_shuttle_solves_with_autoscale_in_a_fraction_of_the_iterati
 
 
 def test_the_values_of_another_meshs_vector_are_refused_not_misread():
-    """After a refinement, raw["w"] belongs to the last mesh: reading it with the first transcription used to return
+    """After a refinement, nlp_result.w belongs to the last mesh: reading it with the first transcription used to return
     wrong parameter and final-time values without a word."""
     tr = Radau(free_time_with_parameters(), 4, 4)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         sol = tr.solve(mesh_tolerance=1e-6)
-    assert sol.raw["transcription"] is not tr
-    with pytest.raises(ValueError, match=r"belongs to its last mesh, solution.raw\['transcription'\]"):
-        tr.global_values(sol.raw["w"])
-    values = sol.raw["transcription"].global_values(sol.raw["w"])
+    assert sol.program is not tr.program
+    with pytest.raises(ValueError, match=r"belongs to its last mesh, solution.program"):
+        tr.global_values(sol.nlp_result.w)
+    values = sol.program.global_values(sol.nlp_result.w)
     assert values["tf"] == pytest.approx(sol.tf)
     assert values["parameters"]["a"] == pytest.approx(sol.problem.parameters["a"])

@@ -232,7 +232,7 @@ class TranscriptionFamily:
         return built
 
     def _loop(self, transcription):
-        """The transcription's solve loop (:meth:`~ocpkit.Transcription.loop`: a solve at the IPOPT call's cost,
+        """The transcription's solve loop (:meth:`~ocpkit.program.Program.loop`: a solve at the IPOPT call's cost,
         the same result as ``solve``), made once per transcription; None where the solve options ask for more
         than one IPOPT solve of one mesh."""
         options = dict(self.solve_options)
@@ -242,14 +242,15 @@ class TranscriptionFamily:
             return None
         with self._lock:
             loop = self._loops.get(id(transcription))
-        if loop is None or loop.meshed is not transcription:
+        program = getattr(transcription, "program", transcription)  # a scheme bound to its problem, or a Program
+        if loop is None or loop.program is not program:
             # built outside the family's lock (the NLP, IPOPT, perhaps a compilation); the first one built is kept
             built = transcription.loop(
                 ipopt_options=options.get("ipopt_options"), allow_acceptable=options.get("allow_acceptable", False)
             )
             with self._lock:
                 loop = self._loops.get(id(transcription))
-                if loop is None or loop.meshed is not transcription:
+                if loop is None or loop.program is not program:
                     loop = self._loops[id(transcription)] = built
         return loop
 

@@ -1,8 +1,11 @@
 """ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
 
+from typing import Any
+
 from .errors import SolverError
+from .program import LoopResult, Program, SolveLoop
 from .scaling import autoscale
-from .solution import Reintegration, Solution
+from .solution import PhaseSolution, Reintegration, Solution
 from .statement import (
     Constraint,
     Control,
@@ -14,18 +17,9 @@ from .statement import (
     OptimalControlProblem,
     State,
 )
+from .statement.phases import Link, MultiPhaseProblem
 from .trajectory import Trajectory
-from .transcription import (
-    HLGL,
-    Link,
-    LoopResult,
-    MultiPhase,
-    MultiPhaseSolution,
-    MultiRateHLGL,
-    Radau,
-    SolveLoop,
-    Transcription,
-)
+from .transcription import HLGL, MultiPhase, MultiRateHLGL, Radau, Scheme, Transcription, scheme
 
 __version__ = "0.3.0.dev0"
 
@@ -41,11 +35,14 @@ __all__ = [
     "Link",
     "LoopResult",
     "MultiPhase",
-    "MultiPhaseSolution",
+    "MultiPhaseProblem",
     "MultiRateHLGL",
     "OptimalControlProblem",
+    "PhaseSolution",
+    "Program",
     "Radau",
     "Reintegration",
+    "Scheme",
     "Solution",
     "SolveLoop",
     "SolverError",
@@ -53,4 +50,13 @@ __all__ = [
     "Trajectory",
     "Transcription",
     "autoscale",
+    "scheme",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "MultiPhaseSolution":
+        from .transcription import phases
+
+        return phases.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

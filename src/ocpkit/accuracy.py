@@ -33,10 +33,9 @@ from .nodes import lgr_estimate_points
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solution import Solution
+    from .solution import PhaseSolution, Solution
     from .statement import ConstraintSet, OptimalControlProblem
     from .trajectory import Trajectory
-    from .transcription.phases import MultiPhaseSolution
 
 #: Estimate points per interval when a scheme does not say (above the degree of HLGL's quintic states)
 DEFAULT_ESTIMATE_POINTS = 8
@@ -311,7 +310,7 @@ def path_violations(
 
 
 def path_cost_sensitivity(
-    solution: Solution,
+    solution: PhaseSolution,
     breakpoints: ArrayLike | None = None,
     table: tuple[list[str], np.ndarray | None, np.ndarray | None] | None = None,
 ) -> float:
@@ -355,10 +354,10 @@ class Accuracy:
       (:func:`path_violations`), in units of the constraint's scale.
     """
 
-    solution: Solution | MultiPhaseSolution
+    solution: PhaseSolution | Solution
     path: dict[str, float]
 
-    def __init__(self, solution: Solution) -> None:
+    def __init__(self, solution: PhaseSolution) -> None:
         self.solution = solution
         self.state = float(solution.interval_errors.max())
         self.objective_nlp = float(solution.objective)
@@ -406,11 +405,11 @@ class MultiPhaseAccuracy(Accuracy):
     ``state``: the largest phase's; ``path``: per constraint label, the largest over the phases that have it;
     ``objective``: the sum over the phases of ``|J_flown - J| + dJ_path`` (each phase flown from its own
     initial state), plus the trajectory-level cost's change on the flown trajectory (the phases flown in turn
-    through their links: :meth:`~ocpkit.MultiPhaseSolution.flown_trajectory_cost`), relative to
+    through their links: :meth:`~ocpkit.Solution.flown_trajectory_cost`), relative to
     ``max(|J|, objective_scale * 1e-3)``. ``phases``: each phase's :class:`Accuracy`.
     """
 
-    def __init__(self, solution: MultiPhaseSolution) -> None:  # (not Accuracy's: the phases' parts combined)
+    def __init__(self, solution: Solution) -> None:  # (not Accuracy's: the phases' parts combined)
         self.solution = solution
         self.phases = [p.accuracy for p in solution.phases]
         self.state = max(a.state for a in self.phases)
@@ -433,7 +432,7 @@ class MultiPhaseAccuracy(Accuracy):
                 self.path[label] = max(self.path.get(label, 0.0), value)
 
 
-def warn_if_path_violated(label: str, solution: Solution, threshold: float | None, stacklevel: int = 3) -> None:
+def warn_if_path_violated(label: str, solution: PhaseSolution, threshold: float | None, stacklevel: int = 3) -> None:
     """Warn (:class:`AccuracyWarning`) naming each path constraint violated between the scheme's points by more
     than ``threshold`` (in units of its scale; :func:`path_violations`)."""
     if threshold is None or solution.problem.functions.path is None:

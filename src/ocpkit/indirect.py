@@ -41,12 +41,12 @@ from .monotone import as_terminal
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
+    from .program import Program
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
     from .solution import Solution
     from .statement import OptimalControlProblem
     from .trajectory import Trajectory
-    from .transcription import Transcription
 
 
 @dataclass(frozen=True)
@@ -172,6 +172,7 @@ def to_extremal(
     if control_set == "ball" and method == "arcs":
         raise ValueError("control_set='ball' has the switching method's law only; use method='switching' or 'auto'")
 
+    _one_problem(solution)
     if not getattr(solution, "has_costates", False):
         raise ValueError(
             f"to_extremal needs the direct solution's costate estimates, which {type(solution).__name__} of "
@@ -300,7 +301,7 @@ def follow_extremal(
     statement = first.shooting.problem
     if parameter not in statement.parameters:
         raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")
-    transcription = _transcription(extremal.direct)
+    program = _program(extremal.direct)
     # the statement before its budgets were read as terminal conditions (ocpkit.monotone): read again at each
     # re-detection, where a budget may have stopped binding
     base = statement.replace(
@@ -325,9 +326,9 @@ def follow_extremal(
         return result, tr, spans
 
     def redetect(value: float, why: str) -> tuple[ArcShooting, ArcResult]:
-        if transcription is None:
-            raise SolverError("continuation", f"structure change at {value:.6g}", 0, f"{why}; no transcription")
-        direct = transcription.solve(state["direct"], parameters={parameter: value}, error_threshold=None)
+        if program is None:
+            raise SolverError("continuation", f"structure change at {value:.6g}", 0, f"{why}; no direct program")
+        direct = program.solve(state["direct"], parameters={parameter: value}, error_threshold=None)
         here = base.replace(parameters={parameter: value})
         restated, structure, budgets = as_terminal(here, control_structure(direct), direct)
         shooting = ArcShooting(restated, arc_sequence(structure, restated, direct.t0, direct.tf))
@@ -406,21 +407,56 @@ def _needs_arcs(problem: OptimalControlProblem, structure: Structure) -> bool:
     return bool(ca.depends_on(ca.vertcat(ham.f, ham.L), ham.t))
 
 
-def _transcription(solution: Any) -> Transcription | None:
-    """The transcription a direct solution came from (None for another trajectory)."""
-    return (getattr(solution, "raw", {}) or {}).get("transcription")
+def _program(solution: Any) -> Program | None:
+    """The program a direct solution came from (None for another trajectory, or for a phase of a solution: its
+    links are gone)."""
+    from .solution import Solution
+
+    return solution.program if isinstance(solution, Solution) else None
 
 
 def _statement(solution: Solution) -> OptimalControlProblem:
     """The problem as stated by the user (with its free parameters free again), with the parameter values the
-    solution was solved with (``solve(parameters=...)``), from a direct solution."""
-    transcription = _transcription(solution)
-    if transcription is None:
+    solution was solved with (``solve(parameters=...)``), from a direct solution: a program's one phase, or the
+    problem its phases were cut from (:meth:`~ocpkit.program.Program.split`)."""
+    program = _program(solution)
+    if program is None:
         return solution.problem
-    statement = transcription.problem
+    statement = program.problem if program.single else cast("OptimalControlProblem", program.phased.source)
     solved = solution.problem.parameters
     values = {n: solved[n] for n in statement.parameters if n in solved}
     return statement.replace(parameters=values) if values != dict(statement.parameters) else statement
+
+
+def _one_problem(solution: Any) -> None:
+    """A solution of several phases is shot as the one problem its phases were cut from; anything else is refused,
+    naming what the shooting does not take (a jump across a link, a link of some states only, phases not cut from
+    one problem, a phase without costate estimates)."""
+    from .solution import Solution
+
+    if not isinstance(solution, Solution) or solution.single:
+        return
+    phased = solution.program.phased
+    for linked in phased.links:
+        label = f"link {phased.names[linked.before]!r} -> {phased.names[linked.after]!r}"
+        jumps = [name for _, _, name, jump in linked.states if jump != 0.0]
+        if jumps:
+            raise ValueError(
+                f"{label} jumps in {jumps}: the shooting flows the states continuously, it takes no interior jump "
+                "(shoot each phase, phase(name), or state the jump as a state)"
+            )
+        if len(linked.states) != phased.problems[linked.before].nx or linked.time != "consistent":
+            raise ValueError(
+                f"{label} joins {[s for _, _, s, _ in linked.states]} at a time that is "
+                f"{'free' if linked.time == 'constraint' else 'not joined'}: the shooting takes phases cut from one "
+                "problem at fixed times (Program.split), every state continuous"
+            )
+    if phased.source is None:
+        raise ValueError(
+            f"the phases {phased.names} are not one problem cut at fixed times (Program.split): the shooting derives "
+            "no multi-phase boundary value problem (each phase's own dynamics and costs); shoot a phase alone, "
+            "phase(name)"
+        )
 
 
 def _ball_radius(problem: OptimalControlProblem) -> float:
@@ -454,20 +490,20 @@ def _resolved_from(
     (not the NLP it solved: a phase cut from its links), or where a solve fails."""
     from .statement import Guess
 
-    transcription = _transcription(solution)
-    if transcription is None:
+    program = _program(solution)
+    if program is None:
         return None
-    values = {n: statement.parameters[n] for n in transcription.problem.parameters if n in statement.parameters}
+    values = {n: statement.parameters[n] for n in program.parameter_slots if n in statement.parameters}
     J = float(solution.objective)
-    options = (getattr(solution, "raw", {}) or {}).get("solve_options", {})  # the first solve's IPOPT options
+    options = solution.solve_options.as_kwargs() if solution.solve_options is not None else {}  # the first solve's
     try:
         # the same NLP gives its solution back, to IPOPT's drift from a loosely converged point (seen: 7e-5 of J on
-        # the 5 N transfer); a phase cut from its links, or other parameters, does not (seen: J = 3 against 0)
-        same = transcription.solve(solution, parameters=values, error_threshold=None, **options)
+        # the 5 N transfer); other parameters do not (seen: J = 3 against 0)
+        same = program.solve(solution, parameters=values, error_threshold=None, **options)
         if abs(float(same.objective) - J) > 1e-3 * (1.0 + abs(J)):
             return None
         t = trajectory.t0 + np.linspace(0.0, 1.0, samples) * (trajectory.tf - trajectory.t0)
-        problem = transcription.problem
+        problem = _statement(solution)
         X = trajectory.state(t)[:, : problem.nx]  # the shooting's may have more (free parameters as states)
         V = _fitted_controls(solution, trajectory, t, X) if restated else trajectory.control(t)
 
@@ -480,7 +516,7 @@ def _resolved_from(
             controls={n: along(V[:, i]) for i, n in enumerate(problem.control_names)},
             parameters=dict(getattr(result, "free_parameters", None) or {}),
         )
-        return transcription.solve(guess, parameters=values, error_threshold=None, **options)
+        return program.solve(guess, parameters=values, error_threshold=None, **options)
     except (SolverError, ValueError, KeyError, RuntimeError):
         return None
 

@@ -139,7 +139,7 @@ def control_structure(
     as a fraction of the bounds' range; ``min_share``: the shortest arc, as a fraction of the horizon.
     """
     from .accuracy import linear_controls
-    from .solution import Solution
+    from .solution import PhaseSolution, Solution
 
     if samples < 3:
         raise ValueError(f"samples must be at least 3, got {samples}")
@@ -150,7 +150,7 @@ def control_structure(
     U = np.asarray(trajectory.control(t), dtype=float).reshape(samples, problem.nu)
     affine = set(linear_controls(problem))
     # a transcription's control is one polynomial per mesh interval; an extremal's (shooting) is exact
-    polynomial = isinstance(trajectory, Solution)
+    polynomial = isinstance(trajectory, (Solution, PhaseSolution))
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
     active = _active(trajectory, t, U, band)

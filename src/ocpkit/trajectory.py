@@ -87,6 +87,16 @@ class Trajectory(ABC):
         """The control as the method represents it (a transcription's polynomial, overshoots included)."""
         return self._control(t)
 
+    @property
+    def state_names(self) -> list[str]:
+        """The states' names, in the order of :meth:`state`'s last axis."""
+        return self.problem.state_names
+
+    @property
+    def control_names(self) -> list[str]:
+        """The controls' names, in the order of :meth:`control`'s last axis."""
+        return self.problem.control_names
+
     def initial_state(self) -> np.ndarray:
         """x(t0), where re-integration starts."""
         return np.asarray(self.state(np.array(self.t0)), dtype=float).ravel()
@@ -125,10 +135,10 @@ class Trajectory(ABC):
 
         t = self.time_grid(n) if t is None else np.asarray(t, dtype=float)
         data = {"t": t}
-        data.update(dict(zip(self.problem.state_names, self.state(t).T)))
-        data.update(dict(zip(self.problem.control_names, self.control(t).T)))
+        data.update(dict(zip(self.state_names, self.state(t).T)))
+        data.update(dict(zip(self.control_names, self.control(t).T)))
         if costates:
-            data.update({f"lambda_{k}": v for k, v in zip(self.problem.state_names, self.costate(t).T)})
+            data.update({f"lambda_{k}": v for k, v in zip(self.state_names, self.costate(t).T)})
         return pd.DataFrame(data)
 
     # -- expressions of the solution --------------------------------------------------------
@@ -244,8 +254,8 @@ class Trajectory(ABC):
         """
         if n < 2:
             raise ValueError("n must be at least 2")
-        pa, pb = self.problem, other.problem
-        if pa.state_names != pb.state_names or pa.control_names != pb.control_names:
+        states, controls = self.state_names, self.control_names
+        if states != other.state_names or controls != other.control_names:
             raise ValueError("trajectories of problems with different variables cannot be compared")
         s = np.linspace(0.0, 1.0, n)
 
@@ -256,11 +266,11 @@ class Trajectory(ABC):
         xa, ua = at(self)
         xb, ub = at(other)
         out = {}
-        for names, a, b in ((pa.state_names, xa, xb), (pa.control_names, ua, ub)):
+        for names, a, b in ((states, xa, xb), (controls, ua, ub)):
             for j, name in enumerate(names):
                 scale = np.abs(b[:, j]).max()
                 out[name] = float(100 * np.abs(a[:, j] - b[:, j]).max() / scale) if scale > 0 else float("nan")
-        out["states"] = max(out[k] for k in pa.state_names)
-        out["controls"] = max((out[k] for k in pa.control_names), default=float("nan"))
+        out["states"] = max(out[k] for k in states)
+        out["controls"] = max((out[k] for k in controls), default=float("nan"))
         out["tf"] = float(100 * abs(self.tf - other.tf) / abs(other.tf - other.t0))
         return out

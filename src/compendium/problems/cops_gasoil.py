@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ocpkit import FreeParameter, MultiPhase, OptimalControlProblem, State
+from ocpkit import FreeParameter, OptimalControlProblem, Program, State
 
 from ..paths import problem_data_dir
 
@@ -53,7 +53,7 @@ def gasoil(theta_upper: float = 100.0) -> OptimalControlProblem:
 
 def least_squares(data: pd.DataFrame):
     """The cost ``sum_rows sum_columns (x[column](t) - value)^2`` over a measurement table (column ``t`` and state
-    columns), for :meth:`ocpkit.MultiPhase.split` (``ends.at(t)`` is the state at a cut time)."""
+    columns), for :meth:`ocpkit.Program.split` (``ends.at(t)`` is the state at a cut time)."""
     columns = [c for c in data.columns if c != "t"]
 
     def cost(ends):
@@ -64,9 +64,9 @@ def least_squares(data: pd.DataFrame):
     return cost
 
 
-def gasoil_fit(scheme, **options) -> MultiPhase:
+def gasoil_fit(scheme, **options) -> Program:
     """The gas-oil problem cut at the measurement times, each piece transcribed by ``scheme``, with the least-squares
-    cost at those times; ``options`` go to :meth:`ocpkit.MultiPhase.split` (``local_parameters=["theta1", ...]``
+    cost at those times; ``options`` go to :meth:`ocpkit.Program.split` (``local_parameters=["theta1", ...]``
     gives each piece its own constants: the mistake of a statement where static parameters are per phase)."""
     data = gasoil_measurements()
-    return MultiPhase.split(gasoil(), data.t.to_numpy(), scheme, cost=least_squares(data), **options)
+    return Program.split(gasoil(), data.t.to_numpy(), scheme, cost=least_squares(data), **options)

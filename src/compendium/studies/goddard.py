@@ -21,9 +21,7 @@ def goddard_row(solution, scheme: str, weight: float, mesh: str) -> dict:
         "scheme": scheme,
         "mesh": mesh,
         "weight": weight,
-        "collocation_points": solution.raw["transcription"].n_collocation_points
-        if "transcription" in solution.raw
-        else None,
+        "collocation_points": solution.program.n_collocation_points if "transcription" in solution.raw else None,
         "final_altitude": float(solution.state(solution.tf)[0]),
         "tf": solution.tf,
         "error_estimate": solution.error_estimate,

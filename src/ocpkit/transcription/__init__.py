@@ -1,23 +1,44 @@
-"""Direct transcriptions: one module per scheme."""
+"""Direct transcription schemes: one module per scheme, the contract a scheme provides, and the table of them.
+
+:mod:`~ocpkit.transcription.scheme` (the contract, rule by rule), :mod:`~ocpkit.transcription.base` (what schemes
+share, and a scheme bound to a problem as the shorthand of its program), :mod:`~ocpkit.transcription.hlgl`,
+:mod:`~ocpkit.transcription.radau`, :mod:`~ocpkit.transcription.multirate` (the schemes),
+:mod:`~ocpkit.transcription.mesh` (a mesh's segments and their refinement) and :mod:`~ocpkit.transcription.registry`
+(the schemes by name).
+"""
+
+from typing import Any
 
 from .base import Transcription
 from .hlgl import HLGL
 from .loop import LoopResult, SolveLoop
 from .mesh import Mesh
 from .multirate import MultiRateHLGL, state_partition
-from .phases import Link, MultiPhase, MultiPhaseSolution
+from .phases import Link, MultiPhase
 from .radau import Radau
+from .registry import SCHEMES, scheme
+from .scheme import Scheme
 
 __all__ = [
     "HLGL",
+    "SCHEMES",
     "Link",
     "LoopResult",
     "Mesh",
     "MultiPhase",
-    "MultiPhaseSolution",
     "MultiRateHLGL",
     "Radau",
+    "Scheme",
     "SolveLoop",
     "Transcription",
+    "scheme",
     "state_partition",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "MultiPhaseSolution":
+        from . import phases
+
+        return phases.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

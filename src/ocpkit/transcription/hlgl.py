@@ -29,13 +29,16 @@ import numpy as np
 from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
-from ..nlp import Block, NLPResult
+from ..nlp import Block
 from ..statement import OptimalControlProblem, unwrap_periodic
-from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, h_refined, segment_clock
+from .base import Transcription
+from .mesh import Mesh, h_refined
+from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+    from ..program.layout import PhaseLayout
 
 
 def hlgl_collocation_states(x_i: Any, x_c: Any, x_e: Any, f_i: Any, f_c: Any, f_e: Any, h: Any) -> tuple[Any, Any]:
@@ -98,7 +101,9 @@ class HLGL(Transcription):
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem, optional
+        The problem this scheme is bound to (then ``HLGL(problem, 20).solve()`` solves it); none for a scheme alone,
+        ``HLGL(intervals=20)``, to give a :class:`~ocpkit.program.Program`.
     intervals : int
         Number of equal mesh intervals, Herman & Conway's segments (or give ``mesh``); ``segments`` is its
         deprecated name.
@@ -114,13 +119,15 @@ class HLGL(Transcription):
 
     def __init__(
         self,
-        problem: OptimalControlProblem,
+        problem: OptimalControlProblem | int | None = None,
         intervals: int | None = None,
         *,
         mesh: ArrayLike | None = None,
         segments: int | None = None,
     ) -> None:
-        super().__init__(problem)
+        if not isinstance(problem, OptimalControlProblem) and problem is not None and intervals is None:
+            problem, intervals = None, problem  # HLGL(20): a scheme alone
+        super().__init__(problem)  # type: ignore[arg-type]  # (a problem or None, after the shift above)
         intervals = renamed_argument("segments", "intervals", segments, intervals, None, "HLGL")
         self.mesh = Mesh.from_spec(intervals, mesh)
         #: the number of mesh intervals, Herman & Conway's segments (``segments`` is its deprecated name)
@@ -145,16 +152,15 @@ class HLGL(Transcription):
     def n_control_points(self) -> int:
         return 4 * self.intervals + 1
 
-    def _groups(self) -> list[VariableGroup]:
-        pr = self.problem
-        return [
-            VariableGroup("states", pr.states, self.n_state_nodes),
-            VariableGroup("controls", pr.controls, self.n_control_points),
-        ]
+    def groups(self, problem: OptimalControlProblem) -> tuple[VariableGroup, ...]:
+        """States at the ``2n+1`` state nodes, controls at the ``4n+1`` control points."""
+        return (
+            VariableGroup("states", problem.states, self.state_node_fractions()),
+            VariableGroup("controls", problem.controls, self.control_point_fractions()),
+        )
 
-    @property
-    def n_defects(self) -> int:
-        return 2 * self.problem.nx * self.intervals
+    def defect_count(self, problem: OptimalControlProblem) -> int:
+        return 2 * problem.nx * self.intervals
 
     def state_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2n+1 state nodes."""
@@ -165,37 +171,37 @@ class HLGL(Transcription):
         return self.mesh.points(nodes.HLGL_CONTROL_NODES[:4])
 
     # -- NLP blocks ----------------------------------------------------------------------
-    def _segment_symbols(self) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[Any], Any]:
+    def _segment_symbols(self, phase: PhaseLayout) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[Any], Any]:
         """Symbols of one segment: z = [x_i, x_c, x_e, u_0..u_4, problem-wide variables] scaled;
         p = [start, frac, (tf)]."""
-        pr = self.problem
+        pr = phase.problem
         nx, nu = pr.nx, pr.nu
-        z = ca.SX.sym("z", 3 * nx + 5 * nu + self.global_variables.size)
-        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
+        z = ca.SX.sym("z", 3 * nx + 5 * nu + phase.times.size)
+        p = ca.SX.sym("p", 2 + len(phase.constants))
         xs, us = pr.state_scaling, pr.control_scaling
         x = [xs.from_nlp(z[j * nx : (j + 1) * nx]) for j in range(3)]
         u = [us.from_nlp(z[3 * nx + j * nu : 3 * nx + (j + 1) * nu]) for j in range(5)]
-        t_begin, _, h = segment_clock(pr, z, p)
+        t_begin, _, h = phase.clock(z, p)
         t = [t_begin + h * s for s in nodes.HLGL_CONTROL_NODES]
         return z, p, x, u, t, h
 
-    def _segment_tables(self) -> tuple[np.ndarray, np.ndarray]:
-        pr = self.problem
+    def _segment_tables(self, phase: PhaseLayout) -> tuple[np.ndarray, np.ndarray]:
         n = self.intervals
         k = np.arange(n)
-        (Xi, Ui), _ = self._index_tables()
+        Xi, Ui = phase.table("states"), phase.table("controls")
         rows = [Xi[:, 2 * k], Xi[:, 2 * k + 1], Xi[:, 2 * k + 2]]
         rows += [Ui[:, 4 * k + j] for j in range(5)]
-        rows += self._global_rows(n)
-        return np.vstack(rows), self.mesh.block_constants(pr)
+        rows += phase.tail_rows(n)
+        return np.vstack(rows), phase.block_constants(self.mesh)
 
-    def _blocks(self) -> list[Block]:
-        pr = self.problem
+    def blocks(self, phase: PhaseLayout) -> list[Block]:
+        """The defects C1, C2 of every segment (Eqs. 6-7) and the five-point Lobatto rule of a running cost."""
+        pr = phase.problem
         nx = pr.nx
         n = self.intervals
-        variables, params = self._segment_tables()
-        z, p, x, u, t, h = self._segment_symbols()
-        P = self.global_variables.P(z)
+        variables, params = self._segment_tables(phase)
+        z, p, x, u, t, h = self._segment_symbols(phase)
+        P = phase.times.P(z)
 
         def f(x: Any, u: Any, t: Any) -> Any:
             return pr.dynamics(x, u, t, P)
@@ -209,21 +215,18 @@ class HLGL(Transcription):
         if pr.L is not None:
             xs = [x[0], x_a, x[1], x_b, x[2]]
             quad = h * sum(w * pr.lagrange(xj, uj, tj, P) for w, xj, uj, tj in zip(nodes.HLGL_QUADRATURE, xs, u, t))
-            fun = ca.Function("hlgl_lagrange", [z, p], [quad / pr.objective_scale])
+            fun = ca.Function("hlgl_lagrange", [z, p], [quad / phase.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
-
-        if pr.phi is not None:
-            (Xi, _), tfi = self._index_tables()
-            blocks.append(self._mayer_block(Xi[:, 0], Xi[:, -1], tfi))
         return blocks
 
-    def _path_points(self) -> list[PathPoints]:
+    def path_points(self, phase: PhaseLayout) -> list[PathPoints]:
         """Path constraints at the five points of each segment: ``t_i, t_a, t_c, t_b`` of every segment (the
         states at ``t_a, t_b`` from the quintic Hermite interpolant), and the final node once."""
-        z, p, x, u, t, h = self._segment_symbols()
-        P = self.global_variables.P(z)
-        _, _, x_a, x_b, _ = hlgl_segment(lambda x, u, t: self.problem.dynamics(x, u, t, P), x[0], x[1], x[2], u, t, h)
-        variables, params = self._segment_tables()
+        z, p, x, u, t, h = self._segment_symbols(phase)
+        P = phase.times.P(z)
+        pr = phase.problem
+        _, _, x_a, x_b, _ = hlgl_segment(lambda x, u, t: pr.dynamics(x, u, t, P), x[0], x[1], x[2], u, t, h)
+        variables, params = self._segment_tables(phase)
         mesh = self.mesh
         fractions = mesh.starts[:, None] + mesh.fractions[:, None] * nodes.HLGL_CONTROL_NODES[None, :4]
         return [
@@ -231,64 +234,54 @@ class HLGL(Transcription):
             PathPoints(z, p, [x[2]], [u[4]], [t[4]], variables[:, -1:], params[:, -1:], np.ones((1, 1))),
         ]
 
-    def refine(
-        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
-    ) -> HLGL:
+    def control_weights(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+        """The control at a normalised time: its segment's quartic through the segment's five control points."""
+        k = int(np.clip(np.searchsorted(self.mesh.breaks, fraction, side="right") - 1, 0, self.intervals - 1))
+        local = (fraction - self.mesh.starts[k]) / self.mesh.fractions[k]
+        weights = nodes.lagrange_matrix(nodes.HLGL_CONTROL_NODES, np.array([local]))[0]
+        return 4 * k + np.arange(5), weights
+
+    def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> HLGL:
         """h-refinement: a segment whose error estimate exceeds ``tolerance`` splits into
         ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6), or,
-        where ``switches`` (per segment, :func:`ocpkit.accuracy.control_switches`) finds the control switching
-        inside, at the switches."""
-        return HLGL(self.problem, mesh=h_refined(self.mesh, errors, tolerance, switches))
-
-    # -- bounds and guess -------------------------------------------------------------
-    def _initial_point(
-        self,
-        tf: float,
-        states: Callable[[ArrayLike], np.ndarray],
-        controls: Callable[[ArrayLike], np.ndarray],
-        t0: float | None = None,
-    ) -> np.ndarray:
-        X = np.asarray(states(self._times(tf, self.state_node_fractions(), t0)), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
-        return self.pack(X, U, tf, t0=t0)
+        where ``cuts`` (per segment, :func:`ocpkit.accuracy.control_switches`) finds the control switching
+        inside, at the switches; this scheme where no segment exceeds it."""
+        if np.all(np.asarray(errors, dtype=float) <= tolerance):
+            return self
+        return HLGL(self.problem, mesh=h_refined(self.mesh, errors, tolerance, cuts))
 
     def defects(self, X: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
-        """Defects (2, nx, n) in physical units at given node values (for checks and tests)."""
-        w = self.pack(X, U, tf)
-        g = np.asarray(self.nlp.constraint_function(w)).ravel()[: self.n_defects]
-        n, nx = self.intervals, self.problem.nx
-        return (g.reshape(n, 2, nx) * self.problem.state_scale).transpose(1, 2, 0)
+        """Defects (2, nx, n) in physical units at given node values, of the problem this scheme is bound to (for
+        checks and tests)."""
+        program = self.program
+        w = program.pack(X, U, tf)
+        g = np.asarray(program.nlp.constraint_function(w)).ravel()[: program.n_defects]
+        n, nx = self.intervals, program.problem.nx
+        return (g.reshape(n, 2, nx) * program.problem.state_scale).transpose(1, 2, 0)
 
     # -- solution ------------------------------------------------------------------------
-    def _package(self, result: NLPResult) -> dict[str, Any]:
-        pr, t0, tf = self._result_problem(result)
-        X, U, _ = self.unpack(result.w)
-        t_x = self._times(tf, self.state_node_fractions(), t0)
-        t_u = self._times(tf, self.control_point_fractions(), t0)
+    def interpolants(
+        self, phase: PhaseLayout, values: Sequence[np.ndarray], problem: OptimalControlProblem, t0: float, tf: float
+    ) -> PhaseFields:
+        """The quintic Hermite interpolant of the states (values and slopes at the nodes) and each segment's quartic
+        through its five controls."""
+        X, U = values
+        pr = problem
+        t_x = t0 + (tf - t0) * self.state_node_fractions()
+        t_u = t0 + (tf - t0) * self.control_point_fractions()
         U_nodes = U[0::2] if pr.nu else np.zeros((self.n_state_nodes, 0))
         F = np.asarray(pr.f.map(self.n_state_nodes)(X.T, U_nodes.T, t_x[None, :], pr.parameter_vector())).T
-        breaks = self._times(tf, self.mesh.breaks, t0)
+        breaks = t0 + (tf - t0) * self.mesh.breaks
         h = np.diff(breaks)
         states = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(X, F, h)))
         Useg = unwrap_periodic(segment_points(U, self.intervals), pr.controls, axis=0)
         coef = np.einsum("kl,lnd->knd", nodes.monomial_matrix(nodes.HLGL_CONTROL_NODES), Useg)
         controls = PiecewiseEvaluator(piecewise_polynomial(breaks, coef))
-        costate_times, costate_values = self.costates(result.lam_g, breaks)
-        return dict(
-            t0=t0,
-            tf=tf,
-            state_times=t_x,
-            state_values=X,
-            control_times=t_u,
-            control_values=U,
-            breakpoints=breaks,
-            state_interpolant=states,
-            control_interpolant=controls,
-            costate_times=costate_times,
-            costate_values=costate_values,
-        )
+        return PhaseFields(t_x, X, t_u, U, breaks, states, controls)
 
-    def costates(self, lam_g: np.ndarray, breaks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def costates(
+        self, phase: PhaseLayout, multipliers: np.ndarray, t0: float, tf: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Costate estimates from the defect multipliers: ``(times, values)`` at the two collocation points
         ``t_a, t_b`` of every segment, and at t0 and tf by linear extrapolation from the first and the last
         segment's two.
@@ -301,10 +294,11 @@ class HLGL(Transcription):
         and whose multipliers are divided by the weight. In the scaled NLP, ``lambda = nu objective_scale /
         state_scale``. The nodes ``t_i, t_c`` collocate nothing and get no estimate (Lobatto nodes' costate
         estimates are the ones reported to oscillate)."""
-        pr = self.problem
+        pr = phase.problem
         n, nx = self.intervals, pr.nx
-        nu = np.asarray(lam_g, dtype=float).ravel()[: 2 * nx * n].reshape(n, 2, nx)
-        nu = nu * pr.objective_scale / pr.state_scale
+        nu = np.asarray(multipliers, dtype=float).ravel()[: 2 * nx * n].reshape(n, 2, nx)
+        nu = nu * phase.objective_scale / pr.state_scale
+        breaks = t0 + (tf - t0) * self.mesh.breaks
         h = np.diff(breaks)
         ta = breaks[:-1] + h * nodes.HLGL_COLLOCATION[0]
         tb = breaks[:-1] + h * nodes.HLGL_COLLOCATION[1]

@@ -44,7 +44,7 @@ the fine mesh) and ``2 nx N + 2 nz M N`` defects for ``N`` coarse segments.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
@@ -54,14 +54,17 @@ import numpy as np
 from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
-from ..nlp import Block, NLPResult
+from ..nlp import Block
 from ..statement import OptimalControlProblem, unwrap_periodic
-from .base import PathPoints, Transcription, VariableGroup
+from .base import Transcription
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
-from .mesh import Mesh, h_refined, segment_clock
+from .mesh import Mesh, h_refined
+from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+    from ..program.layout import PhaseLayout
 
 COUPLINGS = ("coarse", "fine", "quadrature", "galerkin")
 #: the couplings whose slow defects see the fast states at every fine point (the ones fine controls need)
@@ -152,7 +155,10 @@ class MultiRateHLGL(Transcription):
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem, optional
+        The problem this scheme is bound to (then ``MultiRateHLGL(problem, 10, ratio=2, fast=["q"]).solve()`` solves
+        it); none for a scheme alone, ``MultiRateHLGL(intervals=10, ratio=2, fast=["q"])``, to give a
+        :class:`~ocpkit.program.Program` (the partition's names then name each phase's states).
     intervals : int
         Number of coarse mesh intervals, the paper's coarse segments (or give ``mesh``); ``segments`` is its
         deprecated name.
@@ -179,7 +185,7 @@ class MultiRateHLGL(Transcription):
 
     def __init__(
         self,
-        problem: OptimalControlProblem,
+        problem: OptimalControlProblem | int | None = None,
         intervals: int | None = None,
         *,
         ratio: int,
@@ -191,7 +197,9 @@ class MultiRateHLGL(Transcription):
         fast_interpolation: str | None = None,
         segments: int | None = None,
     ) -> None:
-        super().__init__(problem)
+        if not isinstance(problem, OptimalControlProblem) and problem is not None and intervals is None:
+            problem, intervals = None, problem  # MultiRateHLGL(10, ratio=2, ...): a scheme alone
+        super().__init__(problem)  # type: ignore[arg-type]  # (a problem or None, after the shift above)
         intervals = renamed_argument("segments", "intervals", segments, intervals, None, "MultiRateHLGL")
         coupling = renamed_argument(
             "fast_interpolation", "coupling", fast_interpolation, coupling, "coarse", "MultiRateHLGL"
@@ -215,7 +223,15 @@ class MultiRateHLGL(Transcription):
         #: ``fast_interpolation`` is its deprecated name)
         self.coupling = coupling
         self.control_mesh = control_mesh
-        self.slow, self.fast = state_partition(problem, slow, fast)
+        if slow is None and fast is None:
+            raise ValueError("name the slow states, the fast states, or both")
+        for which, group in (("slow", slow), ("fast", fast)):
+            if isinstance(group, str):
+                raise TypeError(f"{which} states must be a sequence of names, got the string {group!r}")
+        self._partition_names = (None if slow is None else tuple(slow), None if fast is None else tuple(fast))
+        #: the slow and fast states' indices in the bound problem's states (empty for a scheme alone)
+        bound = self.problem
+        self.slow, self.fast = state_partition(bound, slow, fast) if bound is not None else ([], [])
         self.mesh = Mesh.from_spec(intervals, mesh)
         #: the number of coarse mesh intervals, the paper's coarse segments (``segments`` is its deprecated name)
         self.intervals = self.mesh.n
@@ -232,11 +248,20 @@ class MultiRateHLGL(Transcription):
         renamed("MultiRateHLGL.fast_interpolation", "MultiRateHLGL.coupling")
         return self.coupling
 
+    def partition(self, problem: OptimalControlProblem) -> tuple[list[int], list[int]]:
+        """The slow and fast states' indices in ``problem``'s states (:func:`state_partition` of the names given)."""
+        slow, fast = self._partition_names
+        return state_partition(problem, slow, fast)
+
     # -- sizes and layout -------------------------------------------------------------
     @property
     def label(self) -> str:
-        names = self.problem.state_names
-        fast = ",".join(names[i] for i in self.fast)
+        if self.problem is not None:
+            names = self.problem.state_names
+            fast = ",".join(names[i] for i in self.fast)
+        else:
+            given_slow, given_fast = self._partition_names
+            fast = ",".join(given_fast) if given_fast is not None else "all but " + ",".join(given_slow or ())
         extra = "" if self.coupling == "coarse" else f", coupling={self.coupling}"
         extra += ", controls on the fine mesh" if self.control_mesh == "fine" else ""
         return f"MultiRateHLGL(intervals={self.intervals}, ratio={self.ratio}, fast=[{fast}]{extra})"
@@ -258,17 +283,18 @@ class MultiRateHLGL(Transcription):
     def n_control_points(self) -> int:
         return 4 * self.control_quartics * self.intervals + 1
 
-    def _groups(self) -> list[VariableGroup]:
-        pr = self.problem
-        return [
-            VariableGroup("slow states", tuple(pr.states[i] for i in self.slow), self.n_coarse_nodes),
-            VariableGroup("fast states", tuple(pr.states[i] for i in self.fast), self.n_fine_nodes),
-            VariableGroup("controls", pr.controls, self.n_control_points),
-        ]
+    def groups(self, problem: OptimalControlProblem) -> tuple[VariableGroup, ...]:
+        """Slow states at the coarse nodes, fast states at the fine nodes, controls at their points."""
+        slow, fast = self.partition(problem)
+        return (
+            VariableGroup("slow states", tuple(problem.states[i] for i in slow), self.coarse_node_fractions()),
+            VariableGroup("fast states", tuple(problem.states[i] for i in fast), self.fine_node_fractions()),
+            VariableGroup("controls", problem.controls, self.control_point_fractions()),
+        )
 
-    @property
-    def n_defects(self) -> int:
-        return 2 * self.intervals * (len(self.slow) + self.ratio * len(self.fast))
+    def defect_count(self, problem: OptimalControlProblem) -> int:
+        slow, fast = self.partition(problem)
+        return 2 * self.intervals * (len(slow) + self.ratio * len(fast))
 
     def coarse_node_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the 2N+1 coarse (slow-state) nodes."""
@@ -283,51 +309,51 @@ class MultiRateHLGL(Transcription):
         q = self.control_quartics
         return self.mesh.points(np.arange(4 * q) / (4 * q))
 
-    def _indices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int | None]:
-        """Global NLP indices: slow (nxs, coarse nodes), fast (nzf, fine nodes), controls (nu, points), tf."""
-        (X, Z, U), tf = self._index_tables()
-        return X, Z, U, tf
-
     # -- NLP blocks -------------------------------------------------------------------
-    def _full_state(self, x: Sequence[Any], z: Sequence[Any]) -> ca.SX:
+    @staticmethod
+    def _full_state(slow: Sequence[int], fast: Sequence[int], x: Sequence[Any], z: Sequence[Any]) -> ca.SX:
         """Assemble the full state vector (problem order) from slow and fast parts."""
-        parts: list[Any] = [None] * self.problem.nx
-        for j, i in enumerate(self.slow):
+        parts: list[Any] = [None] * (len(slow) + len(fast))
+        for j, i in enumerate(slow):
             parts[i] = x[j]
-        for j, i in enumerate(self.fast):
+        for j, i in enumerate(fast):
             parts[i] = z[j]
         return ca.vertcat(*parts)
 
-    def _segment_symbols(self) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[ca.SX], Any, Any]:
+    def _segment_symbols(
+        self, phase: PhaseLayout
+    ) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX], list[ca.SX], Any, Any]:
         """Symbols of one coarse segment, ``w`` (its NLP variables, the layout of :meth:`_segment_tables`) and
         ``p``, and in them the slow nodes ``X`` (3), fast nodes ``Z`` (2M + 1), controls ``U`` (4q + 1, q quartics),
         start and length."""
-        pr = self.problem
+        pr = phase.problem
         M = self.ratio
-        nxs, nzf, nu = len(self.slow), len(self.fast), pr.nu
+        slow, fast = self.partition(pr)
+        nxs, nzf, nu = len(slow), len(fast), pr.nu
         nup = 4 * self.control_quartics + 1
-        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + nup * nu + self.global_variables.size)
-        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
-        xsc, zsc = pr.state_scaling.subset(self.slow), pr.state_scaling.subset(self.fast)
+        w = ca.SX.sym("w", 3 * nxs + (2 * M + 1) * nzf + nup * nu + phase.times.size)
+        p = ca.SX.sym("p", 2 + len(phase.constants))
+        xsc, zsc = pr.state_scaling.subset(slow), pr.state_scaling.subset(fast)
         off = 0
         X = [xsc.from_nlp(w[off + k * nxs : off + (k + 1) * nxs]) for k in range(3)]
         off += 3 * nxs
         Z = [zsc.from_nlp(w[off + k * nzf : off + (k + 1) * nzf]) for k in range(2 * M + 1)]
         off += (2 * M + 1) * nzf
         U = [pr.control_scaling.from_nlp(w[off + k * nu : off + (k + 1) * nu]) for k in range(nup)]
-        t_start, _, h = segment_clock(pr, w, p)
+        t_start, _, h = phase.clock(w, p)
         return w, p, X, Z, U, t_start, h
 
-    def _path_points(self) -> list[PathPoints]:
+    def path_points(self, phase: PhaseLayout) -> list[PathPoints]:
         """Path constraints at every control point (``4q + 1`` per coarse segment, the last once): the controls are
         NLP values there, the fast states NLP values or their fine Hermite polynomial, the slow states NLP values
         or their coarse Hermite polynomial."""
         q = self.control_quartics
-        m = self._segment_model()
+        m = self._segment_model(phase)
+        slow, fast = self.partition(phase.problem)
         s = np.arange(4 * q + 1) / (4 * q)
-        full = [self._full_state(ca.vertsplit(m.x_at(sk)), ca.vertsplit(m.z_fine_at(sk))) for sk in s]
+        full = [self._full_state(slow, fast, ca.vertsplit(m.x_at(sk)), ca.vertsplit(m.z_fine_at(sk))) for sk in s]
         t = [m.t_start + m.h * sk for sk in s]
-        variables, params = self._segment_tables()
+        variables, params = self._segment_tables(phase)
         mesh = self.mesh
         fractions = mesh.starts[:, None] + mesh.fractions[:, None] * s[None, :-1]
         last = (variables[:, -1:], params[:, -1:], np.ones((1, 1)))
@@ -336,17 +362,18 @@ class MultiRateHLGL(Transcription):
             PathPoints(m.w, m.p, [full[-1]], [m.U[-1]], [t[-1]], *last),
         ]
 
-    def _segment_model(self) -> SimpleNamespace:
+    def _segment_model(self, phase: PhaseLayout) -> SimpleNamespace:
         """One coarse segment's symbols (:meth:`_segment_symbols`) and the pieces every expression of it uses: the
         control ``u_at(s)``, the dynamics ``f(x, z, s)`` and ``split`` of their value into slow and fast parts, the
         full dynamics at the coarse nodes (``Fc``) and at the fine nodes (``F_nodes``, the fast part ``fz_nodes``),
         the slow states' coarse Hermite ``x_at(s)``, and the fast states' fine Hermite ``z_fine_at(s)`` (the fine
         segment holding ``s``) and coarse Hermite ``z_coarse_at(s)`` (values and slopes at the coarse nodes)."""
-        pr = self.problem
+        pr = phase.problem
         M = self.ratio
         nu = pr.nu
-        w, p, X, Z, U, t_start, h = self._segment_symbols()
-        P = self.global_variables.P(w)
+        slow, fast = self.partition(pr)
+        w, p, X, Z, U, t_start, h = self._segment_symbols(phase)
+        P = phase.times.P(w)
         q = self.control_quartics
 
         def u_at(s: float) -> Any:
@@ -357,10 +384,12 @@ class MultiRateHLGL(Transcription):
             return sum(float(L[k]) * U[4 * j + k] for k in range(5) if L[k] != 0.0)
 
         def f(x: ca.SX, z: ca.SX, s: float) -> Any:
-            return pr.dynamics(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
+            return pr.dynamics(
+                self._full_state(slow, fast, ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P
+            )
 
         def split(fv: ca.SX) -> tuple[ca.SX, ca.SX]:
-            return fv[self.slow], fv[self.fast]
+            return fv[slow], fv[fast]
 
         # coarse nodes: x params, z at fine nodes 0, M, 2M
         zc = [Z[0], Z[M], Z[2 * M]]
@@ -394,17 +423,18 @@ class MultiRateHLGL(Transcription):
             **dict(z_fine_at=z_fine_at, z_coarse_at=z_coarse_at),
         )
 
-    def _segment_expressions(self) -> tuple[ca.SX, ca.SX, ca.SX, Any]:
+    def _segment_expressions(self, phase: PhaseLayout) -> tuple[ca.SX, ca.SX, ca.SX, Any]:
         """Symbols and expressions of one coarse segment (defects and the quadrature of a Lagrange cost)."""
-        pr = self.problem
+        pr = phase.problem
         M = self.ratio
-        nxs, nzf = len(self.slow), len(self.fast)
-        m = self._segment_model()
+        slow, fast = self.partition(pr)
+        nxs, nzf = len(slow), len(fast)
+        m = self._segment_model(phase)
         w, p, X, Z, t_start, h, P = m.w, m.p, m.X, m.Z, m.t_start, m.h, m.P
         u_at, f, split, fx_c, x_at = m.u_at, m.f, m.split, m.fx_c, m.x_at
         F_nodes, fz_nodes = m.F_nodes, m.fz_nodes
-        sx = pr.state_scaling.subset(self.slow).scale
-        sz = pr.state_scaling.subset(self.fast).scale
+        sx = pr.state_scaling.subset(slow).scale
+        sz = pr.state_scaling.subset(fast).scale
         hf = h / M
 
         # fine collocation points: z from each fine segment's Hermite, x from the coarse one
@@ -469,7 +499,8 @@ class MultiRateHLGL(Transcription):
         if pr.L is not None:
 
             def lagrange(s: float, x: Any, z: Any) -> Any:
-                return pr.lagrange(self._full_state(ca.vertsplit(x), ca.vertsplit(z)), u_at(s), t_start + h * s, P)
+                full = self._full_state(slow, fast, ca.vertsplit(x), ca.vertsplit(z))
+                return pr.lagrange(full, u_at(s), t_start + h * s, P)
 
             # on the fine grid, whatever the coupling: the running cost sees the fast states and the controls at
             # every fine node and collocation point (composite five-point Lobatto rule on each fine segment)
@@ -483,73 +514,66 @@ class MultiRateHLGL(Transcription):
             quad = h * sum(float(wq) * lagrange(s, x_at(s), z) for wq, (s, z) in zip(W, pts))
         return w, p, ca.vertcat(*defects), quad
 
-    def _segment_tables(self) -> tuple[np.ndarray, np.ndarray]:
-        pr = self.problem
+    def _segment_tables(self, phase: PhaseLayout) -> tuple[np.ndarray, np.ndarray]:
         N, M = self.intervals, self.ratio
         k = np.arange(N)
-        X, Z, U, _ = self._indices()
+        X, Z, U = (phase.table(name) for name in ("slow states", "fast states", "controls"))
         rows = [X[:, 2 * k + j] for j in range(3)]
         rows += [Z[:, 2 * M * k + j] for j in range(2 * M + 1)]
         q = self.control_quartics
         rows += [U[:, 4 * q * k + j] for j in range(4 * q + 1)]
-        rows += self._global_rows(N)
-        return np.vstack(rows), self.mesh.block_constants(pr)
+        rows += phase.tail_rows(N)
+        return np.vstack(rows), phase.block_constants(self.mesh)
 
-    def _blocks(self) -> list[Block]:
-        pr = self.problem
-        w, p, defects, quad = self._segment_expressions()
-        variables, params = self._segment_tables()
+    def blocks(self, phase: PhaseLayout) -> list[Block]:
+        """Every coarse segment's slow and fine defects (the module docstring) and its running cost on the fine
+        grid."""
+        w, p, defects, quad = self._segment_expressions(phase)
+        variables, params = self._segment_tables(phase)
         per = defects.shape[0]
         rows = np.arange(per * self.intervals).reshape(self.intervals, per).T
         blocks = [Block("multirate_defects", ca.Function("mr_defects", [w, p], [defects]), variables, params, rows)]
         if quad is not None:
-            fun = ca.Function("mr_lagrange", [w, p], [quad / pr.objective_scale])
+            fun = ca.Function("mr_lagrange", [w, p], [quad / phase.objective_scale])
             blocks.append(Block("lagrange", fun, variables, params))
-        if pr.phi is not None:
-            blocks.append(self._mayer_block(*self._boundary_indices()))
         return blocks
 
-    def _boundary_indices(self) -> tuple[np.ndarray, np.ndarray, int | None]:
-        """NLP indices of the full state at t0 and tf (problem order: slow and fast parts), and of tf."""
-        X, Z, _, tfi = self._indices()
-        first = np.empty(self.problem.nx, dtype=np.int64)
-        last = np.empty(self.problem.nx, dtype=np.int64)
-        first[self.slow], last[self.slow] = X[:, 0], X[:, -1]
-        first[self.fast], last[self.fast] = Z[:, 0], Z[:, -1]
-        return first, last, tfi
-
-    # -- bounds, guess, packing -----------------------------------------------------------
-    def _initial_point(
-        self,
-        tf: float,
-        states: Callable[[ArrayLike], np.ndarray],
-        controls: Callable[[ArrayLike], np.ndarray],
-        t0: float | None = None,
-    ) -> np.ndarray:
-        Xc = np.asarray(states(self._times(tf, self.coarse_node_fractions(), t0)), dtype=float)
-        Xf = np.asarray(states(self._times(tf, self.fine_node_fractions(), t0)), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.control_point_fractions(), t0)), dtype=float)
-        return self.pack(Xc[:, self.slow], Xf[:, self.fast], U, tf, t0=t0)
+    def control_weights(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+        """The control at a normalised time: its quartic through five equally spaced control points."""
+        q = self.control_quartics
+        k = int(np.clip(np.searchsorted(self.mesh.breaks, fraction, side="right") - 1, 0, self.intervals - 1))
+        local = (fraction - self.mesh.starts[k]) / self.mesh.fractions[k]
+        j = min(int(np.floor(local * q)), q - 1)
+        weights = nodes.lagrange_matrix(nodes.EQUISPACED_CONTROL_NODES, np.array([local * q - j]))[0]
+        return 4 * q * k + 4 * j + np.arange(5), weights
 
     def defects(self, X_slow: ArrayLike, Z_fast: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
-        """All defects (physical units), in NLP row order, at given parameter values."""
-        g = np.asarray(self.nlp.constraint_function(self.pack(X_slow, Z_fast, U, tf))).ravel()[: self.n_defects]
+        """All defects (physical units), in NLP row order, at given parameter values, of the problem this scheme is
+        bound to."""
+        program = self.program
+        g = np.asarray(program.nlp.constraint_function(program.pack(X_slow, Z_fast, U, tf))).ravel()
+        g = g[: program.n_defects]
         per = g.size // self.intervals
         scale = np.concatenate(
-            [self.problem.state_scale[self.slow]] * (2 if self.slow else 0)
-            + [self.problem.state_scale[self.fast]] * (2 * self.ratio if self.fast else 0)
+            [program.problem.state_scale[self.slow]] * (2 if self.slow else 0)
+            + [program.problem.state_scale[self.fast]] * (2 * self.ratio if self.fast else 0)
         )
         return (g.reshape(self.intervals, per) * scale).T
 
     # -- solution ---------------------------------------------------------------------
-    def _package(self, result: NLPResult) -> dict[str, Any]:
-        pr, t0, tf = self._result_problem(result)
-        Xs, Zf, U, _ = self.unpack(result.w)
+    def interpolants(
+        self, phase: PhaseLayout, values: Sequence[np.ndarray], problem: OptimalControlProblem, t0: float, tf: float
+    ) -> PhaseFields:
+        """The slow states' coarse quintic Hermite interpolant, the fast states' fine one (slopes from the full
+        state), each quartic of the controls; the error estimate on the fine segments."""
+        Xs, Zf, U = values
+        pr = problem
+        slow, fast = self.partition(pr)
         N, M = self.intervals, self.ratio
-        t_c = self._times(tf, self.coarse_node_fractions(), t0)
-        t_f = self._times(tf, self.fine_node_fractions(), t0)
-        t_u = self._times(tf, self.control_point_fractions(), t0)
-        breaks = self._times(tf, self.mesh.breaks, t0)
+        t_c = t0 + (tf - t0) * self.coarse_node_fractions()
+        t_f = t0 + (tf - t0) * self.fine_node_fractions()
+        t_u = t0 + (tf - t0) * self.control_point_fractions()
+        breaks = t0 + (tf - t0) * self.mesh.breaks
         h = np.diff(breaks)
 
         nq = N * self.control_quartics
@@ -563,21 +587,21 @@ class MultiRateHLGL(Transcription):
 
         # slow states: coarse Hermite with slopes from the full state at the coarse nodes
         full_c = np.empty((t_c.size, pr.nx))
-        full_c[:, self.slow] = Xs
-        full_c[:, self.fast] = Zf[::M]
+        full_c[:, slow] = Xs
+        full_c[:, fast] = Zf[::M]
         Fc = rhs(t_c, full_c)
-        slow_pp = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(Xs, Fc[:, self.slow], h)))
+        slow_pp = PiecewiseEvaluator(piecewise_polynomial(breaks, hermite_coefficients(Xs, Fc[:, slow], h)))
         # fast states: fine Hermite with slopes from the slow interpolant at the fine nodes
         full_f = np.empty((t_f.size, pr.nx))
-        full_f[:, self.slow] = slow_pp(t_f) if self.slow else np.zeros((t_f.size, 0))
-        full_f[:, self.fast] = Zf
+        full_f[:, slow] = slow_pp(t_f) if slow else np.zeros((t_f.size, 0))
+        full_f[:, fast] = Zf
         fine_breaks = t_f[::2]
         Ff = rhs(t_f, full_f)
         fast_pp = PiecewiseEvaluator(
-            piecewise_polynomial(fine_breaks, hermite_coefficients(Zf, Ff[:, self.fast], np.diff(fine_breaks)))
+            piecewise_polynomial(fine_breaks, hermite_coefficients(Zf, Ff[:, fast], np.diff(fine_breaks)))
         )
 
-        slow_idx, fast_idx = list(self.slow), list(self.fast)
+        slow_idx, fast_idx = list(slow), list(fast)
 
         def states(t: ArrayLike) -> np.ndarray:
             t = np.asarray(t, dtype=float)
@@ -588,36 +612,27 @@ class MultiRateHLGL(Transcription):
                 out[..., fast_idx] = fast_pp(t)
             return out
 
-        return dict(
-            t0=t0,
-            tf=tf,
-            state_times=t_f,
-            state_values=states(t_f),
-            control_times=t_u,
-            control_values=U,
-            breakpoints=breaks,
-            state_interpolant=states,
-            control_interpolant=controls,
-            estimate_breakpoints=fine_breaks,
-        )
+        return PhaseFields(t_f, states(t_f), t_u, U, breaks, states, controls, estimate_breakpoints=fine_breaks)
 
-    def refine(
-        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
-    ) -> MultiRateHLGL:
-        """h-refinement of the coarse mesh: ``errors`` (and ``switches``) are per fine segment (the solution's
+    def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> MultiRateHLGL:
+        """h-refinement of the coarse mesh: ``errors`` (and ``cuts``) are per fine segment (the solution's
         estimate intervals); a coarse segment whose worst fine segment exceeds ``tolerance`` refines as
-        :meth:`HLGL.refine` does."""
+        :meth:`HLGL.refine <ocpkit.transcription.hlgl.HLGL.refine>` does; this scheme where none does."""
         coarse = np.asarray(errors, dtype=float).reshape(self.intervals, self.ratio).max(axis=1)
+        if np.all(coarse <= tolerance):
+            return self
         coarse_switches = None
-        if switches is not None:
+        if cuts is not None:
             coarse_switches = [
-                np.concatenate([(j + np.asarray(switches[k * self.ratio + j])) / self.ratio for j in range(self.ratio)])
+                np.concatenate([(j + np.asarray(cuts[k * self.ratio + j])) / self.ratio for j in range(self.ratio)])
                 for k in range(self.intervals)
             ]
+        slow, fast = self._partition_names
         return MultiRateHLGL(
             self.problem,
             ratio=self.ratio,
-            slow=[self.problem.state_names[i] for i in self.slow],
+            slow=slow,
+            fast=fast,
             coupling=self.coupling,
             control_mesh=self.control_mesh,
             mesh=h_refined(self.mesh, coarse, tolerance, coarse_switches),

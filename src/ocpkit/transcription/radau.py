@@ -23,21 +23,24 @@ N = 100); multi-interval is ``intervals=K`` with a few nodes each.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
 
 from .._arrays import unique
-from ..nlp import Block, NLPResult
+from ..nlp import Block
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
 from ..statement import OptimalControlProblem, unwrap_periodic
-from .base import PathPoints, Transcription, VariableGroup
-from .mesh import Mesh, segment_clock
+from .base import Transcription
+from .mesh import Mesh
+from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+    from ..program.layout import PhaseLayout
 
 
 class PiecewiseBarycentric:
@@ -93,7 +96,9 @@ class Radau(Transcription):
 
     Parameters
     ----------
-    problem : OptimalControlProblem
+    problem : OptimalControlProblem, optional
+        The problem this scheme is bound to (then ``Radau(problem, 4, 20).solve()`` solves it); none for a scheme
+        alone, ``Radau(nodes=4, intervals=20)``, to give a :class:`~ocpkit.program.Program`.
     nodes : int or Sequence[int]
         Collocation points per interval (at least 2), the same for all or one per interval.
     intervals : int
@@ -120,12 +125,17 @@ class Radau(Transcription):
 
     def __init__(
         self,
-        problem: OptimalControlProblem,
-        nodes: int | Sequence[int] | np.ndarray = 20,
+        problem: OptimalControlProblem | int | Sequence[int] | np.ndarray | None = None,
+        nodes: int | Sequence[int] | np.ndarray | None = None,
         intervals: int | None = None,
         *,
         mesh: ArrayLike | None = None,
     ) -> None:
+        if not isinstance(problem, OptimalControlProblem) and problem is not None:
+            problem, nodes, intervals = None, problem, nodes if intervals is None else intervals  # Radau(4, 20)
+            if isinstance(intervals, (list, tuple, np.ndarray)):
+                raise TypeError("intervals must be an integer")
+        nodes = 20 if nodes is None else nodes
         super().__init__(problem)
         if intervals is None and mesh is None:
             intervals = 1
@@ -158,16 +168,16 @@ class Radau(Transcription):
     def n_state_points(self) -> int:
         return self.n_collocation + 1
 
-    def _groups(self) -> list[VariableGroup]:
-        pr = self.problem
-        return [
-            VariableGroup("states", pr.states, self.n_state_points),
-            VariableGroup("controls", pr.controls, self.n_collocation),
-        ]
+    def groups(self, problem: OptimalControlProblem) -> tuple[VariableGroup, ...]:
+        """States at every collocation point and at the end, controls at the collocation points."""
+        fractions = self.state_point_fractions()
+        return (
+            VariableGroup("states", problem.states, fractions),
+            VariableGroup("controls", problem.controls, fractions[:-1]),
+        )
 
-    @property
-    def n_defects(self) -> int:
-        return self.problem.nx * self.n_collocation
+    def defect_count(self, problem: OptimalControlProblem) -> int:
+        return problem.nx * self.n_collocation
 
     def state_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the state points: every collocation point, then the final time."""
@@ -183,11 +193,13 @@ class Radau(Transcription):
         return np.concatenate([weights[int(n)] for n in self.counts])
 
     # -- NLP blocks ---------------------------------------------------------------------
-    def _blocks(self) -> list[Block]:
-        pr = self.problem
+    def blocks(self, phase: PhaseLayout) -> list[Block]:
+        """The differentiation ``D X`` per degree, ``-(T_i / 2) f`` at every collocation point, and the LGR quadrature
+        of a running cost."""
+        pr = phase.problem
         nx = pr.nx
-        (X, U), _ = self._index_tables()
-        rows_all = np.arange(self.n_defects).reshape(self.n_collocation, nx).T  # (nx, points)
+        X, U = phase.table("states"), phase.table("controls")
+        rows_all = np.arange(self.defect_count(pr)).reshape(self.n_collocation, nx).T  # (nx, points)
         blocks: list[Block] = []
 
         # D X on the scaled variables: a shift cancels exactly, whatever the rounding of D's row sums
@@ -204,44 +216,44 @@ class Radau(Transcription):
 
         # -(T_i / 2) f(x_k, u_k, t_k) / scale at every collocation point
         xs = pr.state_scaling
-        z, p, x, (u,), t, h = self._point_symbols()
-        P = self.global_variables.P(z)
+        z, p, x, (u,), t, h = self._point_symbols(phase)
+        P = phase.times.P(z)
         half = h / 2
         dyn = ca.Function("lgr_dynamics", [z, p], [-half * pr.dynamics(x, u, t, P) / ca.DM(xs.scale)])
-        var = np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation))
+        var = np.vstack([X[:, :-1], U] + phase.tail_rows(self.n_collocation))
         frac = np.repeat(self.mesh.fractions, self.counts)
-        params = self.mesh.block_constants(pr, self.collocation_fractions(), frac)
+        params = phase.block_constants(self.mesh, self.collocation_fractions(), frac)
         blocks.append(Block("lgr_dynamics", dyn, var, params, rows_all))
 
         if pr.L is not None:
             # parameters [s, fraction, (tf), weight]
             q = ca.SX.sym("q", params.shape[0] + 1)
-            tq, Tq, _ = segment_clock(pr, z, q)
+            tq, Tq, _ = phase.clock(z, q)
             L = q[-1] * Tq * q[1] / 2 * pr.lagrange(x, u, tq, P)
-            fun = ca.Function("lgr_lagrange", [z, q], [L / pr.objective_scale])
+            fun = ca.Function("lgr_lagrange", [z, q], [L / phase.objective_scale])
             blocks.append(Block("lagrange", fun, var, np.vstack([params, self._collocation_weights()])))
-        if pr.phi is not None:
-            blocks.append(self._mayer_block(X[:, 0], X[:, -1], None))
         return blocks
 
-    def _point_symbols(self, n_controls: int = 1) -> tuple[ca.SX, ca.SX, ca.SX, list[ca.SX], Any, Any]:
+    def _point_symbols(
+        self, phase: PhaseLayout, n_controls: int = 1
+    ) -> tuple[ca.SX, ca.SX, ca.SX, list[ca.SX], Any, Any]:
         """Symbols of one point: ``z = [x, u_1..u_n, problem-wide variables]`` (scaled), ``p = [s, fraction,
         (tf)]``; physical ``x``, the ``n`` controls, ``t`` and its interval's length ``h`` in them."""
-        pr = self.problem
+        pr = phase.problem
         nx, nu = pr.nx, pr.nu
-        z = ca.SX.sym("z", nx + n_controls * nu + self.global_variables.size)
-        p = ca.SX.sym("p", 2 + len(self.global_variables.constants))
+        z = ca.SX.sym("z", nx + n_controls * nu + phase.times.size)
+        p = ca.SX.sym("p", 2 + len(phase.constants))
         us = pr.control_scaling
         u = [us.from_nlp(z[nx + k * nu : nx + (k + 1) * nu]) for k in range(n_controls)]
-        t, _, h = segment_clock(pr, z, p)
+        t, _, h = phase.clock(z, p)
         return z, p, pr.state_scaling.from_nlp(z[:nx]), u, t, h
 
-    def _path_points(self) -> list[PathPoints]:
+    def path_points(self, phase: PhaseLayout) -> list[PathPoints]:
         """Path constraints at every collocation point, and at the final time with the last interval's control
         polynomial extrapolated there (the control the solution reports at tf)."""
-        pr = self.problem
-        (X, U), _ = self._index_tables()
-        z, p, x, u, t, _ = self._point_symbols()
+        pr = phase.problem
+        X, U = phase.table("states"), phase.table("controls")
+        z, p, x, u, t, _ = self._point_symbols(phase)
         frac = np.repeat(self.mesh.fractions, self.counts)
         colloc = PathPoints(
             z,
@@ -249,18 +261,26 @@ class Radau(Transcription):
             [x],
             u,
             [t],
-            np.vstack([X[:, :-1], U] + self._global_rows(self.n_collocation)),
-            self.mesh.block_constants(pr, self.collocation_fractions(), frac),
+            np.vstack([X[:, :-1], U] + phase.tail_rows(self.n_collocation)),
+            phase.block_constants(self.mesh, self.collocation_fractions(), frac),
             self.collocation_fractions()[:, None],
         )
         n, o = int(self.counts[-1]), int(self.offsets[-1])
-        z, p, x, u, t, _ = self._point_symbols(n)
+        z, p, x, u, t, _ = self._point_symbols(phase, n)
         ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
         u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
-        var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), self.global_indices()])
-        params = self.mesh.block_constants(pr, np.array([1.0]), self.mesh.fractions[-1:])
+        var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), phase.global_indices])
+        params = phase.block_constants(self.mesh, np.array([1.0]), self.mesh.fractions[-1:])
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
         return [colloc, end]
+
+    def control_weights(self, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+        """The control at a normalised time: its interval's polynomial through the interval's collocation points
+        (extrapolated past the last one: at tf, the control the solution reports there)."""
+        k = int(np.clip(np.searchsorted(self.mesh.breaks, fraction, side="right") - 1, 0, self.intervals - 1))
+        tau = 2.0 * (fraction - self.mesh.starts[k]) / self.mesh.fractions[k] - 1.0
+        weights = lagrange_matrix(self.tau[k], np.array([tau]))[0]
+        return int(self.offsets[k]) + np.arange(int(self.counts[k])), weights
 
     #: per interval, its error before the refinement that made this mesh raised its degree, else None (set by
     #: :meth:`refine` on the mesh it returns)
@@ -272,9 +292,7 @@ class Radau(Transcription):
     #: STALL_FACTOR is split instead (below, a raise can change the solution nearby more than its own error)
     STALL_FACTOR, STALL_NODES = 0.5, 6
 
-    def refine(
-        self, errors: np.ndarray, tolerance: float, switches: Sequence[np.ndarray | Sequence[float]] | None = None
-    ) -> Radau:
+    def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> Radau:
         """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4), with three safeguards.
 
         On an interval of ``N`` nodes whose error ``e`` exceeds the tolerance, ``P = ceil(log(e / tol) / log N)``
@@ -282,7 +300,7 @@ class Radau(Transcription):
         intervals of :attr:`N_MIN` nodes instead (the solution is not smooth enough there for a higher degree to
         pay). The safeguards:
 
-        * ``switches`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
+        * ``cuts`` (per interval, fractions in (0, 1), from :func:`ocpkit.accuracy.control_switches`): an
           interval over the tolerance with a control switching inside is cut there, since no degree resolves a
           corner or a jump; its nodes are shared among the pieces by length (each at least :attr:`N_MIN`), so a
           cut never coarsens (global collocation at N = 60 cut at a switch keeps 60 points or more, instead of
@@ -291,14 +309,19 @@ class Radau(Transcription):
           whose error fell by less than :attr:`STALL_FACTOR` is split in two at the same degree (the error does
           not fall with the degree: a non-smooth or singular solution there);
         * an interval never loses nodes, so no mesh has fewer points than the one before.
+
+        Where no interval exceeds the tolerance, this scheme.
         """
         errors = np.asarray(errors, dtype=float)
         over = ~(errors <= tolerance)  # NaN counts as over
+        if not over.any():
+            return self
         errors = np.where(np.isfinite(errors), errors, 1e3)
+        switches = cuts
         cuts = (
             [np.zeros(0)] * self.intervals
             if switches is None
-            else [c if o else np.zeros(0) for c, o in zip(switches, over)]
+            else [np.asarray(c) if o else np.zeros(0) for c, o in zip(switches, over)]
         )
         raised_before: Any = getattr(self, "_raised", None)
         fractions, origin = self.mesh.split_at(cuts)
@@ -341,63 +364,55 @@ class Radau(Transcription):
         refined._raised = raised  # per interval: its error before this refinement raised its degree, else None
         return refined
 
-    # -- bounds, guess, packing ---------------------------------------------------------------
-    def _initial_point(
-        self,
-        tf: float,
-        states: Callable[[ArrayLike], np.ndarray],
-        controls: Callable[[ArrayLike], np.ndarray],
-        t0: float | None = None,
-    ) -> np.ndarray:
-        X = np.asarray(states(self._times(tf, self.state_point_fractions(), t0)), dtype=float)
-        U = np.asarray(controls(self._times(tf, self.collocation_fractions(), t0)), dtype=float)
-        return self.pack(X, U, tf, t0=t0)
-
     def defects(self, X: ArrayLike, U: ArrayLike, tf: float | None = None) -> np.ndarray:
-        """Defects (collocation points, nx) in physical units, in d/dtau form, at given values."""
-        g = np.asarray(self.nlp.constraint_function(self.pack(X, U, tf))).ravel()[: self.n_defects]
-        return g.reshape(self.n_collocation, self.problem.nx) * self.problem.state_scale
+        """Defects (collocation points, nx) in physical units, in d/dtau form, at given values, of the problem this
+        scheme is bound to."""
+        program = self.program
+        g = np.asarray(program.nlp.constraint_function(program.pack(X, U, tf))).ravel()[: program.n_defects]
+        return g.reshape(self.n_collocation, program.problem.nx) * program.problem.state_scale
 
     # -- solution -------------------------------------------------------------------------
-    def costates(self, lam_g: np.ndarray) -> np.ndarray:
-        """Costate estimates (state points, nx) from the defect multipliers (Garg et al. 2010).
+    def costates(
+        self, phase: PhaseLayout, multipliers: np.ndarray, t0: float, tf: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Costate estimates at the state points from the defect multipliers (Garg et al. 2010).
 
         ``lambda_k = -Lambda_k / w_k`` at the collocation points, ``-D_{N+1}' Lambda``
         at each interval's end; ``Lambda`` converted from the scaled NLP to
         physical units (``objective_scale / state_scale``).
         """
-        pr = self.problem
-        Lam = -np.asarray(lam_g, dtype=float)[: self.n_defects].reshape(self.n_collocation, pr.nx)
-        Lam *= pr.objective_scale / pr.state_scale
+        pr = phase.problem
+        n_defects = self.defect_count(pr)
+        Lam = -np.asarray(multipliers, dtype=float)[:n_defects].reshape(self.n_collocation, pr.nx)
+        Lam *= phase.objective_scale / pr.state_scale
         lam = np.empty((self.n_state_points, pr.nx))
         lam[:-1] = Lam / self._collocation_weights()[:, None]
         last = self.offsets[-1]
         D = lgr_differentiation_matrix(self.tau[-1])
         lam[-1] = D[:, -1] @ Lam[last:]
-        return lam
+        return t0 + (tf - t0) * self.state_point_fractions(), lam
 
-    def _package(self, result: NLPResult) -> dict[str, Any]:
-        pr, t0, tf = self._result_problem(result)
-        X, U, _ = self.unpack(result.w)
-        breaks = self._times(tf, self.mesh.breaks, t0)
+    def interpolants(
+        self, phase: PhaseLayout, values: Sequence[np.ndarray], problem: OptimalControlProblem, t0: float, tf: float
+    ) -> PhaseFields:
+        """Each interval's barycentric interpolant of the states (the collocation points and its end) and of the
+        controls (the collocation points, extrapolated to the interval's end)."""
+        X, U = values
+        pr = problem
+        breaks = t0 + (tf - t0) * self.mesh.breaks
         x_pieces, u_pieces = [], []
         for o, n, tau in zip(self.offsets, self.counts, self.tau):
             x_pieces.append((np.append(tau, 1.0), X[o : o + n + 1]))
             u_pieces.append((tau, unwrap_periodic(U[o : o + n], pr.controls)))
-        t_x = self._times(tf, self.state_point_fractions(), t0)
-        return dict(
-            t0=t0,
-            tf=tf,
-            state_times=t_x,
-            state_values=X,
-            control_times=t_x[:-1],
-            control_values=U,
-            breakpoints=breaks,
-            state_interpolant=PiecewiseBarycentric(breaks, x_pieces),
-            control_interpolant=(
-                PiecewiseBarycentric(breaks, u_pieces) if pr.nu else (lambda t: np.zeros(np.shape(t) + (0,)))
-            ),
-            costate_times=t_x,
-            costate_values=self.costates(result.lam_g),
+        t_x = t0 + (tf - t0) * self.state_point_fractions()
+        controls: Any = PiecewiseBarycentric(breaks, u_pieces) if pr.nu else (lambda t: np.zeros(np.shape(t) + (0,)))
+        return PhaseFields(
+            t_x,
+            X,
+            t_x[:-1],
+            U,
+            breaks,
+            PiecewiseBarycentric(breaks, x_pieces),
+            controls,
             estimate_points=self.counts + 1,
         )

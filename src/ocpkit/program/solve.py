@@ -1,0 +1,432 @@
+"""The solve policy of a :class:`~ocpkit.program.Program`: one solve, a warm start, a mesh refinement.
+
+:func:`solve` is :meth:`Program.solve <ocpkit.program.Program.solve>`: the parameters checked, one IPOPT solve
+(:func:`solve_once`: an exact warm start from a solution of the same program, or a start interpolated onto the mesh)
+or a mesh refinement (:func:`solve_refined`: each mesh a program of the refined schemes, warm-started from the
+previous solution with multiplier estimates), the failure policy of :func:`settle`, and the accuracy warnings (each
+phase's estimate, path constraints between the points). It records on every solution it returns how it was solved
+(:attr:`~ocpkit.Solution.solve_options`, :attr:`~ocpkit.Solution.linear_solver`), so that the same NLP can be solved
+again as it was.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._deprecation import renamed
+from .._warnings import user_stacklevel
+from ..accuracy import (
+    AccuracyWarning,
+    control_switches,
+    path_junctions,
+    path_violations,
+    periodic_control_hint,
+    refinement_hint,
+    warn_if_inaccurate,
+    warn_if_path_violated,
+)
+from ..errors import SolverError
+from ..nlp import WARM_START, NLPResult, failure_hint, linear_solver, solve_nlp
+from ..solution import Solution, SolveOptions
+
+if TYPE_CHECKING:
+    from .program import Program
+
+
+def settle(result: NLPResult, package: Callable[[NLPResult], Solution], raise_on_failure: bool) -> Solution:
+    """The solution of an IPOPT result (``package(result)``), or :class:`SolverError` naming the status.
+
+    A failed solve raises, with the last iterate attached, unless ``raise_on_failure`` is False
+    (then the last iterate is returned, ``converged=False``); a non-finite iterate always raises.
+    """
+    solution = package(result) if np.all(np.isfinite(result.w)) else None
+    if result.success:
+        return solution  # type: ignore[return-value]  # (a successful iterate is finite)
+    if raise_on_failure or solution is None:
+        detail = failure_hint(result.status) if solution is not None else "the last iterate is not finite"
+        raise SolverError("IPOPT", result.status, result.iterations, detail, result=solution)
+    return solution
+
+
+@dataclass(frozen=True)
+class MeshIteration:
+    """One solve of a mesh refinement: the mesh (interval lengths as fractions of ``tf - t0``), its size, the
+    solution's error estimate, IPOPT's iterations and the times (build of this mesh, IPOPT, the whole iteration)."""
+
+    iteration: int
+    transcription: str
+    fractions: np.ndarray
+    collocation_points: int
+    #: the NLP's free variables on this mesh (``nlp_parameters`` is its deprecated name)
+    decision_variables: int
+    error_estimate: float
+    ipopt_iterations: int
+    build_s: float
+    solve_s: float
+    total_s: float
+    #: the parts of the estimate over the tolerance (:meth:`ocpkit.accuracy.Accuracy.failing`) when the state part
+    #: met it; empty where the state part did not (the other parts are not computed then) or all met it
+    failing: tuple[str, ...] = ()
+    #: what drives the refinement on this mesh, which the stall rule follows (the state part while it is over the
+    #: tolerance, else the largest of the others: path violations between points, the objective)
+    worst: float = float("nan")
+
+    @property
+    def nlp_parameters(self) -> int:
+        """Deprecated name of :attr:`decision_variables`."""
+        renamed("MeshIteration.nlp_parameters", "MeshIteration.decision_variables")
+        return self.decision_variables
+
+
+def solve(
+    program: Program,
+    guess: Any,
+    *,
+    ipopt_options: dict[str, Any] | None,
+    allow_acceptable: bool,
+    raise_on_failure: bool,
+    error_threshold: float | None,
+    mesh_tolerance: float | None,
+    max_mesh_iterations: int,
+    parameters: Mapping[str, float] | None,
+) -> Solution:
+    """The solve policy (the module docstring; the options are :meth:`Program.solve
+    <ocpkit.program.Program.solve>`'s)."""
+    if parameters is not None:
+        program.check_parameters(parameters)  # names checked before anything is built
+    if mesh_tolerance is not None:
+        options = dict(ipopt_options=ipopt_options, allow_acceptable=allow_acceptable)
+        solution = solve_refined(
+            program, guess, mesh_tolerance, max_mesh_iterations, options, raise_on_failure, parameters
+        )
+    else:
+        solution = program.solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
+        if error_threshold is not None and solution.converged:
+            warn_inaccurate(solution, error_threshold)
+    record_solve(solution, ipopt_options, allow_acceptable)
+    return solution
+
+
+def record_solve(solution: Solution, ipopt_options: dict[str, Any] | None, allow_acceptable: bool) -> None:
+    """Record on ``solution`` how it was solved: its :attr:`~ocpkit.Solution.solve_options`, for a re-solve of the
+    same NLP (ocpkit.indirect re-solves from an extremal), and its :attr:`~ocpkit.Solution.linear_solver`, the linear
+    algebra it ran with (a refinement's last mesh: the solution's own)."""
+    solution.solve_options = SolveOptions(dict(ipopt_options or {}), allow_acceptable)
+    solution.linear_solver = linear_solver(solution.program.effective_ipopt_options(ipopt_options))
+
+
+def solve_once(
+    program: Program,
+    guess: Any,
+    ipopt_options: dict[str, Any] | None,
+    allow_acceptable: bool,
+    raise_on_failure: bool,
+    parameters: Mapping[str, float] | None = None,
+    estimate_multipliers: bool = False,
+) -> Solution:
+    """One IPOPT solve of ``program``. From a solution of this same program: its exact warm start (its NLP vector and
+    IPOPT's multipliers, with :data:`~ocpkit.nlp.WARM_START`). From a solution of another mesh with
+    ``estimate_multipliers``: the interpolated point with first-order multiplier estimates
+    (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`) and :data:`~ocpkit.nlp.WARM_START`, falling back to the
+    interpolated point alone if that solve fails. The failure policy is :func:`settle`'s."""
+    lbw, ubw = program.bounds(parameters)
+    lbg, ubg = program.constraint_bounds()
+
+    def run(
+        w0: np.ndarray, options: dict[str, Any] | None, multipliers: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> NLPResult:
+        lam_g0, lam_w0 = multipliers if multipliers is not None else (None, None)
+        solver = program.solver(options)
+        return solve_nlp(
+            solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable, lam_w0=lam_w0, lam_g0=lam_g0
+        )
+
+    warm_options = {**WARM_START, **(ipopt_options or {})}
+    if isinstance(guess, Solution) and guess.program is program:
+        previous = guess.nlp_result
+        result = run(np.clip(previous.w, lbw, ubw), warm_options, (previous.lam_g, previous.lam_w))
+        return settle(result, program.solution, raise_on_failure)
+    w0 = np.clip(program.initial_point(guess), lbw, ubw)
+    if estimate_multipliers and isinstance(guess, Solution):
+        result = run(w0, warm_options, program.nlp.multiplier_estimate(w0, lbw, ubw))
+        if result.success:
+            return settle(result, program.solution, raise_on_failure)
+    return settle(run(w0, ipopt_options), program.solution, raise_on_failure)
+
+
+# -- what refinement asks of a solution, phase by phase ------------------------------------------------------------------
+def mesh_fractions(solution: Solution) -> np.ndarray:
+    """The solution's estimate intervals as fractions of its time span (a refinement's history), phase by phase."""
+    span = solution.tf - solution.t0
+    return np.concatenate([np.diff(p.estimate_intervals) / span for p in solution.phases])
+
+
+def path_where(solution: Solution) -> np.ndarray:
+    """Per estimate interval, phase by phase, ``(position of its worst path violation, its size)``
+    (:func:`~ocpkit.accuracy.path_violations`); nothing violated where a phase has no path constraints."""
+    where = np.vstack([path_violations(p, p.estimate_intervals)[2] for p in solution.phases])
+    where[:, 1] = np.nan_to_num(where[:, 1], nan=0.0)
+    return where
+
+
+def cuts(solution: Solution) -> list[list[np.ndarray]]:
+    """Per phase, per estimate interval, where the next mesh cuts it: control switches and path-constraint
+    junctions."""
+    out = []
+    for p in solution.phases:
+        switches = control_switches(p, p.estimate_intervals)
+        junctions = path_junctions(p, p.estimate_intervals)
+        out.append([np.union1d(a, b) for a, b in zip(switches, junctions)])
+    return out
+
+
+def hint(solution: Solution) -> str:
+    """What may keep the estimate from falling (:func:`~ocpkit.accuracy.refinement_hint`), phase by phase."""
+    if solution.single:
+        return refinement_hint(solution.phases[0])
+    hints = [(p.name, refinement_hint(p)) for p in solution.phases]
+    return "; ".join(f"phase {name}: {h}" for name, h in hints if h)
+
+
+def warn_inaccurate(solution: Solution, threshold: float) -> None:
+    """The single solve's warnings, phase by phase: the state estimate over ``threshold``, path constraints violated
+    between points by more than it; each names its phase and scheme, and points at the caller of ``solve()``."""
+    for p, phase in zip(solution.phases, solution.program.phases):
+        label = phase.scheme.label if solution.single else f"phase {p.name!r}, {phase.scheme.label}"
+        warn_if_inaccurate(
+            label,
+            p.interval_errors,
+            p.estimate_intervals,
+            threshold,
+            functools.partial(periodic_control_hint, p),
+            stacklevel=user_stacklevel() + 1,
+        )
+        warn_if_path_violated(label, p, threshold, stacklevel=user_stacklevel() + 1)
+
+
+def _split(values: np.ndarray | Sequence[Any], counts: Sequence[int]) -> list[Any]:
+    bounds = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+    return [values[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def solve_refined(
+    program: Program,
+    guess: Any,
+    tolerance: float,
+    max_iterations: int,
+    options: dict[str, Any],
+    raise_on_failure: bool,
+    parameters: Mapping[str, float] | None,
+) -> Solution:
+    """Solve and refine ``program`` until every part of the error estimate meets ``tolerance`` (:meth:`Program.solve
+    <ocpkit.program.Program.solve>`'s ``mesh_tolerance``), with the history and the outcome on the returned
+    solution."""
+    if not (tolerance > 0 and np.isfinite(tolerance)):
+        raise ValueError(f"mesh_tolerance must be positive, got {tolerance!r}")
+    if max_iterations < 1:
+        raise ValueError(f"max_mesh_iterations must be at least 1, got {max_iterations!r}")
+    mesh = program
+    history: list[MeshIteration] = []
+    solution: Solution | None = None
+    best: Solution | None = None
+    outcome, reason = "met", ""
+    for iteration in range(max_iterations):
+        start = time.perf_counter()
+        try:
+            solution = mesh.solve_once(
+                guess if solution is None else solution,
+                options["ipopt_options"],
+                options["allow_acceptable"],
+                raise_on_failure,
+                parameters,
+                estimate_multipliers=True,
+            )
+            estimate = solution.interval_errors
+        except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
+            if not history:  # the first mesh: the solve's own error (bad input, or IPOPT's status)
+                raise
+            raise _refinement_failure(exc, iteration, mesh, best, history) from exc
+        history.append(
+            MeshIteration(
+                iteration,
+                mesh.label,
+                mesh_fractions(solution),
+                mesh.n_collocation_points,
+                solution.decision_variables,
+                float(estimate.max()),
+                solution.iterations,
+                mesh.build_s,
+                solution.solve_s,
+                time.perf_counter() - start,
+            )
+        )
+        # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
+        errors = np.where(np.isfinite(estimate), estimate, 1e3)
+        if solution.converged and (best is None or errors.max() <= _worst(_history_of(best)[-1])):
+            best = solution
+            best.mesh_history = list(history)
+        if not solution.converged:
+            outcome, reason = "failed", f"IPOPT's status {solution.status} on {mesh.label}"
+            break
+        target = path_target = tolerance
+        try:
+            # path constraints between points at every mesh (cheap); the objective once the state meets the
+            # tolerance (it integrates the flown control)
+            where = path_where(solution)
+            accuracy = solution.accuracy if errors.max() <= tolerance else None
+        except Exception as exc:  # noqa: BLE001
+            raise _refinement_failure(exc, iteration, mesh, best, history) from exc
+        # what drives this refinement: the state while it is over the tolerance, else the other parts
+        worst = float(errors.max())
+        if accuracy is not None:
+            failing = accuracy.failing(tolerance)
+            if not failing:
+                break
+            worst = max(float(np.max(where[:, 1], initial=0.0)), accuracy.objective)
+            if "objective" in failing and accuracy.objective > 0:
+                flown = abs(accuracy.objective_flown - accuracy.objective_nlp)
+                if accuracy.objective_path > flown:
+                    # what the violations between points are worth in cost: they must fall by its excess
+                    largest = float(np.max(where[:, 1], initial=0.0))
+                    path_target = max(min(largest, tolerance) * tolerance / accuracy.objective, 1e-3 * tolerance)
+                else:
+                    # the state error drives the objective's: tighten by the excess (at most a thousandfold)
+                    target = tolerance * max(min(1.0, accuracy.state / accuracy.objective), 1e-3)
+            history[-1] = dataclasses.replace(history[-1], failing=tuple(failing), worst=worst)
+        else:
+            history[-1] = dataclasses.replace(history[-1], worst=worst)
+        # an interval whose path constraints are violated between its points by more than their target is
+        # refined as if that violation were its error: on a constrained arc the constraint oscillates about its
+        # bound between the points, by less as the degree rises or the interval shrinks; where an arc begins or
+        # ends, path_junctions cuts the interval there instead
+        violated = where[:, 1] > path_target
+        errors = np.where(violated, np.maximum(errors, where[:, 1] * target / path_target), errors)
+        stalled = _stalled(history)
+        if stalled:
+            why = hint(solution)
+            parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
+            outcome = "stalled"
+            reason = (
+                f"{program.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
+                f"{history[-1].transcription}" + (f"; {why}" if why else "")
+            )
+            warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+            break
+        if iteration + 1 < max_iterations:
+            try:
+                counts = mesh.estimate_counts(solution)
+                refined = mesh.refine(_split(errors, counts), target, cuts(solution))
+            except Exception as exc:  # noqa: BLE001
+                raise _refinement_failure(exc, iteration, mesh, best, history, "refining") from exc
+            if refined is mesh:  # no interval asks for more: the next mesh would be this one
+                parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
+                outcome = "stopped"
+                reason = (
+                    f"{program.label}: mesh refinement stopped short of {tolerance:g}{parts}: no interval is over "
+                    f"what the failing parts ask of it, so the next mesh would be this one; stopped on "
+                    f"{history[-1].transcription}"
+                )
+                warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+                break
+            mesh = refined
+    else:
+        assert solution is not None  # (at least one iteration ran)
+        parts = f"failing: {', '.join(history[-1].failing)}; " if history[-1].failing else ""
+        why = hint(solution)
+        outcome = "not met"
+        reason = (
+            f"{program.label}: mesh tolerance {tolerance:g} not met after {max_iterations} mesh iterations "
+            f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
+            + (f"; {why}" if why else "")
+        )
+        warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+    assert solution is not None  # (at least one iteration ran)
+    solution.mesh_history = history
+    solution.refinement_outcome, solution.refinement_reason = outcome, reason
+    return solution
+
+
+def _history_of(solution: Solution) -> list[MeshIteration]:
+    return list(solution.mesh_history or [])
+
+
+#: Refinement stalls when, over STALL_MESHES meshes, the state estimate fell by less than 1 / STALL_FALL while the mesh
+#: grew by more than STALL_GROWTH (a singular arc or a non-smooth control the scheme cannot resolve)
+STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
+
+
+def _worst(h: MeshIteration) -> float:
+    return h.worst if np.isfinite(h.worst) else h.error_estimate
+
+
+def _stalled(history: Sequence[MeshIteration]) -> str:
+    """Why refinement stalls (module constants, on what drives each mesh: :attr:`MeshIteration.worst`), or the
+    empty string."""
+    if len(history) <= STALL_MESHES:
+        return ""
+    then, now = history[-1 - STALL_MESHES], history[-1]
+    if _worst(now) > STALL_FALL * _worst(then) and now.collocation_points > STALL_GROWTH * then.collocation_points:
+        return (
+            f"over the last {STALL_MESHES} meshes the estimate went from {_worst(then):.1e} to {_worst(now):.1e} "
+            f"while the mesh grew from {then.collocation_points} to {now.collocation_points} points"
+        )
+    return ""
+
+
+def _refinement_failure(
+    exc: Exception,
+    iteration: int,
+    mesh: Program,
+    best: Solution | None,
+    history: Sequence[MeshIteration],
+    doing: str = "on",
+) -> SolverError:
+    """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
+    solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
+    and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
+    where = (
+        f"on mesh iteration {iteration} ({mesh.label})"
+        if doing == "on"
+        else f"refining mesh iteration {iteration} ({mesh.label}) for the next"
+    )
+    if best is None:
+        kept = "no earlier mesh converged"
+    else:
+        last = _history_of(best)[-1]
+        kept = f"the best solution so far (estimate {last.error_estimate:.1e} on {last.transcription}) is error.best"
+    why = hint(best) if best is not None else ""
+    if why:
+        kept = f"{kept}; {why}"
+    if isinstance(exc, SolverError):
+        detail = f"{where}: {exc.detail}; {kept}" if exc.detail else f"{where}; {kept}"
+        error = SolverError(exc.solver, exc.status, exc.iterations, detail, result=exc.result, best=best)
+    else:
+        error = SolverError("mesh refinement", type(exc).__name__, None, f"{exc} {where}; {kept}", best=best)
+    error.mesh_history = list(history)
+    return error
+
+
+__all__ = [
+    "STALL_FALL",
+    "STALL_GROWTH",
+    "STALL_MESHES",
+    "MeshIteration",
+    "cuts",
+    "hint",
+    "mesh_fractions",
+    "path_where",
+    "record_solve",
+    "settle",
+    "solve",
+    "solve_once",
+    "solve_refined",
+    "warn_inaccurate",
+]
