@@ -87,7 +87,7 @@ def test_stored_and_reported_the_explorer_is_its_picture():
     keep the picture and drop the view; an output that is only a widget keeps it."""
     import nbformat
 
-    from compendium.notebooks import WIDGET_VIEW, static_views
+    from compendium.notebook_source import WIDGET_VIEW, static_views
 
     view = {WIDGET_VIEW: {"model_id": "x", "version_major": 2, "version_minor": 0}}
     both = nbformat.v4.new_output("execute_result", {**view, "image/png": "iVBO", "text/plain": STATIC_NOTE})
@@ -99,7 +99,8 @@ def test_stored_and_reported_the_explorer_is_its_picture():
 def test_lab_saves_the_explorer_as_it_is_stored():
     """make lab's pre-save hook: the widget's view goes where a picture comes with it, and so does the widgets'
     state in the notebook's metadata (new model ids every run)."""
-    from compendium.notebooks import WIDGET_VIEW, pre_save_hook
+    from compendium.notebook_source import WIDGET_VIEW
+    from compendium.notebooks import pre_save_hook
 
     view = {WIDGET_VIEW: {"model_id": "x", "version_major": 2, "version_minor": 0}}
     cell = {"cell_type": "code", "outputs": [{"output_type": "execute_result", "data": {**view, "image/png": "iVBO"}}]}

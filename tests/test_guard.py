@@ -17,8 +17,8 @@ from compendium import plotting
 from compendium.contract import Converged, Error, Exact, Order, SolverPath, load_contract, to_number
 from compendium.figure_data import figure_data
 from compendium.guard import compare_figure_data, guard, read_csv
-from compendium.outputs import RUNS
 from compendium.paths import repo_root
+from compendium.provenance import RUNS
 
 ROOT = repo_root()
 

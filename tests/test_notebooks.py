@@ -1,4 +1,4 @@
-"""Notebook structure, parameter handling and folder independence (compendium.notebooks)."""
+"""Notebook structure, parameter handling and folder independence (compendium.notebooks, compendium.notebook_source)."""
 
 import json
 import re
@@ -8,8 +8,9 @@ import nbformat
 import pytest
 
 from compendium import paths
-from compendium.notebooks import KERNEL_NAME, check_parameters, execute, notebook_parameters, published_overrides
-from compendium.outputs import published_parameters, read_run_record
+from compendium.notebook_source import check_parameters, notebook_parameters, published_overrides, published_parameters
+from compendium.notebooks import KERNEL_NAME, execute
+from compendium.provenance import read_run_record
 
 NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
 
@@ -95,7 +96,7 @@ def test_the_report_shows_the_figures_and_serves_mathjax_itself(tmp_path):
     """HTML pages with their figures inline and MathJax from the report's own folder (readable offline)."""
     import shutil
 
-    from compendium.notebooks import build_report
+    from compendium.report import build_report
 
     executed = tmp_path / "executed"
     executed.mkdir()

@@ -168,6 +168,7 @@ def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(syste
     """Regression: the thrust continuation ended at 5 N on an extremal at 173.48 h; restarting from the other
     thrusts' solutions finds 168.75 h (the lowest minimum of t_min against the final longitude, notebook 05)."""
     from compendium.studies import orbit_transfer as orbit_study
+    from compendium.studies.orbit_transfer.minimum_time import _tmin_row
 
     cached = orbit_study.read_cache("orbit_transfer_tmin")
     donors = cached[np.isclose(cached.thrust_N, 6.955217) | np.isclose(cached.thrust_N, 12.42003)]
@@ -177,7 +178,7 @@ def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(syste
     z[-1] *= 6.955217 / 5.0
     at5 = systems.shooting("time", 5.0).solve(z, maxfev=150)
     assert at5.tf == pytest.approx(173.4822, abs=1e-3)
-    table = pd.concat([donors, pd.DataFrame([orbit_study._tmin_row(5.0, at5.z, at5.norm, True)])], ignore_index=True)
+    table = pd.concat([donors, pd.DataFrame([_tmin_row(5.0, at5.z, at5.norm, True)])], ignore_index=True)
     table["target"] = np.isclose(table.thrust_N, 5.0)
     refined, extremals = orbit_study.refine_minimum_time(systems, table, log=None)
     row = refined[refined.target].iloc[0]

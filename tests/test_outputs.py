@@ -11,17 +11,10 @@ import pandas as pd
 import pytest
 
 from compendium import paths
+from compendium.notebook_source import notebook_code, published_parameters
 from compendium.notebooks import PublishError, publish_run
-from compendium.outputs import (
-    STAGING,
-    ContractWarning,
-    Outputs,
-    executed_code,
-    notebook_code,
-    published_parameters,
-    read_run_record,
-    run_key,
-)
+from compendium.outputs import STAGING, ContractWarning, Outputs, executed_code
+from compendium.provenance import read_run_record, run_key
 
 NOTEBOOK = "01_lunar_ascent"
 

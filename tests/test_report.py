@@ -24,14 +24,13 @@ from test_lab import REQUIRE_BROWSER, needs_chromium
 
 from compendium import mathjax, paths
 from compendium.checks import check, check_true
+from compendium.provenance import PACKAGES, environment
 from compendium.report import (
     HIDE_CELL,
-    PACKAGES,
     REMOVE_CELL,
     UNFINISHED,
     Unfinished,
     build_report,
-    environment,
     strip_markers,
     title,
     verdicts,
@@ -196,7 +195,8 @@ def test_a_record_rewritten_by_runs_is_not_a_dirty_checkout(tmp_path):
     the report says so apart, and the checkout stays clean; a changed source makes it dirty."""
     import subprocess
 
-    from compendium.report import _commit, git_state
+    from compendium.provenance import git_state
+    from compendium.report import _commit
 
     def git(*args):
         subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)

@@ -54,8 +54,8 @@ from .contract import (
     text_differences,
     to_number,
 )
-from .outputs import RUNS
 from .paths import repo_root
+from .provenance import RUNS
 
 MAX_PER_FILE = 8  # differences listed per file (the rest are counted)
 PUBLISHED_FOLDERS = ("figures", "data/derived")

@@ -14,19 +14,34 @@ and only a complete run of the committed notebook, unchanged, with its published
 Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
 private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
 progress in the terminal (``OCPKIT_PROGRESS=terminal``, see :mod:`compendium.progress`), not in the stored notebooks.
+
+The top of the compendium's run machinery: it reads notebooks through :mod:`compendium.notebook_source`, finds run
+folders and records through :mod:`compendium.provenance` and builds the report with :mod:`compendium.report`; none
+of them imports it back.
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
-import re
 import sys
 import traceback
-from collections.abc import Mapping
 from pathlib import Path
 
-from .report import Unfinished
+from . import paths
+from .contract import load_contract
+from .notebook_source import (
+    check_parameters,
+    code_digest,
+    literal_parameters,
+    notebook_code,
+    published_overrides,
+    published_parameters,
+    static_views,
+    written_to,
+)
+from .provenance import RUNS, run_folder
+from .report import UNFINISHED, Unfinished, build_report
 
 KERNEL_NAME = "ocpkit"
 
@@ -35,60 +50,6 @@ _VOLATILE_CELL_METADATA = ("papermill", "execution")
 # papermill's record of the run, and the state of live widgets (nbclient and Lab save it; new model ids every run,
 # and their views are not stored: static_views)
 _VOLATILE_NB_METADATA = ("papermill", "widgets")
-
-
-def parameters_cell(path: str | Path):
-    """The single cell tagged ``parameters`` of a notebook."""
-    import nbformat
-
-    nb = nbformat.read(str(path), as_version=4)
-    cells = [c for c in nb.cells if "parameters" in c.metadata.get("tags", [])]
-    if len(cells) != 1:
-        raise ValueError(f"{Path(path).name} must have exactly one cell tagged 'parameters', found {len(cells)}")
-    return cells[0]
-
-
-def notebook_parameters(path: str | Path) -> dict:
-    """Parameters declared in the notebook's ``parameters`` cell: name -> default (source text).
-
-    Every assignment in the cell must be one papermill can parse (it silently
-    skips, for instance, a line whose comment contains ``=``); otherwise the
-    parameter could not be set from the command line, and this raises.
-    """
-    import papermill as pm
-
-    cell = parameters_cell(path)
-    assigned = [
-        t.id
-        for node in ast.parse(cell.source).body
-        if isinstance(node, ast.Assign)
-        for t in node.targets
-        if isinstance(t, ast.Name)
-    ]
-    params = pm.inspect_notebook(str(path))
-    missed = [name for name in assigned if name not in params]
-    if missed:
-        raise ValueError(f"papermill cannot parse the parameter line(s) of {missed} in {Path(path).name}")
-    return {name: spec["default"] for name, spec in params.items()}
-
-
-def literal_parameters(path: str | Path) -> dict:
-    """The defaults of :func:`notebook_parameters` as Python values (every default must be a literal)."""
-    out = {}
-    for name, text in notebook_parameters(path).items():
-        try:
-            out[name] = ast.literal_eval(text)
-        except (ValueError, SyntaxError):
-            raise ValueError(f"the default of {name!r} in {Path(path).name} is not a Python literal: {text}") from None
-    return out
-
-
-def published_overrides(path: str | Path) -> dict:
-    """The parameters ``notebooks/published.toml`` sets for the notebook's published run (values as Python)."""
-    import tomllib
-
-    table = tomllib.loads((Path(path).parent / "published.toml").read_text()).get(Path(path).stem, {})
-    return {k: ast.literal_eval(v) for k, v in table.items()}
 
 
 def _kernel_manager_class(ipc_dir: str | None = None):
@@ -111,14 +72,6 @@ def _kernel_manager_class(ipc_dir: str | None = None):
                 self.ip = os.path.join(ipc_dir, "kernel")
 
     return IPCKernelManager
-
-
-def check_parameters(path: str | Path, parameters: dict) -> None:
-    """Raise ``ValueError`` naming any parameter the notebook does not declare."""
-    known = notebook_parameters(path)
-    unknown = sorted(set(parameters) - set(known))
-    if unknown:
-        raise ValueError(f"unknown parameter(s) {unknown} for {Path(path).name}; its parameters are {sorted(known)}")
 
 
 def execute(
@@ -196,31 +149,16 @@ def strip_volatile_metadata(path: str | Path) -> None:
     nbformat.write(nb, str(path))
 
 
-#: the output of a live widget: its model lives in the kernel that made it
-WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
-
-
 def pre_save_hook(model: dict, **_) -> None:
-    """Jupyter server's pre-save hook (``make lab`` sets it): a notebook is saved with :func:`static_views` of its
-    outputs and without the widgets' state, as ``make store`` stores it."""
+    """Jupyter server's pre-save hook (``make lab`` sets it): a notebook is saved with
+    :func:`~compendium.notebook_source.static_views` of its outputs and without the widgets' state, as
+    ``make store`` stores it."""
     if model.get("type") != "notebook" or not isinstance(model.get("content"), dict):
         return
     model["content"].get("metadata", {}).pop("widgets", None)
     for cell in model["content"].get("cells", []):
         if cell.get("cell_type") == "code":
             static_views(cell.get("outputs", []))
-
-
-def static_views(outputs: list) -> list:
-    """``outputs`` without the views of live widgets (``compendium.explorer``) where a static picture comes with
-    them: stored without its kernel, a widget view renders nothing (nbconvert, nbviewer and GitHub pick it first
-    and show a blank) and its model id changes with every run; the picture is what a reader without the kernel
-    sees."""
-    for out in outputs:
-        data = out.get("data") if out.get("output_type") in ("display_data", "execute_result") else None
-        if data and WIDGET_VIEW in data and len(set(data) - {WIDGET_VIEW, "text/plain"}) > 0:
-            del data[WIDGET_VIEW]
-    return outputs
 
 
 def _merged_streams(outputs: list) -> list:
@@ -247,14 +185,12 @@ def run(
     kernel: str = KERNEL_NAME,
     progress: bool = False,
 ) -> tuple[Path, Path]:
-    """Execute a notebook into a run folder (:func:`compendium.outputs.run_folder`): the executed notebook, its
+    """Execute a notebook into a run folder (:func:`compendium.provenance.run_folder`): the executed notebook, its
     figures, tables and record side by side. ``runs``: the folder of run folders (default ``build/runs``).
 
     Returns the folder of the executed notebook and that of the run's figures and tables, as the run's first output
     line names it: a copy of a compendium notebook writes where the notebook it copies would.
     """
-    from .outputs import run_folder
-
     path, parameters = Path(path), dict(parameters or {})
     check_parameters(path, parameters)
     defaults = literal_parameters(path)
@@ -262,25 +198,6 @@ def run(
     env = {"OCPKIT_RUNS_DIR": str(Path(runs).resolve())} if runs is not None else {}
     executed = execute(path, folder / path.name, parameters, kernel=kernel, cwd=folder, progress=progress, env=env)
     return folder, written_to(executed) or folder
-
-
-_WRITES_TO = re.compile(r"^This run writes its figures and tables to (.+?)/ when it completes")
-
-
-def written_to(executed: str | Path) -> Path | None:
-    """The folder an executed notebook's run wrote its figures and tables to (its first output line says)."""
-    import nbformat
-
-    from . import paths
-
-    nb = nbformat.read(str(executed), as_version=4)
-    for cell in nb.cells:
-        for output in cell.get("outputs", []) if cell.cell_type == "code" else []:
-            m = _WRITES_TO.match(output.get("text", ""))
-            if m:
-                where = Path(m.group(1))
-                return where if where.is_absolute() else paths.repo_root() / where
-    return None
 
 
 class PublishError(ValueError):
@@ -294,15 +211,10 @@ def committed_code(notebook: str) -> tuple[list[str], str]:
 
     import nbformat
 
-    from . import paths
-    from .outputs import code_digest
-
     root = paths.repo_root()
     rel = f"notebooks/{notebook}.ipynb"
     inside = subprocess.run(["git", "-C", str(root), "rev-parse", "--show-toplevel"], capture_output=True, text=True)
     if inside.returncode != 0 or Path(inside.stdout.strip()).resolve() != root.resolve():
-        from .outputs import notebook_code
-
         return notebook_code(root / rel), rel
     shown = subprocess.run(["git", "-C", str(root), "show", f"HEAD:{rel}"], capture_output=True, text=True)
     if shown.returncode != 0:
@@ -323,10 +235,6 @@ def publish_run(folder: str | Path) -> list[str]:
     import json
     import os
     import shutil
-
-    from . import paths
-    from .contract import load_contract
-    from .outputs import RUNS, published_parameters
 
     folder = Path(folder)
     records = sorted((folder / RUNS).glob("*.json"))
@@ -379,8 +287,6 @@ def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False
     Where the defaults are the published parameters, the run is published (:func:`publish_run`). Returns the
     run's folder and whether it was published.
     """
-    from .outputs import published_parameters, run_folder
-
     path = Path(path)
     execute(path, path, {}, kernel=kernel, cwd=path.parent, progress=progress)
     strip_volatile_metadata(path)
@@ -397,8 +303,8 @@ def reproduce(
 ) -> dict[Path, Unfinished]:
     """The published runs: each notebook executed with its published parameters (notebooks/published.toml) into
     ``output``, and its run published (:func:`publish_run`); then, if ``report`` names a folder, the report of the
-    executed notebooks in it (:func:`build_report`). The executed notebooks an earlier call left in ``output`` (those
-    papermill wrote; a notebook put there by hand stays, and is reported too) are removed first.
+    executed notebooks in it (:func:`compendium.report.build_report`). The executed notebooks an earlier call left
+    in ``output`` (those papermill wrote; a notebook put there by hand stays, and is reported too) are removed first.
 
     Everything is checked before anything is removed or run, and every problem named in one ``ValueError``: each
     notebook exists and is one of the compendium's ``notebooks/`` (only those publish; one given twice runs once),
@@ -412,9 +318,6 @@ def reproduce(
     them later says the same.
     """
     import json
-
-    from .outputs import run_folder
-    from .report import UNFINISHED
 
     output = Path(output)
     published = _checked_runs(notebooks, output, None if report is None else Path(report))
@@ -451,8 +354,6 @@ def reproduce(
 
 def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> dict[Path, dict]:
     """Each notebook's published parameters, checked (:func:`reproduce`): every problem found, in one ``ValueError``."""
-    from . import paths
-
     problems: list[str] = []
     for option, folder in (("--output", output), ("--report", report)):
         if folder is not None and folder.exists() and not folder.is_dir():
@@ -508,14 +409,6 @@ def _cell_error(exc: Exception) -> str:
     return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
 
 
-def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[str, Unfinished] | None = None) -> Path:
-    """The HTML report of every executed notebook in ``executed``, written into ``output``; the index's path
-    (:func:`compendium.report.build_report`, which says what ``unfinished`` is)."""
-    from .report import build_report as build
-
-    return build(executed, output, unfinished)
-
-
 def _parse_value(text: str):
     try:
         return ast.literal_eval(text)
@@ -540,8 +433,6 @@ def _say(line: str) -> None:
 
 
 def _where(folder: Path) -> str:
-    from . import paths
-
     try:
         return f"{folder.resolve().relative_to(paths.repo_root())}/"
     except ValueError:

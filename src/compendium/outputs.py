@@ -5,27 +5,30 @@ A notebook opens one :class:`Outputs` in its first code cell and publishes it in
 1. **Every run writes its own folder.** A notebook never writes the published record (``figures/`` and
    ``data/derived/`` of the repository) itself. A run writes under ``build/runs/<notebook>/<key>/``, where the
    key names the parameters that differ from the notebook's defaults (``defaults`` when none do,
-   ``segments-40`` ...; see :func:`run_key`), so runs with other parameters never overwrite each other and a
-   run with the same parameters replaces the earlier one whole. ``OCPKIT_RUNS_DIR`` moves ``build/runs``;
-   ``OCPKIT_OUTPUT_DIR`` is the explicit choice of one folder for the run (nbval's runs write
+   ``segments-40`` ...; see :func:`compendium.provenance.run_key`), so runs with other parameters never overwrite
+   each other and a run with the same parameters replaces the earlier one whole. ``OCPKIT_RUNS_DIR`` moves
+   ``build/runs``; ``OCPKIT_OUTPUT_DIR`` is the explicit choice of one folder for the run (nbval's runs write
    ``build/test-output``). The run's first output line says where, and why.
 2. **Only the committed notebook publishes.** ``make reproduce`` and ``make store`` (and
    ``python -m compendium.notebooks publish RUN``) copy a run into the published record, and only a complete
-   run of the committed notebook, unchanged, with its published parameters (:func:`published_parameters`):
-   the run's record holds a digest of every code cell the kernel executed (:func:`executed_code`), which must
-   be the code cells of the notebook as committed (git's ``HEAD``; :func:`compendium.notebooks.publish_run`).
-   Lab's Run All, a copy of a notebook and an edited one stay in ``build/runs/``.
+   run of the committed notebook, unchanged, with its published parameters
+   (:func:`compendium.notebook_source.published_parameters`): the run's record holds a digest of every code cell
+   the kernel executed (:func:`executed_code`), which must be the code cells of the notebook as committed (git's
+   ``HEAD``; :func:`compendium.notebooks.publish_run`). Lab's Run All, a copy of a notebook and an edited one stay
+   in ``build/runs/``.
 3. **All or nothing.** Files are staged in ``<folder>/.staging/`` and moved into place by :meth:`Outputs.publish`
    when the notebook completes: a run that fails midway leaves its folder as it was. The staging folder of a
    failed run is removed when its kernel exits, and that of a killed one by the next run into the same folder.
 4. **Timings apart.** Measured times go to the run's record, ``<folder>/data/derived/runs/<notebook>.json``,
    with the parameters and the files written; tracked files and stored notebooks hold none.
+
+Below it: what it reads of the notebook (:mod:`compendium.notebook_source`) and where the run's folder and record
+are, with the git state the record holds (:mod:`compendium.provenance`).
 """
 
 from __future__ import annotations
 
 import atexit
-import hashlib
 import json
 import os
 import re
@@ -39,81 +42,16 @@ import pandas as pd
 
 from . import contract, paths
 from .figure_data import write_figure_data
+from .notebook_source import code_digest, notebook_parameters, parameters_cell, published_parameters
 from .plotting import save_figure
+from .provenance import RUNS, git_state, run_folder
 
-RUNS = Path("data") / "derived" / "runs"
 STAGING = ".staging"
 FIGURE_DATA = Path(contract.FIGURE_DATA)
 
 
 class ContractWarning(UserWarning):
     """A run wrote something ``notebooks/contract.toml`` does not declare (the guard reports it as a difference)."""
-
-
-def published_parameters(notebook: str) -> dict:
-    """The parameters of the notebook's published run: its parameters cell, updated by ``notebooks/published.toml``."""
-    from .notebooks import published_overrides
-
-    path = paths.notebooks_dir() / f"{notebook}.ipynb"
-    params, overrides = default_parameters(notebook), published_overrides(path)
-    unknown = sorted(set(overrides) - set(params))
-    if unknown:
-        raise ValueError(f"notebooks/published.toml names unknown parameter(s) {unknown} of {notebook}")
-    return params | overrides
-
-
-def default_parameters(notebook: str) -> dict:
-    """The defaults of the notebook's parameters cell, as Python values."""
-    from .notebooks import literal_parameters
-
-    return literal_parameters(paths.notebooks_dir() / f"{notebook}.ipynb")
-
-
-_SLUG = re.compile(r"[A-Za-z0-9.+-]+")
-
-
-def run_key(notebook: str, parameters: dict, defaults: dict | None = None) -> str:
-    """The name of a run's folder: ``defaults``, or the parameters that differ from the defaults.
-
-    ``segments=40`` gives ``segments-40``; a value that is not a short plain word (a list, a path) is named by a
-    digest of its ``repr``, and a key longer than 80 characters by a digest of all of it: the run's record holds
-    the parameters themselves. ``defaults``: the notebook's (read from ``notebooks/<notebook>.ipynb`` if not given).
-    """
-    defaults = default_parameters(notebook) if defaults is None else defaults
-    changed = {k: v for k, v in parameters.items() if k in defaults and v != defaults[k]}
-    if not changed:
-        return "defaults"
-    parts = []
-    for name, value in sorted(changed.items()):
-        text = repr(value)
-        if not _SLUG.fullmatch(text) or len(text) > 24:
-            text = hashlib.sha256(text.encode()).hexdigest()[:8]
-        parts.append(f"{name}-{text}")
-    key = "_".join(parts)
-    if len(key) > 80:
-        key = "p-" + hashlib.sha256(repr(sorted(changed.items())).encode()).hexdigest()[:12]
-    return key
-
-
-def runs_root() -> Path:
-    """The folder of run folders: ``OCPKIT_RUNS_DIR``, else ``build/runs`` of the repository."""
-    given = os.environ.get("OCPKIT_RUNS_DIR")
-    return Path(given).resolve() if given else paths.repo_root() / "build" / "runs"
-
-
-def run_folder(notebook: str, parameters: dict, runs: Path | None = None, defaults: dict | None = None) -> Path:
-    """Where a run of ``notebook`` with ``parameters`` writes: ``OCPKIT_OUTPUT_DIR`` when set, else its folder under
-    ``runs`` (default :func:`runs_root`)."""
-    explicit = os.environ.get("OCPKIT_OUTPUT_DIR")
-    if explicit:
-        return Path(explicit).resolve()
-    key = run_key(notebook, parameters, defaults)
-    return (Path(runs).resolve() if runs is not None else runs_root()) / notebook / key
-
-
-def code_digest(source: str) -> str:
-    """The digest of one code cell's source (trailing white space aside)."""
-    return hashlib.sha256(source.rstrip().encode()).hexdigest()[:16]
 
 
 def _ipython():
@@ -168,18 +106,6 @@ def executed_code(inputs: list[str], parameters_source: str | None = None) -> li
         if not (after_parameters and _is_injected_parameters(source)):
             out.append(code_digest(source))
     return out
-
-
-def notebook_code(path: Path) -> list[str]:
-    """Digests of a notebook file's code cells, in order."""
-    import nbformat
-
-    nb = nbformat.read(str(path), as_version=4)
-    return [
-        code_digest(c.source)
-        for c in nb.cells
-        if c.cell_type == "code" and "injected-parameters" not in c.metadata.get("tags", [])
-    ]
 
 
 def _alive(pid: int) -> bool:
@@ -365,9 +291,6 @@ class Outputs:
         for rel in stale:  # what the earlier run of this notebook here wrote and this one did not
             (self.root / rel).unlink(missing_ok=True)
         inputs = _kernel_inputs()
-        from .notebooks import parameters_cell
-        from .report import git_state
-
         tracked = paths.notebooks_dir() / f"{self.notebook}.ipynb"
         record = {
             "notebook": self.notebook,
@@ -399,16 +322,14 @@ def _remove_if_empty(folder: Path) -> None:
 
 def _contract_of(notebook: str):
     """The notebook's section of ``notebooks/contract.toml`` (``None``, with a warning, when it has none)."""
-    from .contract import load_contract
-
     try:
-        contract = load_contract()
+        sections = contract.load_contract()
     except FileNotFoundError:
         return None
-    if notebook not in contract:
+    if notebook not in sections:
         warnings.warn(f"notebooks/contract.toml has no section for {notebook}", ContractWarning, stacklevel=3)
         return None
-    return contract[notebook]
+    return sections[notebook]
 
 
 def _reject_unknown_injected(notebook: str) -> None:
@@ -419,8 +340,6 @@ def _reject_unknown_injected(notebook: str) -> None:
     injected = [s for s in inputs if _is_injected_parameters(s)]
     if not injected:
         return
-    from .notebooks import notebook_parameters
-
     known = notebook_parameters(paths.notebooks_dir() / f"{notebook}.ipynb")
     unknown = sorted(set(_assigned(injected[-1])) - set(known))
     if unknown:
@@ -436,8 +355,3 @@ def _plain(value):
     if hasattr(value, "tolist"):
         return value.tolist()
     return value
-
-
-def read_run_record(root: Path, notebook: str) -> dict:
-    """The record :meth:`Outputs.publish` wrote for ``notebook`` under ``root``."""
-    return json.loads((Path(root) / RUNS / f"{notebook}.json").read_text())

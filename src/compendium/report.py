@@ -2,25 +2,26 @@
 
 One page per notebook (nbconvert's lab template, extended by :data:`TEMPLATE`): its first heading as title, its
 headings as a contents list, links to the index and to the previous and next notebooks, a box saying what ran, where
-and on what (:class:`RunFacts`, :func:`environment`, :func:`git_state`) and the verdicts its checks printed
-(:func:`verdicts`). Cells are hidden by the tags myst-nb reads too (:data:`REMOVE_CELL`, :data:`HIDE_CELL` ...):
-the notebooks' plumbing (opening and publishing :class:`compendium.outputs.Outputs`) carries them. ``# NBVAL_*``
-marker lines leave the code shown, and what a run printed on standard error (warnings) shows as a note. The index
-lists every notebook with its outcome, checks and the folder its figures and tables went to.
+and on what (:class:`RunFacts`; :func:`compendium.provenance.environment`, :func:`compendium.provenance.git_state`)
+and the verdicts its checks printed (:func:`verdicts`). Cells are hidden by the tags myst-nb reads too
+(:data:`REMOVE_CELL`, :data:`HIDE_CELL` ...): the notebooks' plumbing (opening and publishing
+:class:`compendium.outputs.Outputs`) carries them. ``# NBVAL_*`` marker lines leave the code shown, and what a run
+printed on standard error (warnings) shows as a note. The index lists every notebook with its outcome, checks and the
+folder its figures and tables went to.
 
 Equations are typeset by a copy of MathJax next to the pages, in its TeX fonts (:mod:`compendium.mathjax`); figures
 are inline. No page loads anything from the network: nbconvert's require.js (for JavaScript and widget outputs,
-which the report does not carry: :func:`compendium.notebooks.static_views`) and mermaid loader are left out.
+which the report does not carry: :func:`compendium.notebook_source.static_views`) and mermaid loader are left out.
+
+It reads the executed notebooks through :mod:`compendium.notebook_source` and their runs' records and provenance
+through :mod:`compendium.provenance`; :mod:`compendium.notebooks`, which builds it, sits above it.
 """
 
 from __future__ import annotations
 
 import html
 import json
-import os
-import platform
 import re
-import subprocess
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -28,11 +29,14 @@ from html.parser import HTMLParser
 from pathlib import Path
 from typing import NamedTuple
 
+from . import paths
+from .mathjax import copy_mathjax
+from .notebook_source import literal_parameters, published_parameters, static_views, written_to
+from .provenance import RUNS, environment, git_state
+
 #: tags, as myst-nb reads them: the cell, its code or its outputs left out of the page, or folded away
 REMOVE_CELL, REMOVE_INPUT, REMOVE_OUTPUT = "remove-cell", "remove-input", "remove-output"
 HIDE_CELL, HIDE_INPUT, HIDE_OUTPUT = "hide-cell", "hide-input", "hide-output"
-#: the packages whose versions a report names
-PACKAGES = ("casadi", "numpy", "scipy", "matplotlib", "pandas", "ocpkit")
 
 _CONTENTS = "<!--report:contents-->"
 
@@ -169,67 +173,6 @@ h1 {{ font-size: 1.6em; }}
 # -- what ran, where and on what ---------------------------------------------------------------------------------
 
 
-def environment() -> dict:
-    """The machine and the software of this process (``make reproduce`` runs the notebooks on the ``ocpkit``
-    kernel, the same environment): platform, CPU, Python and the versions of :data:`PACKAGES`."""
-    from importlib import metadata
-
-    versions = {}
-    for name in PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return {
-        "platform": platform.platform(),
-        "cpu": f"{_cpu_model()}, {os.cpu_count()} logical CPUs",
-        "python": f"{platform.python_implementation()} {platform.python_version()}",
-        "packages": versions,
-    }
-
-
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine() or "unknown CPU"
-
-
-#: the published record: what the notebooks' published runs rewrite (not the code or inputs a run is of)
-RECORD = ("figures/", "data/derived/")
-
-
-def git_state(root: Path | None = None) -> dict | None:
-    """The commit checked out in ``root`` (default the repository), its date, the tracked files changed since but
-    for the published record (``changed``; ``dirty`` if any) and the files of the record changed since (``record``:
-    rewritten by runs, as ``make reproduce``'s are on another machine); ``None`` outside a git checkout."""
-    from . import paths
-
-    root = Path(root) if root is not None else paths.repo_root()
-
-    def git(*args: str) -> str | None:
-        try:
-            done = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True)
-        except OSError:  # no git on this machine
-            return None
-        return done.stdout if done.returncode == 0 else None
-
-    top = git("rev-parse", "--show-toplevel")
-    if top is None or Path(top.strip()).resolve() != root.resolve():  # a copy inside another repository's tree
-        return None
-    commit = git("rev-parse", "HEAD")
-    if commit is None:
-        return None
-    every = [line[3:] for line in (git("status", "--porcelain", "--untracked-files=no") or "").splitlines()]
-    record = [f for f in every if f.startswith(RECORD)]
-    changed = [f for f in every if f not in record]
-    date = (git("log", "-1", "--format=%cI", "HEAD") or "").strip()
-    return {"commit": commit.strip(), "date": date, "dirty": bool(changed), "changed": changed, "record": record}
-
-
 @dataclass
 class RunFacts:
     """What one executed notebook says of its run, and what its run folder holds.
@@ -257,10 +200,6 @@ class RunFacts:
 
 def run_facts(path: Path, nb) -> RunFacts:
     """The :class:`RunFacts` of the executed notebook ``nb``, read from ``path``."""
-    from . import paths
-    from .notebooks import literal_parameters, written_to
-    from .outputs import RUNS, published_parameters
-
     facts = RunFacts()
     papermill = nb.metadata.get("papermill", {})
     if papermill.get("end_time"):
@@ -423,10 +362,8 @@ def strip_markers(source: str) -> str:
 
 def prepare(nb):
     """The notebook as its page shows it (changed in place, and returned): no widget state nor live widget views
-    (:func:`compendium.notebooks.static_views`), no ``# NBVAL_*`` lines, its title in its metadata, and the first
-    Markdown cell with a heading marked to be followed by the run box."""
-    from .notebooks import static_views
-
+    (:func:`compendium.notebook_source.static_views`), no ``# NBVAL_*`` lines, its title in its metadata, and the
+    first Markdown cell with a heading marked to be followed by the run box."""
     nb.metadata.pop("widgets", None)
     nb.metadata["title"] = title(nb)
     for cell in nb.cells:
@@ -549,8 +486,6 @@ def contents(page: str) -> str:
 
 
 def _where(folder: Path | None) -> str:
-    from . import paths
-
     if folder is None:
         return "not said"
     try:
@@ -678,8 +613,6 @@ def _tally(page: Page) -> str:
 
 
 def _copy(path: Path) -> str:
-    from . import paths
-
     if path.resolve() == (paths.notebooks_dir() / path.name).resolve():
         return " (its stored outputs)"
     return f", executed as <code>{html.escape(_where(path).rstrip('/'))}</code>"
@@ -788,8 +721,6 @@ def build_report(executed: str | Path, output: str | Path, unfinished: Mapping[s
     (:func:`compendium.notebooks.reproduce`); by default what ``reproduce`` recorded beside the executed notebooks
     (:data:`UNFINISHED`). Its page says so; a notebook that left no executed notebook gets a row of the index.
     """
-    from .mathjax import copy_mathjax
-
     executed, output = Path(executed), Path(output)
     if unfinished is None:
         recorded = executed / UNFINISHED
