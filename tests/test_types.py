@@ -26,6 +26,7 @@ PUBLIC_MODULES = [
     "ocpkit.analysis",
     "ocpkit.errors",
     "ocpkit.flight",
+    "ocpkit.hamiltonian_form",
     "ocpkit.indirect",
     "ocpkit.interpolation",
     "ocpkit.monotone",

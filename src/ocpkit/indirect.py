@@ -37,6 +37,7 @@ import casadi as ca
 import numpy as np
 
 from .errors import SolverError
+from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
 from .structure import Structure, control_structure
 
@@ -217,7 +218,7 @@ def to_extremal(
                 "fix them, or state the problem with a box"
             )
         try:
-            law = control_law(statement, control_set, regularized=_quadratic(statement), radius=radius)
+            law = control_law(statement, control_set, regularized=has_quadratic_term(statement), radius=radius)
         except ValueError as exc:
             raise ValueError(
                 f"{statement.name!r}: no {control_set} law derives from its Hamiltonian ({exc}); to_extremal derives "
@@ -557,19 +558,6 @@ def _restatement(solution: Solution, problem: OptimalControlProblem) -> OptimalC
                 f"parameter {name!r} is {value} in {problem.name!r} and {solved[name]} in the direct solution"
             )
     return problem
-
-
-def _quadratic(problem: OptimalControlProblem) -> bool:
-    """Whether some control has a quadratic term in H (then the saturated linear law)."""
-    from .shooting.hamiltonian import _extract
-
-    ham = problem.functions.hamiltonian
-    _, _, _, b = _extract(ham.H, ham.u, problem.nu)
-    f = ca.Function("b", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*b)])
-    rng = np.random.default_rng(1)
-    P = problem._P  # the problem's parameter values (free ones at their guesses): b may depend on them
-    values = [np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.0, P)) for _ in range(3)]
-    return bool(np.max(np.abs(values)) > 1e-12)
 
 
 #: the segment counts :func:`_shoot` tries, in turn, when single shooting from the direct costates fails

@@ -46,6 +46,7 @@ import numpy as np
 
 from .._arrays import unique
 from ..errors import SolverError
+from ..hamiltonian_form import l1_controls, sample_value
 from ..nodes import cubic_hermite
 from ..statement import FreeFinalTime
 from ..structure import Structure, inequalities
@@ -121,9 +122,7 @@ class ArcFlows:
         self.H, self.f = ham.H, ham.f
         self.Hx = ca.gradient(ham.H, ham.x)
         self.ineq = {q.name: q for q in inequalities(problem)}
-        from ..structure import _l1_controls
-
-        self.l1 = _l1_controls(problem)
+        self.l1 = l1_controls(problem)
         self._cache: dict[ArcType, _Flow] = {}
 
     def depends(self, expr: ca.SX, ui: ca.SX) -> bool:
@@ -134,9 +133,7 @@ class ArcFlows:
         d = ca.Function("d", [self.x, self.p, self.u, self.t, self.P], [ca.jacobian(expr, ui), expr])
         rng = np.random.default_rng(7)
         P = np.asarray(self.problem._P, dtype=float).ravel()
-        from .hamiltonian import _sample
-
-        x = np.array([_sample(s) for s in self.problem.states])
+        x = np.array([sample_value(s) for s in self.problem.states])
         for _ in range(6):
             lo = np.array([c.lower if np.isfinite(c.lower) else -1.0 for c in self.problem.controls])
             hi = np.array([c.upper if np.isfinite(c.upper) else 1.0 for c in self.problem.controls])
