@@ -33,6 +33,7 @@ PUBLIC_MODULES = [
     "ocpkit.names",
     "ocpkit.nlp",
     "ocpkit.nodes",
+    "ocpkit.outcome",
     "ocpkit.problem",
     "ocpkit.statement",
     "ocpkit.statement.bounds",

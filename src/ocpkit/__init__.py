@@ -1,6 +1,7 @@
 """ocpkit: transcriptions, solvers and test problems of the optimal-control compendium."""
 
 from .errors import SolverError
+from .outcome import Outcome
 from .scaling import autoscale
 from .solution import Reintegration, Solution
 from .statement import (
@@ -44,6 +45,7 @@ __all__ = [
     "MultiPhaseSolution",
     "MultiRateHLGL",
     "OptimalControlProblem",
+    "Outcome",
     "Radau",
     "Reintegration",
     "Solution",
