@@ -1,4 +1,4 @@
-"""The form of a Hamiltonian in its controls, as the switching-structure analysis reads it:
+"""The form of a Hamiltonian in its controls, as the switching-structure analysis reads it::
 
     H(x, p, u, t) = H0(x, p, t) + psi(x, p, t) . u + w(x, p, t) |u| + b(x, p, t) |u|^2
 
