@@ -318,4 +318,6 @@ def test_arc_shooting_refuses_what_it_cannot_pose():
         shooting.solve(np.zeros(3))
     with pytest.raises(SolverError, match="arc shooting failed") as info:
         shooting.solve(np.array([5.0, 1.9, 3.0, 0.0]), max_iterations=1)
-    assert info.value.result.norm > 1e-10
+    assert info.value.result.norm > 1e-10 and info.value.outcome is info.value.result.status
+    returned = shooting.solve(np.array([5.0, 1.9, 3.0, 0.0]), max_iterations=1, raise_on_failure=False)
+    assert not returned.converged and returned.status is info.value.outcome and returned.iterations <= 1

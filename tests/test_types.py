@@ -52,6 +52,7 @@ PUBLIC_MODULES = [
     "ocpkit.shooting.continuation",
     "ocpkit.shooting.hamiltonian",
     "ocpkit.shooting.multiple",
+    "ocpkit.shooting.result",
     "ocpkit.shooting.shooting",
     "ocpkit.shooting.strategies",
     "ocpkit.shooting.trajectory",

@@ -358,8 +358,8 @@ class ShootingFamily:
 
     def describe(self, result) -> dict:
         return {
-            "status": "converged",
-            "iterations": int(result.n_shooting),
+            "status": str(result.status),
+            "iterations": int(result.iterations),
             "error_estimate": float(result.norm),
             "objective": float(result.objective),
             "objective_label": self.objective_label,

@@ -22,8 +22,12 @@ The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the
 What the chain does not treat yet stops it with a named error: a solution without costate estimates (Radau and
 HLGL give them), an arc or junction whose flow is not derived (named with what to do), a free t0, free parameters in
 the arc method. An extremal of a wrong structure (the shooting can converge to one) fails its certificate, by name: no
-extremal is returned uncertified unless ``strict=False``. :func:`follow_extremal` continues an extremal in a problem
-parameter through the birth and death of arcs.
+extremal is returned uncertified unless ``raise_on_failure=False``. :func:`follow_extremal` continues an extremal in a
+problem parameter through the birth and death of arcs.
+
+An :class:`Extremal` has the fields of every indirect result (:class:`~ocpkit.shooting.result.IndirectResult`: ``z``,
+``norm``, ``tol``, ``converged``, ``status``, ``detail``, ``iterations``, ``evaluations``, ``cpu_s``, ``objective``,
+``trajectory``), read from its shooting run and its certificate.
 """
 
 from __future__ import annotations
@@ -36,14 +40,17 @@ from typing import TYPE_CHECKING, Any, cast
 import casadi as ca
 import numpy as np
 
+from ._deprecation import renamed_argument
 from .errors import SolverError
 from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
+from .outcome import Outcome
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
+    from .shooting.result import IndirectResult
     from .solution import Solution
     from .statement import OptimalControlProblem
     from .trajectory import Trajectory
@@ -118,6 +125,69 @@ class Extremal:
     #: certified)
     budgets: list[str] = field(default_factory=list)
 
+    # -- the indirect result contract (ocpkit.shooting.result.IndirectResult), read from the run and the certificate
+    @property
+    def z(self) -> np.ndarray:
+        """The shooting's unknowns at the extremal."""
+        return self.shooting.z
+
+    @property
+    def residual(self) -> np.ndarray:
+        """The shooting function at the extremal."""
+        return self.shooting.residual
+
+    @property
+    def norm(self) -> float:
+        """``|S|`` at the extremal (``|R|`` where multiple shooting gave it)."""
+        return self.shooting.norm
+
+    @property
+    def tol(self) -> float:
+        """The tolerance on ``|S|`` it was solved and certified to."""
+        return self.shooting.tol
+
+    @property
+    def converged(self) -> bool:
+        """Whether the shooting converged (``norm <= tol``) and the certificate passed."""
+        return bool(self.shooting.converged and self.certificate.passed)
+
+    @property
+    def status(self) -> Outcome:
+        """:attr:`~ocpkit.Outcome.CERTIFICATE_FAILED` where the certificate fails, else the shooting's status."""
+        return self.shooting.status if self.certificate.passed else Outcome.CERTIFICATE_FAILED
+
+    @property
+    def detail(self) -> str:
+        """The shooting solver's words, and the failed checks where the certificate fails."""
+        if self.certificate.passed:
+            return self.shooting.detail
+        return f"{self.shooting.detail}; failed checks {self.certificate.failed}"
+
+    @property
+    def iterations(self) -> int:
+        """The shooting's Newton iterations (Jacobian evaluations)."""
+        return self.shooting.iterations
+
+    @property
+    def evaluations(self) -> int:
+        """The shooting's evaluations of its shooting function."""
+        return self.shooting.evaluations
+
+    @property
+    def cpu_s(self) -> float:
+        """The process time of the shooting's solve."""
+        return self.shooting.cpu_s
+
+    @property
+    def objective(self) -> float:
+        """The extremal's cost."""
+        return self.shooting.objective
+
+    @property
+    def free_parameters(self) -> dict[str, float]:
+        """The solved free parameters by name."""
+        return self.shooting.free_parameters
+
 
 METHODS = ("auto", "arcs", "switching")
 #: the certificate's comparisons with the direct solution that a re-solve from the extremal may settle (the others
@@ -134,8 +204,9 @@ def to_extremal(
     method: str = "auto",
     switching: str = "correction",
     jacobian: str | Callable[..., tuple[np.ndarray, np.ndarray]] = "variational",
-    solver: str | Callable[..., tuple[np.ndarray, str]] = "hybr",
-    strict: bool = True,
+    solver: str | Callable[..., tuple[Any, ...]] = "hybr",
+    raise_on_failure: bool | None = None,
+    strict: bool | None = None,
 ) -> Extremal:
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
@@ -158,10 +229,14 @@ def to_extremal(
     (the same NLP: not a phase cut from its links). The guarantee is then that the direct method, started from the
     extremal, stays with it, not that the first direct solution approximated it.
 
-    ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``strict``: a certificate that fails
-    raises a :class:`~ocpkit.SolverError` naming the failed checks (the result is its ``.result``); False: the
-    result carries it. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
+    ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``raise_on_failure`` (default True): a
+    certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (outcome
+    :attr:`~ocpkit.Outcome.CERTIFICATE_FAILED`; the extremal is its ``.result``); False: the extremal is returned
+    with its certificate (``converged`` False, ``status`` ``CERTIFICATE_FAILED``). A shooting that fails raises in
+    either case, the run as the error's ``.result`` (there is no extremal to certify). ``strict`` is the deprecated
+    name of ``raise_on_failure``. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     """
+    raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
     from .shooting import Shooting, control_law
     from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.hamiltonian import CONTROL_SETS
@@ -246,24 +321,25 @@ def to_extremal(
                 trajectory, result, again, None if restated else structure, tol=tol, first=first, terminal=terminal
             )
     extremal = Extremal(
-        trajectory,
-        result,
-        structure,
-        certificate,
-        timings,
+        trajectory=trajectory,
+        shooting=result,
+        structure=structure,
+        certificate=certificate,
+        timings=timings,
         direct=solution,
         first_direct=first,
         route=route,
         budgets=budgets,
     )
-    if strict and not certificate.passed:
+    if raise_on_failure and not certificate.passed:
         raise SolverError(
             "certificate",
             f"failed checks {certificate.failed}",
-            result.n_shooting,
+            result.evaluations,
             f"{problem.name!r}:\n{certificate.describe()}",
             unit="shooting-function evaluations",
             result=extremal,
+            outcome=Outcome.CERTIFICATE_FAILED,
         )
     return extremal
 
@@ -380,7 +456,12 @@ def follow_extremal(
                 ) from exc
         state["shooting"] = shooting
         state["last"] = Extremal(
-            tr, result, control_structure(tr), certificate, {}, direct=state["direct"], budgets=list(state["budgets"])
+            trajectory=tr,
+            shooting=result,
+            structure=control_structure(tr),
+            certificate=certificate,
+            direct=state["direct"],
+            budgets=list(state["budgets"]),
         )
         solved[value] = state["last"]
         return result
@@ -565,7 +646,7 @@ SEGMENTS = (10, 20, 40, 80)
 
 
 def _shoot(
-    shooting: Shooting, solution: Solution, *, solver: str | Callable[..., tuple[np.ndarray, str]], tol: float
+    shooting: Shooting, solution: Solution, *, solver: str | Callable[..., tuple[Any, ...]], tol: float
 ) -> tuple[ShootingResult | MultipleShootingResult, str]:
     """``(result, route)``: the switching method's shooting solved from the direct solution.
 
@@ -582,7 +663,7 @@ def _shoot(
 
     z0 = _unknowns(shooting, solution)
     try:
-        return shooting.solve(z0, solver=solver, stol=tol), "single shooting"
+        return shooting.solve(z0, solver=solver, tol=tol), "single shooting"
     except SolverError as exc:
         failure, tried = exc, []
     per_node = 2 * shooting.problem.nx + 1
@@ -592,13 +673,13 @@ def _shoot(
             break
         multiple = MultipleShooting(shooting, segments)
         try:
-            found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", stol=tol)
+            found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", tol=tol)
         except SolverError as exc:
             tried.append(f"{segments} segments: {exc.status}")
             continue
         try:
             return shooting.solve(
-                found.z, solver=solver, stol=tol
+                found.z, solver=solver, tol=tol
             ), f"multiple shooting ({segments} segments), then single shooting"
         except SolverError:
             return found, f"multiple shooting ({segments} segments)"
@@ -609,6 +690,7 @@ def _shoot(
         f"{failure.detail}; multiple shooting from the direct solution's nodes failed too ({'; '.join(tried)})",
         unit=failure.unit,
         result=failure.result,
+        outcome=failure.outcome,
     ) from failure
 
 
@@ -649,7 +731,7 @@ def _unknowns(shooting: Shooting, solution: Solution) -> np.ndarray:
 
 def certify(
     trajectory: Trajectory,
-    result: ArcResult | ShootingResult | MultipleShootingResult,
+    result: IndirectResult,
     direct: Solution | None = None,
     structure: Structure | None = None,
     tol: float = 1e-10,

@@ -5,6 +5,7 @@ from .compiled import CompiledSystem, Integration
 from .continuation import GeometricSteps, Schedule, arclength, follow, homotopy
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .multiple import MultipleShooting, MultipleShootingResult
+from .result import IndirectResult
 from .shooting import Shooting, ShootingResult
 from .strategies import (
     JACOBIANS,
@@ -27,6 +28,7 @@ __all__ = [
     "FiniteDifferences",
     "GeometricSteps",
     "HamiltonianSystem",
+    "IndirectResult",
     "Integration",
     "MinpackHybrid",
     "MultipleShooting",
