@@ -157,6 +157,16 @@ def test_message_and_counts_are_now_detail_evaluations_and_iterations():
             assert result.n_jacobian == result.iterations > 0
 
 
+def test_a_continuation_paths_message_is_now_detail():
+    from ocpkit.indirect import ExtremalPath
+    from ocpkit.shooting.continuation import ContinuationPath
+
+    for path in (ContinuationPath("p", detail="reached the end"), ExtremalPath("p", detail="reached the end")):
+        name = type(path).__name__
+        with pytest.warns(DeprecationWarning, match=rf"{name}.message is deprecated; use {name}.detail"):
+            assert path.message == "reached the end"
+
+
 def test_to_extremals_strict_is_now_raise_on_failure():
     from ocpkit.indirect import to_extremal
 
@@ -184,6 +194,7 @@ def test_each_deprecation_points_at_the_caller():
         lambda: HLGL(problem, 4).solve(error_threshold=None).nlp_parameters,
     ]
     from ocpkit.indirect import to_extremal
+    from ocpkit.shooting.continuation import ContinuationPath
 
     energy = minimum_energy_shooting()
     solved = energy.solve(START)
@@ -207,6 +218,7 @@ def test_each_deprecation_points_at_the_caller():
         lambda: solved.n_shooting,
         lambda: solved.n_jacobian,
         refused(lambda: to_extremal(object(), strict=False)),
+        lambda: ContinuationPath("p").message,
     ]
     for use in uses:
         with pytest.warns(DeprecationWarning) as record:

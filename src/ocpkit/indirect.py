@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
@@ -45,6 +45,7 @@ from .errors import SolverError
 from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
 from .outcome import Outcome
+from .shooting.continuation import ContinuationPath
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
@@ -345,19 +346,29 @@ def to_extremal(
 
 
 @dataclass
-class ExtremalPath:
-    """The result of :func:`follow_extremal`: the parameter ``values`` solved, the ``extremals`` there (each
-    certified), and the structure ``changes`` met on the way, ``(value, before, after, how)`` with ``how`` the
-    arc that died (``"arc ... shrank to zero"``) or ``"re-detected from a direct solve"``."""
+class ExtremalPath(ContinuationPath):
+    """The result of :func:`follow_extremal`, a :class:`~ocpkit.shooting.continuation.ContinuationPath` (its
+    ``converged``, ``status``, ``detail``, ``iterations``; the list of ``(value, extremal)``): the parameter
+    ``values`` solved, the :attr:`extremals` there (each certified; the path's ``results``), and the structure
+    ``changes`` met on the way, ``(value, before, after, how)`` with ``how`` the arc that died (``"arc ... shrank
+    to zero"``) or ``"re-detected from a direct solve"``."""
 
-    parameter: str
-    values: list[float]
-    extremals: list[Extremal]
-    changes: list[tuple[float, str, str, str]]
+    changes: list[tuple[float, str, str, str]] = field(default_factory=list)
+
+    @property
+    def extremals(self) -> list[Extremal]:
+        """The certified extremal at each value (the path's ``results``)."""
+        return self.results
 
 
 def follow_extremal(
-    extremal: Extremal, parameter: str, values: Sequence[float], *, tol: float = 1e-10, shortest: float = 1e-5
+    extremal: Extremal,
+    parameter: str,
+    values: Sequence[float],
+    *,
+    tol: float = 1e-10,
+    shortest: float = 1e-5,
+    raise_on_failure: bool = True,
 ) -> ExtremalPath:
     """Continue an extremal of the arc method (:func:`to_extremal`) in a problem parameter over ``values``, through
     changes of its structure (issue 24, item 6).
@@ -367,7 +378,9 @@ def follow_extremal(
     from the last extremal. A step that fails, or whose extremal fails its certificate (an arc is born: H is no
     longer minimal, or an inequality is violated off its boundary arcs), is solved directly at that value (the
     direct solution's transcription, warm-started) and its structure detected again. Every extremal returned is
-    certified (residual, H minimum, feasibility, H constant, Legendre-Clebsch, multiplier signs)."""
+    certified (residual, H minimum, feasibility, H constant, Legendre-Clebsch, multiplier signs). Where a step
+    cannot be solved even so, the continuation's :class:`~ocpkit.SolverError` is raised (outcome
+    :attr:`~ocpkit.Outcome.STEP_TOO_SMALL`); ``raise_on_failure=False`` returns the path so far with that status."""
     from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.continuation import Schedule, follow
 
@@ -390,7 +403,6 @@ def follow_extremal(
         "budgets": list(extremal.budgets),
     }
     changes: list[tuple[float, str, str, str]] = []
-    solved: dict[float, Extremal] = {}
 
     def words(arcs: Sequence[ArcType]) -> str:
         return " | ".join(ArcShooting._name(a) for a in arcs)
@@ -413,7 +425,7 @@ def follow_extremal(
         state["direct"], state["budgets"] = direct, budgets
         return shooting, result
 
-    def solve_at(value: float, z: np.ndarray) -> ArcResult:
+    def solve_at(value: float, z: np.ndarray) -> Extremal:
         shooting = state["shooting"]
         previous = state["last"].trajectory
         if z.size != shooting.nz:
@@ -439,7 +451,14 @@ def follow_extremal(
             terminal = _terminal_multipliers(result, state["budgets"])
             certificate = certify(tr, result, None, None, tol=tol, terminal=terminal)
             if not certificate.passed:
-                raise SolverError("certificate", f"failed checks {certificate.failed}", 0, "", result=result)
+                raise SolverError(
+                    "certificate",
+                    f"failed checks {certificate.failed}",
+                    0,
+                    "",
+                    result=result,
+                    outcome=Outcome.CERTIFICATE_FAILED,
+                )
         except (SolverError, ValueError) as exc:
             shooting, result = redetect(value, exc.status if isinstance(exc, SolverError) else str(exc))
             tr = cast("Trajectory", result.trajectory)  # (a converged run has one)
@@ -453,6 +472,7 @@ def follow_extremal(
                     0,
                     f"at {parameter} = {value:.6g}",
                     result=result,
+                    outcome=Outcome.CERTIFICATE_FAILED,
                 ) from exc
         state["shooting"] = shooting
         state["last"] = Extremal(
@@ -463,12 +483,11 @@ def follow_extremal(
             direct=state["direct"],
             budgets=list(state["budgets"]),
         )
-        solved[value] = state["last"]
-        return result
+        return state["last"]
 
     start = float(statement.parameters[parameter])
-    follow(solve_at, extremal.shooting.z, start, Schedule(values))
-    return ExtremalPath(parameter, list(solved), list(solved.values()), changes)
+    path = follow(solve_at, extremal.z, start, Schedule(values), raise_on_failure=raise_on_failure, parameter=parameter)
+    return ExtremalPath(**{f.name: getattr(path, f.name) for f in fields(path)}, changes=changes)
 
 
 def _terminal_multipliers(result: Any, budgets: Sequence[str]) -> dict[str, float]:
