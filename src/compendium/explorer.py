@@ -307,9 +307,10 @@ class ShootingFamily:
     unknowns to start from at ``values``, given those ``z`` solved at ``start_values`` (default: ``z`` itself);
     ``solve_options``: passed to ``Shooting.solve`` (default: MINPACK's hybrid method, 100 evaluations);
     ``note(result)``: what the status line adds (e.g. the fuel and the switchings); ``objective_label``: the name of
-    the objective there ("": not shown). The status line's accuracy is the residual |S|; the iterations are
-    shooting-function evaluations. A shooting whose integration fails is a failed solve, as one that does not
-    converge. It has no discrete choices."""
+    the objective there ("": not shown). The status line's status and iterations are the run's (its
+    :class:`~ocpkit.Outcome` and its Newton iterations, Jacobian evaluations), its accuracy the residual |S|. A
+    shooting whose integration fails is a failed solve, as one that does not converge. It has no discrete
+    choices."""
 
     measure = "|S|"
     options: dict = {}
