@@ -68,7 +68,7 @@ def main() -> None:
                 "chain_s": chain_s,
                 "total_s": total_s,
                 "chain_over_direct": chain_s / direct_s,
-                "newton_iterations": extremal.shooting.n_jacobian,
+                "newton_iterations": extremal.iterations,
                 "route": extremal.route,
             }
         )

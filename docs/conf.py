@@ -41,7 +41,10 @@ autodoc_typehints = "description"
 # Every cross-reference must resolve (make docs passes -n, nitpicky, with -W). Names of the libraries ocpkit builds
 # on are not documented here (no network for intersphinx at build time), so references to them are not checked.
 nitpick_ignore_regex = [
-    ("py:.*", r"(numpy|np|casadi|ca|scipy|pandas|pd|matplotlib|collections|typing|abc|warnings|pathlib|os)(\..*)?"),
+    (
+        "py:.*",
+        r"(numpy|np|casadi|ca|scipy|pandas|pd|matplotlib|collections|typing|abc|enum|warnings|pathlib|os)(\..*)?",
+    ),
     ("py:.*", r"(ndarray|callable|optional|Path|ArrayLike|NDArray|Callable|Sequence|Mapping|Iterable)"),
 ]
 

@@ -1,6 +1,8 @@
 """Multiple shooting over arcs (ocpkit.shooting.arcs), each arc type's derived flow against a closed form or a
 published value, and the certificate catching a wrong extremal."""
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -8,7 +10,7 @@ from scipy.optimize import brentq
 from test_shooting import gain_problem
 from test_structure import saturated
 
-from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Radau, SolverError, State
+from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Outcome, Radau, SolverError, State
 from ocpkit.indirect import _arc_conditions, certify, follow_extremal, to_extremal
 from ocpkit.shooting.arcs import ArcShooting, ArcType, arc_sequence
 from ocpkit.structure import control_structure
@@ -241,7 +243,7 @@ def test_the_certificate_catches_a_wrong_structure():
     assert "multiplier_sign" in certificate.failed and certificate["multiplier_sign"].value > 0.1
 
 
-def test_a_continuation_through_the_death_of_a_boundary_arc():
+def test_a_continuation_through_the_death_of_a_boundary_arc(monkeypatch):
     """The Goddard rocket's speed limit lifted from 0.125 past the free extremal's top speed (about 0.133): the
     boundary arc shrinks, dies between 0.13 and 0.135, the structure is detected again and the continuation goes on
     to the unconstrained extremal (the COPS rocket's)."""
@@ -250,12 +252,31 @@ def test_a_continuation_through_the_death_of_a_boundary_arc():
     assert extremal.structure.kinds("T") == ["upper", "singular", "boundary", "lower"]
     path = follow_extremal(extremal, "v_max", [0.13, 0.135, 0.14])
     assert path.values == [0.13, 0.135, 0.14] and all(e.certificate.passed for e in path.extremals)
+    assert path.converged and path.status is Outcome.CONVERGED and len(path) == path.iterations == 3
+    assert path[0] == (0.13, path.extremals[0]) and path.extremals[-1].converged
     assert [(v, before.count("|"), after.count("|")) for v, before, after, _ in path.changes] == [(0.135, 3, 2)]
     free = to_extremal(Radau(goddard_rocket(), 4, 20).solve(mesh_tolerance=1e-6))
     assert path.extremals[-1].trajectory.objective == pytest.approx(free.trajectory.objective, abs=1e-10)
     assert path.extremals[0].trajectory.objective > free.trajectory.objective  # the limit still binds at 0.13
     with pytest.raises(KeyError, match=r"unknown parameter 'speed'; 'goddard_rocket_speed_limit' has \['v_max'\]"):
         follow_extremal(extremal, "speed", [0.13])
+    # a step that cannot be solved (the shooting refused beyond 0.13, no transcription to detect the structure
+    # again): raised by default; raise_on_failure=False returns the path so far with the continuation's status
+    solve = ArcShooting.solve
+
+    def refused(self, z0, parameters=None, **options):
+        if parameters is not None and parameters["v_max"] > 0.1300001:
+            raise SolverError("arc shooting", "refused", 0, outcome=Outcome.STALLED)
+        return solve(self, z0, parameters, **options)
+
+    monkeypatch.setattr(ArcShooting, "solve", refused)
+    stranded = dataclasses.replace(extremal, direct=None)
+    with pytest.raises(SolverError, match="continuation failed with status 'failed at 0.130") as info:
+        follow_extremal(stranded, "v_max", [0.13, 0.135])
+    assert info.value.outcome is Outcome.STEP_TOO_SMALL
+    partial = follow_extremal(stranded, "v_max", [0.13, 0.135], raise_on_failure=False)
+    assert partial.values == [0.13] and not partial.converged and partial.status is Outcome.STEP_TOO_SMALL
+    assert "no transcription" in partial.detail and partial.extremals[0].certificate.passed
 
 
 def test_the_tumours_drug_budget_is_the_terminal_condition_it_amounts_to():
@@ -318,4 +339,6 @@ def test_arc_shooting_refuses_what_it_cannot_pose():
         shooting.solve(np.zeros(3))
     with pytest.raises(SolverError, match="arc shooting failed") as info:
         shooting.solve(np.array([5.0, 1.9, 3.0, 0.0]), max_iterations=1)
-    assert info.value.result.norm > 1e-10
+    assert info.value.result.norm > 1e-10 and info.value.outcome is info.value.result.status
+    returned = shooting.solve(np.array([5.0, 1.9, 3.0, 0.0]), max_iterations=1, raise_on_failure=False)
+    assert not returned.converged and returned.status is info.value.outcome and returned.iterations <= 1

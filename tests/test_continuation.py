@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from ocpkit import SolverError
-from ocpkit.shooting.continuation import GeometricSteps, Schedule, arclength, follow
+from ocpkit import Outcome, SolverError
+from ocpkit.shooting.continuation import ContinuationPath, GeometricSteps, Schedule, Toward, arclength, follow
 
 
 class Fold:
@@ -21,9 +21,10 @@ class Fold:
     def jacobian_matrix(self, z, P):
         return self.residual(z, P), np.array([[2 * z[0]]])
 
-    def solve(self, z, P):
+    def solve(self, z, P, *, tol=1e-8):
         from types import SimpleNamespace
 
+        self.tols = [*getattr(self, "tols", []), tol]  # the refinement solves to the continuation's tol
         z = np.array(z, dtype=float)
         for _ in range(50):
             z = z - self.residual(z, P) / (2 * z[0])
@@ -31,9 +32,12 @@ class Fold:
 
 
 def test_arclength_follows_the_path_around_the_fold():
+    fold = Fold()
     path = arclength(
-        Fold(), [np.sqrt(0.5)], "theta", 0.5, 2.0, targets=[0.75], log=False, h0=0.05, hmax=0.1, max_steps=40
+        fold, [np.sqrt(0.5)], "theta", 0.5, 2.0, targets=[0.75], log=False, h0=0.05, hmax=0.1, max_steps=40
     )
+    assert fold.tols == [1e-9, 1e-9], "each crossing refined to the continuation's tol"
+    assert path.status is Outcome.MAX_ITERATIONS and not path.converged and path.iterations == len(path.values) - 1
     theta = np.array(path.values)
     z = np.array([v[0] for v in path.z])
     assert np.abs(z**2 + theta - 1).max() < 1e-9, "every point on the curve"
@@ -47,8 +51,13 @@ def test_arclength_follows_the_path_around_the_fold():
 
 def test_stop_at_turn_stops_just_past_the_fold():
     path = arclength(Fold(), [np.sqrt(0.5)], "theta", 0.5, 2.0, log=False, h0=0.05, hmax=0.1, stop_at_turn=True)
-    assert "folded back" in path.message
+    assert "folded back" in path.detail and path.status is Outcome.FOLD and not path.converged
     assert 0.9 < path.values[-1] < 1.0
+    with pytest.raises(SolverError, match="pseudo-arclength continuation failed with status 'fold'") as info:
+        arclength(
+            Fold(), [np.sqrt(0.5)], "theta", 0.5, 2.0, log=False, hmax=0.1, stop_at_turn=True, raise_on_failure=True
+        )
+    assert info.value.outcome is Outcome.FOLD and info.value.result.values[-1] == path.values[-1]
 
 
 def test_arclength_rejects_a_start_that_is_not_a_solution():
@@ -85,9 +94,79 @@ def _near(v, z):  # converges only from within 0.3 of the value
 
 def test_follow_halves_a_failing_step_and_names_where_it_gives_up():
     path = follow(_near, np.array([0.0]), 0.0, Schedule([1.0]))
-    assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0]
-    with pytest.raises(SolverError, match="failed at"):
+    assert isinstance(path, ContinuationPath) and path.converged and path.status is Outcome.CONVERGED
+    assert [v for v, _ in path] == [0.25, 0.5, 0.75, 1.0] == path.values and len(path) == path.iterations == 4
+    assert path[-1][1] is path.results[-1] and path.failures == 3 and path.start == 0.0
+    with pytest.raises(SolverError, match="failed at") as info:
         follow(_near, np.array([0.0]), 0.0, Schedule([10.0], max_halvings=3))
+    assert info.value.outcome is Outcome.STEP_TOO_SMALL
+    partial = follow(_near, np.array([0.0]), 0.0, Schedule([10.0], max_halvings=3), raise_on_failure=False)
+    assert not partial.converged and partial.status is Outcome.STEP_TOO_SMALL and "failed at" in partial.detail
+    assert partial.values == [] and partial.failures == 4
+
+
+def test_a_result_that_says_it_failed_is_a_failed_step():
+    class Unconverged(_Result):
+        converged, status, detail, iterations = False, Outcome.STALLED, "stuck", 3
+
+    seen = []
+
+    def solve_at(v, z):
+        seen.append(v)
+        return _Result(np.array([v])) if v <= 0.5 else Unconverged(np.array([v]))
+
+    path = follow(solve_at, np.array([0.0]), 0.0, Schedule([0.5, 1.0], max_halvings=1), raise_on_failure=False)
+    assert path.values == [0.5] and seen == [0.5, 1.0, 0.75] and path.status is Outcome.STEP_TOO_SMALL
+    assert "stuck" in path.detail
+
+
+def test_the_first_of_several_starts_that_solves_and_a_cancellation():
+    tried = []
+
+    def solve_at(v, start):
+        tried.append(start)
+        return _near(v, np.array([start]))
+
+    path = follow(
+        solve_at, np.array([0.0]), 0.0, Schedule([1.0]), predictor=lambda h, v: [0.0, 0.8, 0.9], choose="first"
+    )
+    assert tried == [0.0, 0.8] and path.values == [1.0]
+    calls = []
+    path = follow(
+        lambda v, z: calls.append(v) or _near(v, z),
+        np.array([0.0]),
+        0.0,
+        Schedule([0.2, 0.4, 0.6]),
+        cancelled=lambda: len(calls) >= 2,
+        remember=lambda v, r: calls.append(("remembered", v)),
+    )
+    assert path.status is Outcome.CANCELLED and not path.converged and path.values == [0.2]
+    assert calls == [0.2, ("remembered", 0.2)]
+
+
+def test_toward_steps_halfway_then_aims_at_the_target_again():
+    """The explorer's rule: the target; then halfway, halved on failure; from each point solved, the target."""
+
+    def near(v, z):  # converges only within 0.3 (in the plane's norm) of the last point
+        if np.linalg.norm(v - z) > 0.3:
+            raise SolverError("toy", "too far")
+        return _Result(np.array(v))
+
+    seen = []
+    path = follow(
+        lambda v, z: seen.append(tuple(np.round(v, 6))) or near(v, z),
+        np.zeros(2),
+        np.zeros(2),
+        Toward([0.6, 0.0], halvings=3),
+        predictor=lambda h, v: h[-1].result.z if h[-1].result is not None else h[-1][1],
+        first=_Result(np.zeros(2)),
+    )
+    assert seen == [(0.6, 0.0), (0.3, 0.0), (0.6, 0.0)] and path.converged
+    assert np.array_equal(path.values[-1], [0.6, 0.0])
+    failed = follow(
+        near, None, np.zeros(2), Toward([5.0, 0.0], halvings=2), first=_Result(np.zeros(2)), raise_on_failure=False
+    )
+    assert failed.status is Outcome.STEP_TOO_SMALL and "target not reached" in failed.detail
 
 
 def test_geometric_steps_shrink_on_failure_grow_back_and_hit_every_target():

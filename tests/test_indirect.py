@@ -5,7 +5,7 @@ import pytest
 from test_shooting import gain_optimum, gain_problem
 from test_structure import race, saturated  # closed forms: switch at 1, t_f = 2; J = 3/8 - sqrt(3)/12
 
-from ocpkit import HLGL, Radau, SolverError
+from ocpkit import HLGL, Outcome, Radau, SolverError
 from ocpkit.indirect import Certificate, Check, certify, to_extremal
 from ocpkit.structure import control_structure
 
@@ -81,8 +81,10 @@ def test_a_failed_certificate_raises_with_the_extremal(monkeypatch):
     direct = Radau(race(), 4, 15).solve(error_threshold=None)
     with pytest.raises(SolverError, match=r"failed checks \['structure'\]") as info:
         to_extremal(direct)
-    assert info.value.result.certificate is failing
-    assert to_extremal(direct, strict=False).certificate is failing
+    assert info.value.result.certificate is failing and info.value.outcome is Outcome.CERTIFICATE_FAILED
+    kept = to_extremal(direct, raise_on_failure=False)
+    assert kept.certificate is failing and not kept.converged and kept.status is Outcome.CERTIFICATE_FAILED
+    assert kept.shooting.converged and kept.norm == kept.shooting.norm and kept.iterations == kept.shooting.iterations
 
 
 def planar_transfer(form: str = "ball", x_final: float = 3.0, tf: float = 6.0, u2_bound: float = 1.0):
@@ -256,7 +258,7 @@ def test_where_the_flow_blows_up_from_the_direct_costates_multiple_shooting_from
         from ocpkit.shooting import Shooting, control_law
 
         shooting = Shooting(direct.problem, control_law(direct.problem, regularized=True), rtol=1e-10, atol=1e-10)
-        shooting.solve(_unknowns(shooting, direct), stol=1e-10)
+        shooting.solve(_unknowns(shooting, direct), tol=1e-10)
     extremal = to_extremal(direct)
     assert extremal.route.startswith("multiple shooting") and extremal.certificate.passed
     refined = Radau(rayleigh(), 4, 20).solve(mesh_tolerance=1e-9)

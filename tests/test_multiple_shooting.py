@@ -25,7 +25,7 @@ def test_the_fuel_optimal_double_integrator_over_three_segments():
     ms = MultipleShooting(Shooting(pr, control_law(pr, "box"), rtol=1e-12, atol=1e-12), segments=3)
     exact = double_integrator_solution()
     r = ms.solve(np.array(exact.p0) * (1 + np.array([0.05, -0.03])))
-    assert r.converged and r.norm <= 1e-10 and r.continuity <= 1e-12
+    assert r.converged and r.norm <= 1e-10 and r.continuity <= 1e-12 and r.status == "converged" and r.tol == 1e-10
     assert r.z == pytest.approx(exact.p0, abs=1e-10) and r.objective == pytest.approx(exact.fuel, abs=1e-10)
     switches = np.concatenate([i.switching_times for i in r.integrations])
     assert r.switchings == 2 and switches == pytest.approx([exact.t1, exact.t2], abs=1e-10)
@@ -69,3 +69,22 @@ def test_too_many_unknowns_for_the_dense_jacobian_are_refused_by_name():
     pr = double_integrator(lam=1.0)
     with pytest.raises(ValueError, match="more than the 4000 whose dense Jacobian"):
         MultipleShooting(Shooting(pr, control_law(pr, "box")), segments=1000)
+
+
+def test_a_run_that_cannot_be_integrated_anywhere_is_returned_not_raised_when_asked():
+    """raise_on_failure=False with every integration failing (a budget of one step): the run is returned, its last
+    iterate's and its start's integrations both failed, with NaN residuals, no integrations and the outcome
+    INTEGRATION_FAILED (the start used to be re-evaluated unguarded, which raised)."""
+    from ocpkit import Outcome, SolverError
+
+    pr = double_integrator(lam=1.0)
+    ms = MultipleShooting(Shooting(pr, control_law(pr, "box"), max_steps=1), segments=2)
+    Z0 = np.concatenate([[1.0, 1.0], [0.5, -0.5, 1.0, 1.0, 0.0]])
+    with pytest.raises(SolverError) as info:
+        ms.solve(Z0)
+    assert info.value.outcome is Outcome.INTEGRATION_FAILED
+    r = ms.solve(Z0, raise_on_failure=False)
+    assert not r.converged and r.status is Outcome.INTEGRATION_FAILED and np.isnan(r.norm)
+    assert r.integrations == [] and "and at the start" in r.detail and np.isnan(r.objective)
+    with pytest.raises(ValueError, match="no recorded integrations"):
+        r.trajectory.state(0.0)

@@ -4,7 +4,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit import Control, OptimalControlProblem, SolverError, State
+from ocpkit import Control, OptimalControlProblem, Outcome, SolverError, State
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
 
 from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
@@ -94,7 +94,8 @@ def test_analytic_switching_times_with_correction(di_l1):
     exact = double_integrator_solution()
     guess = np.array(exact.p0) * (1 + np.array([0.05, -0.03]))
     r = di_l1.solve(guess)
-    assert r.converged and r.norm < 1e-12
+    assert r.converged and r.norm < 1e-12 and r.status == "converged" and r.status.remedy == ""
+    assert r.tol == 1e-8 and 0 < r.iterations <= r.evaluations
     assert np.allclose(r.p0, exact.p0, atol=1e-10)
     assert np.allclose(r.integration.switching_times, [exact.t1, exact.t2], atol=1e-10)
     assert r.objective == pytest.approx(exact.fuel, abs=1e-10)
@@ -169,6 +170,23 @@ def test_failed_shooting_reports_norm_and_iterations(di_l1):
     with pytest.raises(SolverError, match=r"\|S\| = .* after \d+ shooting-function") as info:
         di_l1.solve([5.0, -3.0], maxfev=3)
     assert info.value.iterations is not None
+    assert info.value.outcome is Outcome.MAX_ITERATIONS and info.value.result.status is Outcome.MAX_ITERATIONS
+    assert Outcome.MAX_ITERATIONS.remedy in str(info.value)  # the message ends with what to try
+
+
+def test_the_status_is_converged_exactly_at_tol_and_a_claim_above_it_is_a_stall(di_l1):
+    """One rule for every engine: converged iff |S| <= tol; a solver's claim of convergence above tol is a stall,
+    its own words kept in detail; a solver that gives no outcome and misses tol failed for its own reason."""
+    exact = double_integrator_solution()
+    start = np.array(exact.p0) * 1.02
+    claims = lambda fun, jac, z0, *, tol, maxfev: (np.asarray(z0), "I converged", Outcome.CONVERGED)  # noqa: E731
+    r = di_l1.solve(start, solver=claims, raise_on_failure=False)
+    assert not r.converged and r.status is Outcome.STALLED and r.detail == "I converged"
+    silent = lambda fun, jac, z0, *, tol, maxfev: (np.asarray(z0), "done")  # noqa: E731
+    assert di_l1.solve(start, solver=silent, raise_on_failure=False).status is Outcome.SOLVER_FAILED
+    assert di_l1.solve(exact.p0, solver=silent).status is Outcome.CONVERGED
+    newton = di_l1.solve(start, solver="newton", tol=1e-30, raise_on_failure=False)
+    assert not newton.converged and newton.status is Outcome.STALLED and newton.tol == 1e-30
 
 
 def test_bad_shooting_input(osc_system):
@@ -304,7 +322,8 @@ def test_one_failure_policy_for_integration_failures():
     with pytest.raises(SolverError):
         starved.solve(z0)
     r = starved.solve(z0, raise_on_failure=False)
-    assert not r.converged and r.integration is None and "the integration at the last iterate failed" in r.message
+    assert not r.converged and r.integration is None and "the integration at the last iterate failed" in r.detail
+    assert r.status is Outcome.INTEGRATION_FAILED
     assert np.isnan(r.summary()["steps"]) and np.isnan(r.objective)
     with pytest.raises(ValueError, match="this run has no trajectory"):
         r.trajectory.state(0.0)
@@ -342,11 +361,12 @@ def test_a_last_iterate_outside_the_domain_is_a_failed_run():
     )
     s = Shooting(pr, control_law(pr, "box"))
 
-    def stops_outside(fun, jac, z0, *, stol, maxfev):
+    def stops_outside(fun, jac, z0, *, tol, maxfev):
         return np.array([-1.0, -1.0, -0.5]), "stopped at tf < t0"
 
     r = s.solve(np.array([-1.0, -1.0, 2.0]), solver=stops_outside, raise_on_failure=False)
-    assert not r.converged and r.integration is None and "stopped at tf < t0" in r.message
+    assert not r.converged and r.integration is None and "stopped at tf < t0" in r.detail
+    assert r.status is Outcome.INTEGRATION_FAILED
     with pytest.raises(ValueError, match="final time -0.5 must exceed t0"):
         s.solve(np.array([-1.0, -1.0, 2.0]), solver=stops_outside)
     with pytest.raises(ValueError, match="integrates from a fixed t0"):

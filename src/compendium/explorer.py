@@ -13,10 +13,11 @@ slider's path), and the curves are redrawn in place.
 * :class:`ExploreSession` is the solving half, usable without a screen: ``solve(values)`` returns a value solved
   before as it was; else it starts from the nearest solved values (ranked by how many choices differ, then by
   distance in each parameter's share of its range), then from the next nearest, then, stepping halfway from the
-  nearest towards the target, from the points in between. It never raises for a failed solve (the
-  :class:`Outcome` says so: no solution, the status of the solve at the value asked); it raises a ``KeyError``
-  naming an unknown parameter or choice, and a ``ValueError`` naming a parameter outside its range or a choice
-  that is not one of its options. A transcription's solves use an IPOPT instance of their own
+  nearest towards the target, from the points in between (ocpkit's continuation engine,
+  :func:`ocpkit.shooting.continuation.follow` with :class:`~ocpkit.shooting.continuation.Toward`). It never raises
+  for a failed solve (the :class:`SolveReport` says so: no solution, the status of the solve at the value asked);
+  it raises a ``KeyError`` naming an unknown parameter or choice, and a ``ValueError`` naming a parameter outside
+  its range or a choice that is not one of its options. A transcription's solves use an IPOPT instance of their own
   (:data:`EXPLORER_IPOPT`) and one lock per transcription, so a solve of the same transcription in the notebook's
   thread, or by another explorer, never runs in the same instance at the same time (that crashes the process).
 * :class:`LatestOnly` runs one solve at a time in a background thread, always the newest value asked for: values
@@ -53,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ocpkit import SolverError
+from ocpkit import Outcome, SolverError
 
 #: what the static picture says
 STATIC_NOTE = "Interactive in JupyterLab: run this cell there to move the sliders."
@@ -93,7 +94,7 @@ def _import_ipympl() -> None:
 
 
 @dataclass(frozen=True)
-class Outcome:
+class SolveReport:
     """One solve of an :class:`ExploreSession`: the ``values`` asked for (parameters, and choices by label), the
     ``solution`` (None where the solve failed), the solver's ``status`` and ``iterations``, the wall time
     ``solve_s`` (every attempt), the ``error_estimate`` (the family's ``measure`` of accuracy: a transcription's
@@ -307,9 +308,10 @@ class ShootingFamily:
     unknowns to start from at ``values``, given those ``z`` solved at ``start_values`` (default: ``z`` itself);
     ``solve_options``: passed to ``Shooting.solve`` (default: MINPACK's hybrid method, 100 evaluations);
     ``note(result)``: what the status line adds (e.g. the fuel and the switchings); ``objective_label``: the name of
-    the objective there ("": not shown). The status line's accuracy is the residual |S|; the iterations are
-    shooting-function evaluations. A shooting whose integration fails is a failed solve, as one that does not
-    converge. It has no discrete choices."""
+    the objective there ("": not shown). The status line's status and iterations are the run's (its
+    :class:`~ocpkit.Outcome` and its Newton iterations, Jacobian evaluations), its accuracy the residual |S|. A
+    shooting whose integration fails is a failed solve, as one that does not converge. It has no discrete
+    choices."""
 
     measure = "|S|"
     options: dict = {}
@@ -359,8 +361,8 @@ class ShootingFamily:
 
     def describe(self, result) -> dict:
         return {
-            "status": "converged",
-            "iterations": int(result.n_shooting),
+            "status": str(result.status),
+            "iterations": int(result.iterations),
             "error_estimate": float(result.norm),
             "objective": float(result.objective),
             "objective_label": self.objective_label,
@@ -494,70 +496,83 @@ class ExploreSession:
             )
         return ranked[:count]
 
-    def _attempt(self, values: dict, labels: tuple, start, start_point):
-        t = time.perf_counter()
-        try:
-            solution = self.family.attempt(values, self._choices(labels), start, self._values(start_point))
-        except SolverError as exc:
-            return None, exc.status, exc.iterations or 0, time.perf_counter() - t
-        return solution, "", 0, time.perf_counter() - t
-
-    def solve(self, values: Mapping[str, object], superseded: Callable[[], bool] = lambda: False) -> Outcome:
+    def solve(self, values: Mapping[str, object], superseded: Callable[[], bool] = lambda: False) -> SolveReport:
         """The family solved at ``values`` (the others at their defaults), from the nearest solved points, else by
-        continuation from the nearest (module docstring). A failed solve is an :class:`Outcome` without a solution,
-        never an exception; its status is that of the solve at ``values`` from the nearest solved point.
-        ``superseded()``, asked between attempts: True stops the search (status ``"superseded"``)."""
+        continuation from the nearest (module docstring). A failed solve is a :class:`SolveReport` without a
+        solution, never an exception; its status is that of the solve at ``values`` from the nearest solved point.
+        ``superseded()``, asked between attempts: True stops the search (status ``"superseded"``).
+
+        The search is :func:`ocpkit.shooting.continuation.follow` towards the target point (each parameter's share
+        of its range) by :class:`~ocpkit.shooting.continuation.Toward` (the target from the nearest solved points
+        in turn, the first that solves; then halfway from the nearest, the step halved on each failure, the target
+        again from each point solved), every point solved on the way remembered as a warm start."""
+        from ocpkit.shooting.continuation import Toward, follow
+
         target, labels = self._point(values), self._labels(values)
         asked = {n: float(values.get(n, self.defaults[n])) for n in self.names} | self._choices(labels)
         params = {n: asked[n] for n in self.names}
-        spent, attempts, status, iterations = 0.0, 0, "", 0
         near = self.nearest(asked)
         point, its_labels, start = near[0]
         if its_labels == labels and np.array_equal(point, target):  # solved before: that solution again
             return self._done(asked, target, labels, start, 0.0, 0, point, its_labels)
-        for point, its_labels, start in near:
-            if attempts and superseded():
-                return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
-            solution, tried, its, dt = self._attempt(params, labels, start, point)
-            spent, attempts = spent + dt, attempts + 1
-            if solution is not None:
-                return self._done(asked, target, labels, solution, spent, attempts, point, its_labels)
-            if attempts == 1:
-                status, iterations = tried, its
-        # continuation from the nearest: halfway towards the target until a step solves, then on from there
-        point, its_labels, start = near[0]
-        step = 0.5
-        for _ in range(3 * self.halvings):  # each pass halves the step or the distance left
-            if step < 0.5**self.halvings or np.allclose(point, target, rtol=0.0, atol=1e-12):
-                break  # (a choice alone changed: no parameter to step along)
-            if superseded():
-                return Outcome(asked, None, "superseded", 0, spent, attempts=attempts)
-            middle = point + step * (target - point)
-            solution, _, _, dt = self._attempt(self._values(middle), labels, start, point)
-            spent, attempts = spent + dt, attempts + 1
-            if solution is None:
-                step *= 0.5
-                continue
-            self._remember(middle, labels, solution)
-            point, its_labels, start = middle, labels, solution
-            solution, _, _, dt = self._attempt(params, labels, start, point)
-            spent, attempts = spent + dt, attempts + 1
-            if solution is not None:
-                return self._done(asked, target, labels, solution, spent, attempts, point, its_labels)
-        return Outcome(
+        # what the search met: the attempts, their time, the first one's failure, the start of the last one
+        met = {"attempts": 0, "spent": 0.0, "status": "", "iterations": 0, "from": near[0]}
+
+        def attempt(value: np.ndarray, guess: tuple):
+            from_point, from_labels, from_solution = guess
+            at = params if np.array_equal(value, target) else self._values(value)
+            t = time.perf_counter()
+            try:
+                solution = self.family.attempt(at, self._choices(labels), from_solution, self._values(from_point))
+            except SolverError as exc:
+                if met["attempts"] == 0:  # the status shown is the solve at the value asked, from the nearest
+                    met["status"], met["iterations"] = exc.status, exc.iterations or 0
+                raise
+            finally:
+                met["attempts"] += 1
+                met["spent"] += time.perf_counter() - t
+            met["from"] = guess
+            return solution
+
+        def starts(history: list, value: np.ndarray) -> list:
+            if len(history) == 1 and np.array_equal(value, target):  # the target: from each nearest point in turn
+                return list(near)
+            last = history[-1]
+            return [(last[0], its_labels if len(history) == 1 else labels, last.result)]
+
+        path = follow(
+            attempt,
+            None,
+            point,
+            Toward(target, self.halvings),
+            predictor=starts,
+            choose="first",
+            cancelled=superseded,
+            remember=lambda value, solution: self._remember(value, labels, solution),
+            raise_on_failure=False,
+            first=start,
+        )
+        if path.converged:
+            from_point, from_labels, _ = met["from"]
+            return self._done(
+                asked, target, labels, path.results[-1], met["spent"], met["attempts"], from_point, from_labels
+            )
+        if path.status is Outcome.CANCELLED:
+            return SolveReport(asked, None, "superseded", 0, met["spent"], attempts=met["attempts"])
+        return SolveReport(
             asked,
             None,
-            status,
-            iterations,
-            spent,
+            met["status"],
+            met["iterations"],
+            met["spent"],
             start=self._values(near[0][0]) | self._choices(near[0][1]),
-            attempts=attempts,
+            attempts=met["attempts"],
             measure=self.family.measure,
         )
 
-    def _done(self, asked, target, labels, solution, spent, attempts, start_point, start_labels) -> Outcome:
+    def _done(self, asked, target, labels, solution, spent, attempts, start_point, start_labels) -> SolveReport:
         self._remember(target, labels, solution)
-        return Outcome(
+        return SolveReport(
             asked,
             solution,
             solve_s=spent,
@@ -567,10 +582,10 @@ class ExploreSession:
             **self.family.describe(solution),
         )
 
-    def outcome_of_first(self) -> Outcome:
-        """The first solution as an :class:`Outcome` (what the explorer shows before any move)."""
+    def outcome_of_first(self) -> SolveReport:
+        """The first solution as a :class:`SolveReport` (what the explorer shows before any move)."""
         s = self.first
-        return Outcome(
+        return SolveReport(
             dict(self.defaults) | dict(self.choice_defaults),
             s,
             solve_s=float(getattr(s, "solve_s", getattr(s, "cpu_s", 0.0))),
@@ -748,7 +763,7 @@ class Explorer:
     threshold: float = 1e-3
     steps: int = 100
     time_label: str = "t"
-    outcome: Outcome | None = None
+    outcome: SolveReport | None = None
     timings: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -811,7 +826,7 @@ class Explorer:
     def _trajectory(self, solution):
         return self.session.family.trajectory(solution)
 
-    def _status_html(self, outcome: Outcome) -> str:
+    def _status_html(self, outcome: SolveReport) -> str:
         colour = "#b00020" if not outcome.solved else ("#666" if not outcome.accurate(self.threshold) else "#1b5e20")
         note = "" if not outcome.solved or outcome.accurate(self.threshold) else " (inaccurate: drawn grey)"
         line = html.escape(outcome.status_line() + note)
@@ -836,7 +851,7 @@ class Explorer:
 
     def _failed(self, values, exc) -> tuple:
         message = f"ERROR: {type(exc).__name__}: {exc}"
-        return Outcome(dict(values), None, message, 0, 0.0), None
+        return SolveReport(dict(values), None, message, 0, 0.0), None
 
     def close(self) -> None:
         """Stop the explorer's thread and close its widgets (the solutions it kept are released with it)."""
@@ -970,8 +985,8 @@ __all__ = [
     "Explorer",
     "History",
     "LatestOnly",
-    "Outcome",
     "ShootingFamily",
+    "SolveReport",
     "TranscriptionFamily",
     "explore",
 ]

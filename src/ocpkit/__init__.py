@@ -3,6 +3,7 @@
 from typing import Any
 
 from .errors import SolverError
+from .outcome import Outcome
 from .program import LoopResult, Program, SolveLoop
 from .scaling import autoscale
 from .solution import PhaseSolution, Reintegration, Solution
@@ -38,6 +39,7 @@ __all__ = [
     "MultiPhaseProblem",
     "MultiRateHLGL",
     "OptimalControlProblem",
+    "Outcome",
     "PhaseSolution",
     "Program",
     "Radau",

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .outcome import Outcome
 
 
 class SolverError(RuntimeError):
@@ -15,6 +18,11 @@ class SolverError(RuntimeError):
     one: never a converged answer, but what a diagnosis needs. A failure inside mesh
     refinement also carries ``best``, the most accurate converged solution of the
     meshes before (None if the first mesh failed), with its ``mesh_history``.
+
+    An indirect solve's error (shooting, multiple and arc shooting, a certificate, a
+    continuation) also carries its ``outcome`` (:class:`~ocpkit.Outcome`; None for the
+    direct solvers, whose ``status`` is IPOPT's), and its message ends with the outcome's
+    remedy. ``status`` is the solver's own words.
     """
 
     def __init__(
@@ -26,6 +34,8 @@ class SolverError(RuntimeError):
         unit: str = "iterations",
         result: Any = None,
         best: Any = None,
+        *,
+        outcome: Outcome | None = None,
     ) -> None:
         self.solver = solver
         self.status = status
@@ -34,6 +44,7 @@ class SolverError(RuntimeError):
         self.best = best
         self.detail = detail
         self.unit = unit
+        self.outcome = outcome
         # a refinement's meshes before the failure (set by refinement; empty otherwise)
         self.mesh_history: list[Any] = []
         msg = f"{solver} failed with status {status!r}"
@@ -41,4 +52,6 @@ class SolverError(RuntimeError):
             msg += f" after {iterations} {unit}"
         if detail:
             msg += f": {detail}"
+        if outcome is not None and outcome.remedy:
+            msg += f"; {outcome}: {outcome.remedy}"
         super().__init__(msg)

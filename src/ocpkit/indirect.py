@@ -22,28 +22,37 @@ The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the
 What the chain does not treat yet stops it with a named error: a solution without costate estimates (Radau and
 HLGL give them), an arc or junction whose flow is not derived (named with what to do), a free t0, free parameters in
 the arc method. An extremal of a wrong structure (the shooting can converge to one) fails its certificate, by name: no
-extremal is returned uncertified unless ``strict=False``. :func:`follow_extremal` continues an extremal in a problem
-parameter through the birth and death of arcs.
+extremal is returned uncertified unless ``raise_on_failure=False``. :func:`follow_extremal` continues an extremal in a
+problem parameter through the birth and death of arcs.
+
+An :class:`Extremal` has the fields of every indirect result (:class:`~ocpkit.shooting.result.IndirectResult`: ``z``,
+``norm``, ``tol``, ``converged``, ``status``, ``detail``, ``iterations``, ``evaluations``, ``cpu_s``, ``objective``,
+``trajectory``), read from its shooting run and its certificate.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
 import numpy as np
 
+from ._deprecation import renamed_argument
 from .errors import SolverError
+from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
+from .outcome import Outcome
+from .shooting.continuation import ContinuationPath
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
     from .program import Program
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
+    from .shooting.result import IndirectResult
     from .solution import Solution
     from .statement import OptimalControlProblem
     from .trajectory import Trajectory
@@ -117,6 +126,69 @@ class Extremal:
     #: certified)
     budgets: list[str] = field(default_factory=list)
 
+    # -- the indirect result contract (ocpkit.shooting.result.IndirectResult), read from the run and the certificate
+    @property
+    def z(self) -> np.ndarray:
+        """The shooting's unknowns at the extremal."""
+        return self.shooting.z
+
+    @property
+    def residual(self) -> np.ndarray:
+        """The shooting function at the extremal."""
+        return self.shooting.residual
+
+    @property
+    def norm(self) -> float:
+        """``|S|`` at the extremal (``|R|`` where multiple shooting gave it)."""
+        return self.shooting.norm
+
+    @property
+    def tol(self) -> float:
+        """The tolerance on ``|S|`` it was solved and certified to."""
+        return self.shooting.tol
+
+    @property
+    def converged(self) -> bool:
+        """Whether the shooting converged (``norm <= tol``) and the certificate passed."""
+        return bool(self.shooting.converged and self.certificate.passed)
+
+    @property
+    def status(self) -> Outcome:
+        """:attr:`~ocpkit.Outcome.CERTIFICATE_FAILED` where the certificate fails, else the shooting's status."""
+        return self.shooting.status if self.certificate.passed else Outcome.CERTIFICATE_FAILED
+
+    @property
+    def detail(self) -> str:
+        """The shooting solver's words, and the failed checks where the certificate fails."""
+        if self.certificate.passed:
+            return self.shooting.detail
+        return f"{self.shooting.detail}; failed checks {self.certificate.failed}"
+
+    @property
+    def iterations(self) -> int:
+        """The shooting's Newton iterations (Jacobian evaluations)."""
+        return self.shooting.iterations
+
+    @property
+    def evaluations(self) -> int:
+        """The shooting's evaluations of its shooting function."""
+        return self.shooting.evaluations
+
+    @property
+    def cpu_s(self) -> float:
+        """The process time of the shooting's solve."""
+        return self.shooting.cpu_s
+
+    @property
+    def objective(self) -> float:
+        """The extremal's cost."""
+        return self.shooting.objective
+
+    @property
+    def free_parameters(self) -> dict[str, float]:
+        """The solved free parameters by name."""
+        return self.shooting.free_parameters
+
 
 METHODS = ("auto", "arcs", "switching")
 #: the certificate's comparisons with the direct solution that a re-solve from the extremal may settle (the others
@@ -133,8 +205,9 @@ def to_extremal(
     method: str = "auto",
     switching: str = "correction",
     jacobian: str | Callable[..., tuple[np.ndarray, np.ndarray]] = "variational",
-    solver: str | Callable[..., tuple[np.ndarray, str]] = "hybr",
-    strict: bool = True,
+    solver: str | Callable[..., tuple[Any, ...]] = "hybr",
+    raise_on_failure: bool | None = None,
+    strict: bool | None = None,
 ) -> Extremal:
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
@@ -157,10 +230,14 @@ def to_extremal(
     (the same NLP: not a phase cut from its links). The guarantee is then that the direct method, started from the
     extremal, stays with it, not that the first direct solution approximated it.
 
-    ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``strict``: a certificate that fails
-    raises a :class:`~ocpkit.SolverError` naming the failed checks (the result is its ``.result``); False: the
-    result carries it. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
+    ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``raise_on_failure`` (default True): a
+    certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (outcome
+    :attr:`~ocpkit.Outcome.CERTIFICATE_FAILED`; the extremal is its ``.result``); False: the extremal is returned
+    with its certificate (``converged`` False, ``status`` ``CERTIFICATE_FAILED``). A shooting that fails raises in
+    either case, the run as the error's ``.result`` (there is no extremal to certify). ``strict`` is the deprecated
+    name of ``raise_on_failure``. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     """
+    raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
     from .shooting import Shooting, control_law
     from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.hamiltonian import CONTROL_SETS
@@ -218,7 +295,7 @@ def to_extremal(
                 "fix them, or state the problem with a box"
             )
         try:
-            law = control_law(statement, control_set, regularized=_quadratic(statement), radius=radius)
+            law = control_law(statement, control_set, regularized=has_quadratic_term(statement), radius=radius)
         except ValueError as exc:
             raise ValueError(
                 f"{statement.name!r}: no {control_set} law derives from its Hamiltonian ({exc}); to_extremal derives "
@@ -246,42 +323,53 @@ def to_extremal(
                 trajectory, result, again, None if restated else structure, tol=tol, first=first, terminal=terminal
             )
     extremal = Extremal(
-        trajectory,
-        result,
-        structure,
-        certificate,
-        timings,
+        trajectory=trajectory,
+        shooting=result,
+        structure=structure,
+        certificate=certificate,
+        timings=timings,
         direct=solution,
         first_direct=first,
         route=route,
         budgets=budgets,
     )
-    if strict and not certificate.passed:
+    if raise_on_failure and not certificate.passed:
         raise SolverError(
             "certificate",
             f"failed checks {certificate.failed}",
-            result.n_shooting,
+            result.evaluations,
             f"{problem.name!r}:\n{certificate.describe()}",
             unit="shooting-function evaluations",
             result=extremal,
+            outcome=Outcome.CERTIFICATE_FAILED,
         )
     return extremal
 
 
 @dataclass
-class ExtremalPath:
-    """The result of :func:`follow_extremal`: the parameter ``values`` solved, the ``extremals`` there (each
-    certified), and the structure ``changes`` met on the way, ``(value, before, after, how)`` with ``how`` the
-    arc that died (``"arc ... shrank to zero"``) or ``"re-detected from a direct solve"``."""
+class ExtremalPath(ContinuationPath):
+    """The result of :func:`follow_extremal`, a :class:`~ocpkit.shooting.continuation.ContinuationPath` (its
+    ``converged``, ``status``, ``detail``, ``iterations``; the list of ``(value, extremal)``): the parameter
+    ``values`` solved, the :attr:`extremals` there (each certified; the path's ``results``), and the structure
+    ``changes`` met on the way, ``(value, before, after, how)`` with ``how`` the arc that died (``"arc ... shrank
+    to zero"``) or ``"re-detected from a direct solve"``."""
 
-    parameter: str
-    values: list[float]
-    extremals: list[Extremal]
-    changes: list[tuple[float, str, str, str]]
+    changes: list[tuple[float, str, str, str]] = field(default_factory=list)
+
+    @property
+    def extremals(self) -> list[Extremal]:
+        """The certified extremal at each value (the path's ``results``)."""
+        return self.results
 
 
 def follow_extremal(
-    extremal: Extremal, parameter: str, values: Sequence[float], *, tol: float = 1e-10, shortest: float = 1e-5
+    extremal: Extremal,
+    parameter: str,
+    values: Sequence[float],
+    *,
+    tol: float = 1e-10,
+    shortest: float = 1e-5,
+    raise_on_failure: bool = True,
 ) -> ExtremalPath:
     """Continue an extremal of the arc method (:func:`to_extremal`) in a problem parameter over ``values``, through
     changes of its structure (issue 24, item 6).
@@ -291,7 +379,9 @@ def follow_extremal(
     from the last extremal. A step that fails, or whose extremal fails its certificate (an arc is born: H is no
     longer minimal, or an inequality is violated off its boundary arcs), is solved directly at that value (the
     direct solution's transcription, warm-started) and its structure detected again. Every extremal returned is
-    certified (residual, H minimum, feasibility, H constant, Legendre-Clebsch, multiplier signs)."""
+    certified (residual, H minimum, feasibility, H constant, Legendre-Clebsch, multiplier signs). Where a step
+    cannot be solved even so, the continuation's :class:`~ocpkit.SolverError` is raised (outcome
+    :attr:`~ocpkit.Outcome.STEP_TOO_SMALL`); ``raise_on_failure=False`` returns the path so far with that status."""
     from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.continuation import Schedule, follow
 
@@ -314,7 +404,6 @@ def follow_extremal(
         "budgets": list(extremal.budgets),
     }
     changes: list[tuple[float, str, str, str]] = []
-    solved: dict[float, Extremal] = {}
 
     def words(arcs: Sequence[ArcType]) -> str:
         return " | ".join(ArcShooting._name(a) for a in arcs)
@@ -337,7 +426,7 @@ def follow_extremal(
         state["direct"], state["budgets"] = direct, budgets
         return shooting, result
 
-    def solve_at(value: float, z: np.ndarray) -> ArcResult:
+    def solve_at(value: float, z: np.ndarray) -> Extremal:
         shooting = state["shooting"]
         previous = state["last"].trajectory
         if z.size != shooting.nz:
@@ -363,7 +452,14 @@ def follow_extremal(
             terminal = _terminal_multipliers(result, state["budgets"])
             certificate = certify(tr, result, None, None, tol=tol, terminal=terminal)
             if not certificate.passed:
-                raise SolverError("certificate", f"failed checks {certificate.failed}", 0, "", result=result)
+                raise SolverError(
+                    "certificate",
+                    f"failed checks {certificate.failed}",
+                    0,
+                    "",
+                    result=result,
+                    outcome=Outcome.CERTIFICATE_FAILED,
+                )
         except (SolverError, ValueError) as exc:
             shooting, result = redetect(value, exc.status if isinstance(exc, SolverError) else str(exc))
             tr = cast("Trajectory", result.trajectory)  # (a converged run has one)
@@ -377,17 +473,22 @@ def follow_extremal(
                     0,
                     f"at {parameter} = {value:.6g}",
                     result=result,
+                    outcome=Outcome.CERTIFICATE_FAILED,
                 ) from exc
         state["shooting"] = shooting
         state["last"] = Extremal(
-            tr, result, control_structure(tr), certificate, {}, direct=state["direct"], budgets=list(state["budgets"])
+            trajectory=tr,
+            shooting=result,
+            structure=control_structure(tr),
+            certificate=certificate,
+            direct=state["direct"],
+            budgets=list(state["budgets"]),
         )
-        solved[value] = state["last"]
-        return result
+        return state["last"]
 
     start = float(statement.parameters[parameter])
-    follow(solve_at, extremal.shooting.z, start, Schedule(values))
-    return ExtremalPath(parameter, list(solved), list(solved.values()), changes)
+    path = follow(solve_at, extremal.z, start, Schedule(values), raise_on_failure=raise_on_failure, parameter=parameter)
+    return ExtremalPath(**{f.name: getattr(path, f.name) for f in fields(path)}, changes=changes)
 
 
 def _terminal_multipliers(result: Any, budgets: Sequence[str]) -> dict[str, float]:
@@ -595,25 +696,12 @@ def _restatement(solution: Solution, problem: OptimalControlProblem) -> OptimalC
     return problem
 
 
-def _quadratic(problem: OptimalControlProblem) -> bool:
-    """Whether some control has a quadratic term in H (then the saturated linear law)."""
-    from .shooting.hamiltonian import _extract
-
-    ham = problem.functions.hamiltonian
-    _, _, _, b = _extract(ham.H, ham.u, problem.nu)
-    f = ca.Function("b", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*b)])
-    rng = np.random.default_rng(1)
-    P = problem._P  # the problem's parameter values (free ones at their guesses): b may depend on them
-    values = [np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.0, P)) for _ in range(3)]
-    return bool(np.max(np.abs(values)) > 1e-12)
-
-
 #: the segment counts :func:`_shoot` tries, in turn, when single shooting from the direct costates fails
 SEGMENTS = (10, 20, 40, 80)
 
 
 def _shoot(
-    shooting: Shooting, solution: Solution, *, solver: str | Callable[..., tuple[np.ndarray, str]], tol: float
+    shooting: Shooting, solution: Solution, *, solver: str | Callable[..., tuple[Any, ...]], tol: float
 ) -> tuple[ShootingResult | MultipleShootingResult, str]:
     """``(result, route)``: the switching method's shooting solved from the direct solution.
 
@@ -630,7 +718,7 @@ def _shoot(
 
     z0 = _unknowns(shooting, solution)
     try:
-        return shooting.solve(z0, solver=solver, stol=tol), "single shooting"
+        return shooting.solve(z0, solver=solver, tol=tol), "single shooting"
     except SolverError as exc:
         failure, tried = exc, []
     per_node = 2 * shooting.problem.nx + 1
@@ -640,13 +728,13 @@ def _shoot(
             break
         multiple = MultipleShooting(shooting, segments)
         try:
-            found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", stol=tol)
+            found = multiple.solve(_nodes(multiple, solution, z0), solver="newton", tol=tol)
         except SolverError as exc:
             tried.append(f"{segments} segments: {exc.status}")
             continue
         try:
             return shooting.solve(
-                found.z, solver=solver, stol=tol
+                found.z, solver=solver, tol=tol
             ), f"multiple shooting ({segments} segments), then single shooting"
         except SolverError:
             return found, f"multiple shooting ({segments} segments)"
@@ -657,6 +745,7 @@ def _shoot(
         f"{failure.detail}; multiple shooting from the direct solution's nodes failed too ({'; '.join(tried)})",
         unit=failure.unit,
         result=failure.result,
+        outcome=failure.outcome,
     ) from failure
 
 
@@ -697,7 +786,7 @@ def _unknowns(shooting: Shooting, solution: Solution) -> np.ndarray:
 
 def certify(
     trajectory: Trajectory,
-    result: ArcResult | ShootingResult | MultipleShootingResult,
+    result: IndirectResult,
     direct: Solution | None = None,
     structure: Structure | None = None,
     tol: float = 1e-10,

@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
+from .hamiltonian_form import decompose, l1_controls
+
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
@@ -154,7 +156,7 @@ def control_structure(
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
     active = _active(trajectory, t, U, band)
-    l1 = _l1_controls(problem)
+    l1 = l1_controls(problem)
     arcs = []
     for i, c in enumerate(problem.controls):
         bounded = np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower
@@ -198,31 +200,6 @@ def control_structure(
             kind, _, constraint = kind.partition(":")
             arcs.append(Arc(c.name, kind, float(start), float(end), constraint or None))
     return Structure(tuple(arcs))
-
-
-def _l1_controls(problem: OptimalControlProblem) -> set[int]:
-    """The indices of the controls with a ``w |u|`` term in H (an L1 cost), whose arcs at zero are "off" arcs: H of
-    the form ``H0 + psi u + w |u| + b u^2`` in the control (checked at random points) with ``w`` not zero."""
-    from .shooting.hamiltonian import _extract
-
-    ham = problem.functions.hamiltonian
-    H0, psi, w, b = _extract(ham.H, ham.u, problem.nu)
-    rng = np.random.default_rng(3)
-    P = np.asarray(problem._P, dtype=float).ravel()
-    out = set()
-    for i in range(problem.nu):
-        others = ca.vertcat(*[ham.u[j] for j in range(problem.nu) if j != i]) if problem.nu > 1 else ca.SX(0, 1)
-        zero = ca.DM.zeros(others.numel())
-        model = H0 + psi[i] * ham.u[i] + w[i] * ca.fabs(ham.u[i]) + b[i] * ham.u[i] ** 2
-        f = ca.Function("l1", [ham.x, ham.p, ham.u, ham.t, ham.P], [ca.substitute(ham.H - model, others, zero), w[i]])
-        values = [
-            f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), rng.uniform(-1, 1, problem.nu), 0.3, P)
-            for _ in range(4)
-        ]
-        form = all(abs(float(r)) <= 1e-9 * (1 + abs(float(h))) for r, h in values)
-        if form and max(abs(float(h)) for _, h in values) > 1e-12:
-            out.add(i)
-    return out
 
 
 def _active(
@@ -289,11 +266,9 @@ def _switching_functions(
     ``H0 + psi u + w |u|`` in each control; else None."""
     if not trajectory.has_costates:
         return None
-    from .shooting.hamiltonian import _extract
-
     problem = trajectory.problem
     ham = problem.functions.hamiltonian
-    H0, psi_i, w_i, _ = _extract(ham.H, ham.u, problem.nu)
+    H0, psi_i, w_i, _ = decompose(ham.H, ham.u, problem.nu)
     psi, w = ca.vertcat(*psi_i), ca.vertcat(*w_i)
     # the form holds where H - (H0 + psi u + w |u|) vanishes: checked at random points (a quadratic or nonlinear
     # control term leaves a residual, and then no switching function decides the junctions)

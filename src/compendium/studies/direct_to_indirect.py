@@ -290,7 +290,7 @@ def low_thrust_by_multiple_shooting(
         r = shooting.solve(start, solver="newton", maxfev=300, raise_on_failure=False)
         if r.integration is None:
             raise SolverError(
-                "shooting", r.message, r.n_shooting, f"{thrust_N} N, integrator tolerance {integrator_tol}"
+                "shooting", r.detail, r.evaluations, f"{thrust_N} N, integrator tolerance {integrator_tol}"
             )
         runs[("single", integrator_tol)] = r
         rows.append(
@@ -308,7 +308,7 @@ def low_thrust_by_multiple_shooting(
             }
         )
     multiple = MultipleShooting(shooting, segments)
-    m = multiple.solve(r.z, stol=1e-10, raise_on_failure=False)
+    m = multiple.solve(r.z, tol=1e-10, raise_on_failure=False)
     runs[("multiple", tol)] = m
     rows.append(
         {

@@ -2,9 +2,10 @@
 detection and correction, variational Jacobians, single and multiple shooting, solvers and continuation."""
 
 from .compiled import CompiledSystem, Integration
-from .continuation import GeometricSteps, Schedule, arclength, follow, homotopy
+from .continuation import ContinuationPath, GeometricSteps, Schedule, Toward, arclength, follow, homotopy
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .multiple import MultipleShooting, MultipleShootingResult
+from .result import IndirectResult
 from .shooting import Shooting, ShootingResult
 from .strategies import (
     JACOBIANS,
@@ -22,11 +23,13 @@ __all__ = [
     "SOLVERS",
     "SWITCHING_MODES",
     "CompiledSystem",
+    "ContinuationPath",
     "ControlLaw",
     "DampedNewton",
     "FiniteDifferences",
     "GeometricSteps",
     "HamiltonianSystem",
+    "IndirectResult",
     "Integration",
     "MinpackHybrid",
     "MultipleShooting",
@@ -35,6 +38,7 @@ __all__ = [
     "Shooting",
     "ShootingResult",
     "ShootingTrajectory",
+    "Toward",
     "Variational",
     "arclength",
     "control_law",

@@ -46,10 +46,13 @@ import numpy as np
 
 from .._arrays import unique
 from ..errors import SolverError
+from ..hamiltonian_form import l1_controls, sample_value
 from ..nodes import cubic_hermite
+from ..outcome import Outcome
 from ..statement import FreeFinalTime
 from ..structure import Structure, inequalities
 from ..trajectory import Trajectory
+from .result import IndirectResult, settled
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -121,9 +124,7 @@ class ArcFlows:
         self.H, self.f = ham.H, ham.f
         self.Hx = ca.gradient(ham.H, ham.x)
         self.ineq = {q.name: q for q in inequalities(problem)}
-        from ..structure import _l1_controls
-
-        self.l1 = _l1_controls(problem)
+        self.l1 = l1_controls(problem)
         self._cache: dict[ArcType, _Flow] = {}
 
     def depends(self, expr: ca.SX, ui: ca.SX) -> bool:
@@ -134,9 +135,7 @@ class ArcFlows:
         d = ca.Function("d", [self.x, self.p, self.u, self.t, self.P], [ca.jacobian(expr, ui), expr])
         rng = np.random.default_rng(7)
         P = np.asarray(self.problem._P, dtype=float).ravel()
-        from .hamiltonian import _sample
-
-        x = np.array([_sample(s) for s in self.problem.states])
+        x = np.array([sample_value(s) for s in self.problem.states])
         for _ in range(6):
             lo = np.array([c.lower if np.isfinite(c.lower) else -1.0 for c in self.problem.controls])
             hi = np.array([c.upper if np.isfinite(c.upper) else 1.0 for c in self.problem.controls])
@@ -338,26 +337,31 @@ class ArcFlows:
 
 
 @dataclass
-class ArcResult:
-    """A multiple-shooting run over arcs: ``z`` the unknowns (layout :attr:`ArcShooting.layout`),
-    ``residual``/``norm`` S and ``|S|``, ``times`` the arcs' bounds (t0, junctions, tf), ``converged``, ``message``,
-    ``n_shooting`` and ``n_jacobian`` the effort, ``cpu_s`` its process time, ``objective``, ``trajectory`` (an
-    :class:`ArcTrajectory`; None where the last iterate cannot be integrated), ``multipliers`` of the boundary
-    equalities and ``arcs`` the :class:`ArcType` of each arc."""
+class ArcResult(IndirectResult):
+    """A multiple-shooting run over arcs: the fields every indirect run has
+    (:class:`~ocpkit.shooting.result.IndirectResult`; ``z`` in the layout :attr:`ArcShooting.layout`, ``iterations``
+    the Newton iterations, ``evaluations`` the evaluations of S), and its own: ``times`` the arcs' bounds (t0,
+    junctions, tf; :attr:`tf` the last), ``multipliers`` of the boundary equalities and ``arcs`` the
+    :class:`ArcType` of each arc. Its :attr:`trajectory` is an :class:`ArcTrajectory` (a ValueError where the last
+    iterate cannot be integrated)."""
 
-    z: np.ndarray
-    residual: np.ndarray
-    norm: float
     times: np.ndarray
-    converged: bool
-    message: str
-    n_shooting: int
-    n_jacobian: int
-    cpu_s: float
-    objective: float
-    trajectory: Trajectory | None
     multipliers: np.ndarray
     arcs: list[ArcType]
+    #: the extremal as functions of time, None where the last iterate cannot be integrated (read :attr:`trajectory`)
+    _trajectory: ArcTrajectory | None = field(default=None, repr=False)
+
+    @property
+    def tf(self) -> float:
+        """The final time."""
+        return float(self.times[-1])
+
+    @property
+    def trajectory(self) -> ArcTrajectory:
+        """The extremal as functions of time (:class:`ArcTrajectory`)."""
+        if self._trajectory is None:
+            raise ValueError(f"this run has no trajectory: {self.status}: {self.detail}")
+        return self._trajectory
 
 
 class ArcShooting:
@@ -682,19 +686,21 @@ class ArcShooting:
         *,
         tol: float = 1e-10,
         max_iterations: int = 50,
+        raise_on_failure: bool = True,
     ) -> ArcResult:
         """Newton's method on ``S(z) = 0`` from ``z0`` with the exact Jacobian (least-squares steps, Gauss-Newton
         where the conditions outnumber the unknowns, as when a singular arc reaching tf makes a transversality
-        condition hold already; halved until ``|S|`` decreases); stops at ``|S| <= tol`` once a step no longer gains a factor ten, or at the
-        integrator's noise. A failure raises a :class:`~ocpkit.SolverError` naming it, the last iterate's result
-        attached."""
+        condition hold already; halved until ``|S|`` decreases); stops at ``|S| <= tol`` once a step no longer gains
+        a factor ten, or at the integrator's noise. A failure raises a :class:`~ocpkit.SolverError` naming it and its
+        :class:`~ocpkit.Outcome`, the last iterate's result attached (``raise_on_failure=False``: returns it, with
+        ``converged=False`` and its ``status``)."""
         P = self._P(parameters)
         z = np.asarray(z0, dtype=float).copy()
         if z.size != self.nz:
             raise ValueError(f"z0 must have {self.nz} entries (layout {self.layout})")
         start = time.process_time()
         n_S = n_J = 0
-        message = "maximum number of iterations"
+        message, claimed = "maximum number of iterations", Outcome.MAX_ITERATIONS
 
         def residual(z: np.ndarray) -> np.ndarray:
             try:
@@ -710,14 +716,16 @@ class ArcShooting:
             norms.append(norm)
             if len(norms) > 6 and norm > 0.5 * norms[-7]:
                 message = "stalled: |S| not halved in six Newton iterations (far from a solution, or another structure)"
+                claimed = Outcome.STALLED
                 break
             if not np.isfinite(norm):
-                message = "the arcs' integration failed at the starting point"
+                message, claimed = "the arcs' integration failed at the starting point", Outcome.INTEGRATION_FAILED
                 break
             try:
                 Sv, J = self.SJ(z, P)
             except RuntimeError:
                 message = "the arcs' sensitivities could not be integrated at this iterate"
+                claimed = Outcome.INTEGRATION_FAILED
                 break
             n_J += 1
             step = np.linalg.lstsq(np.asarray(J), -np.asarray(Sv).ravel(), rcond=None)[0]
@@ -733,43 +741,52 @@ class ArcShooting:
                 a *= 0.5
             else:
                 message = "no step decreases |S| (the integrator's noise, or far from a solution)"
+                claimed = Outcome.STALLED
                 break
             gain = np.linalg.norm(St) / max(norm, 1e-300)
             z, S = trial, St
             if np.linalg.norm(S) <= tol and gain > 0.1 or np.linalg.norm(S) <= 1e-15:
-                message = "converged"
+                message, claimed = "converged", Outcome.CONVERGED
                 break
         norm = float(np.linalg.norm(S))
         if norm <= tol:
             message = "converged"
+        converged, status = settled(norm, tol, claimed)
         times = np.asarray(self.times(z, P)).ravel()
         try:
             objective = np.asarray(self.objective(z, P)).ravel()
         except RuntimeError:  # the arcs cannot be integrated from the last iterate
             objective = np.array([np.nan])
         result = ArcResult(
-            z,
-            S,
-            norm,
-            times,
-            norm <= tol,
-            message,
-            n_S,
-            n_J,
-            time.process_time() - start,
-            float(objective[0]),
-            None,
-            self._part(z, "nu"),
-            list(self.kinds),
+            z=z,
+            residual=S,
+            norm=norm,
+            tol=tol,
+            converged=converged,
+            status=status,
+            detail=message,
+            iterations=n_J,
+            evaluations=n_S,
+            cpu_s=time.process_time() - start,
+            objective=float(objective[0]),
+            times=times,
+            multipliers=self._part(z, "nu"),
+            arcs=list(self.kinds),
         )
         if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
             problem = self.problem
             if parameters is not None:  # the trajectory's problem has the parameter values it was solved at
                 problem = problem.replace(parameters=dict(zip(problem.parameters, P[: len(problem.parameters)])))
-            result.trajectory = ArcTrajectory(self, z, P, times, result.objective, problem=problem)
-        if not result.converged:
+            result._trajectory = ArcTrajectory(self, z, P, times, result.objective, problem=problem)
+        if not result.converged and raise_on_failure:
             raise SolverError(
-                "arc shooting", message, n_J, f"|S| = {norm:.3e} > {tol:g}", unit="Newton iterations", result=result
+                "arc shooting",
+                message,
+                n_J,
+                f"|S| = {norm:.3e} > {tol:g}",
+                unit="Newton iterations",
+                result=result,
+                outcome=status,
             )
         return result
 

@@ -20,10 +20,10 @@ cases, assuming (and checking numerically) the form::
 (``b = 0``: bang-off-bang, with ``w`` the switching level) or the regularised cost
 ``lambda |u| + (1 - lambda) |u|^2`` of the energy-to-L1 homotopy (``b > 0``:
 saturated linear law). ``psi``, ``w`` and ``b`` are extracted exactly by evaluating
-H at ``u = 0, +-e_i, 2 e_i``; a mass equation driven by ``|u|`` fits the form. An
-unbounded box control suits the regularised law when ``b > 0`` (the saturation on an
-infinite side never occurs), never the bang-off-bang one (H, affine in ``u``, has no
-minimum then).
+H at ``u = 0, +-e_i, 2 e_i`` (:func:`ocpkit.hamiltonian_form.decompose`); a mass
+equation driven by ``|u|`` fits the form. An unbounded box control suits the
+regularised law when ``b > 0`` (the saturation on an infinite side never occurs),
+never the bang-off-bang one (H, affine in ``u``, has no minimum then).
 
 Any other Hamiltonian (``u`` entering through ``cos u``, a brachistochrone; a
 non-quadratic cost) needs the minimiser from the user: ``control_law(problem, u_star)``
@@ -37,17 +37,15 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import casadi as ca
 import numpy as np
 
+from ..hamiltonian_form import decompose, sample_value
 from ..names import Named, NamedParameters, call
 from ..statement import Hamiltonian, OptimalControlProblem
 from ..statement.symbols import column
-
-if TYPE_CHECKING:
-    from ..statement import State
 
 CONTROL_SETS = ("box", "ball")
 
@@ -125,28 +123,6 @@ class ControlLaw:
         return ca.vertcat(ca.SX(0, 1), *[g.quantity - c for g in self.groups for c in g.thresholds])
 
 
-def _extract(H: ca.SX, u: ca.SX, nu: int) -> tuple[ca.SX, list[ca.SX], list[ca.SX], list[ca.SX]]:
-    """psi, w, b (per component for a box, scalar w and b for a ball) from evaluations of H."""
-    zero = ca.DM.zeros(nu)
-    H0 = ca.substitute(H, u, zero)
-    psi: list[ca.SX] = []
-    w: list[ca.SX] = []
-    b: list[ca.SX] = []
-    for i in range(nu):
-        e = ca.DM.zeros(nu)
-        e[i] = 1.0
-        hp = ca.substitute(H, u, e) - H0
-        hm = ca.substitute(H, u, -e) - H0
-        h2 = ca.substitute(H, u, 2 * e) - H0
-        psi_i = (hp - hm) / 2
-        s = (hp + hm) / 2  # w + b
-        b_i = (h2 - 2 * psi_i) / 2 - s
-        psi.append(psi_i)
-        b.append(b_i)
-        w.append(s - b_i)
-    return H0, psi, w, b
-
-
 def control_law(
     problem: OptimalControlProblem,
     control_set: str | Callable[..., Any] = "box",
@@ -205,7 +181,7 @@ def control_law(
     ham = problem.functions.hamiltonian
     u, H = ham.u, ham.H
     _require_autonomous(ham)
-    _, psi, w, b = _extract(H, u, nu)
+    _, psi, w, b = decompose(H, u, nu)
     unbounded = []
     if control_set == "box":
         unbounded = [i for i, c in enumerate(problem.controls) if not (np.isfinite(c.lower) and np.isfinite(c.upper))]
@@ -276,7 +252,7 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable[..., Any], sample
     except RuntimeError:
         raise ValueError(f"{what} depends on symbols other than its arguments x, p and the parameters") from None
     rng = np.random.default_rng(0)
-    xs = np.array([_sample(s) for s in problem.states])
+    xs = np.array([sample_value(s) for s in problem.states])
     pv = problem.parameter_values
     if not any(np.all(np.isfinite(np.asarray(ufun(xs, rng.normal(size=nx), pv)))) for _ in range(samples)):
         raise ValueError(
@@ -318,7 +294,7 @@ def _check_form(
     pv = problem.parameter_values
     names = [problem.controls[i].name for i in unbounded]
     for _ in range(samples):
-        xs = np.array([_sample(s) for s in problem.states])
+        xs = np.array([sample_value(s) for s in problem.states])
         ps = rng.normal(size=problem.nx)
         us = rng.uniform(-1, 1, size=nu)
         r = abs(float(residual(xs, ps, us, pv)))
@@ -345,17 +321,6 @@ def _check_form(
                     f"box control {c.name!r} is unbounded ([{c.lower}, {c.upper}]) and the quadratic coefficient "
                     f"of H in it is {bs[i]:g}, not positive: H has no minimum; give it finite bounds"
                 )
-
-
-def _sample(state: State) -> float:
-    lo, hi = state.lower, state.upper
-    if np.isfinite(lo) and np.isfinite(hi):
-        return 0.5 * (lo + hi) + 0.25 * (hi - lo)
-    if np.isfinite(lo):
-        return lo + 1.0 + abs(lo)
-    if np.isfinite(hi):
-        return hi - 1.0 - abs(hi)
-    return 0.7
 
 
 class HamiltonianSystem:

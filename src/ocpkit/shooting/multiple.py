@@ -29,11 +29,14 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from .._deprecation import renamed_argument
 from ..errors import SolverError
+from ..outcome import Outcome
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import HamiltonianSystem
+from .result import IndirectResult, settled
 from .shooting import Shooting, residual_noise
-from .strategies import solver_strategy
+from .strategies import run_solver, solver_strategy
 from .trajectory import ShootingTrajectory
 
 if TYPE_CHECKING:
@@ -41,34 +44,23 @@ if TYPE_CHECKING:
 
 
 @dataclass
-class MultipleShootingResult:
-    """A multiple-shooting run: ``z`` the single shooting's unknowns at the solution, ``nodes`` the interior nodes'
-    ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``residual`` R and ``norm`` ``|R|``;
-    ``terminal`` the norm of the single shooting's conditions S at tf (the slides' ``|S|``) and ``continuity`` the
-    largest relative defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; ``converged`` whether
-    ``norm <= stol``; the solver's ``message``, the effort (``n_shooting``, ``n_jacobian``, ``cpu_s``), the
-    ``objective``, the ``switchings`` and integration ``steps`` summed over the segments, and the segments'
-    recorded ``integrations``; ``free_parameters`` the solved free parameters by name, and :attr:`trajectory` the
-    extremal as functions of time (the segments' recorded flows, one after the other)."""
+class MultipleShootingResult(IndirectResult):
+    """A multiple-shooting run: the fields every indirect run has (:class:`~ocpkit.shooting.result.IndirectResult`),
+    ``residual`` and ``norm`` being R and ``|R|``, ``z`` the single shooting's unknowns at the solution, and its own:
+    ``nodes`` the interior nodes' ``y = (x, p, J)`` (rows), ``times`` the node times ``t_0 .. t_K``; ``terminal`` the
+    norm of the single shooting's conditions S at tf (the slides' ``|S|``) and ``continuity`` the largest relative
+    defect ``|y(t_k^-) - y_k| / (1 + |y_k|)`` at the interior nodes; the ``switchings`` and integration ``steps``
+    summed over the segments, and the segments' recorded ``integrations``; :attr:`trajectory` the extremal as
+    functions of time (the segments' recorded flows, one after the other)."""
 
-    z: np.ndarray
     nodes: np.ndarray
     times: np.ndarray
-    residual: np.ndarray
-    norm: float
     terminal: float
     continuity: float
-    converged: bool
-    message: str
-    n_shooting: int
-    n_jacobian: int
-    cpu_s: float
-    objective: float
     switchings: int
     steps: int
     integrations: list[Integration] = field(repr=False, default_factory=list)
     system: HamiltonianSystem | None = field(repr=False, default=None)
-    free_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
     def tf(self) -> float:
@@ -257,17 +249,20 @@ class MultipleShooting:
         Z0: ArrayLike,
         parameters: Mapping[str, float] | ArrayLike | None = None,
         *,
-        solver: str | Callable[..., tuple[np.ndarray, str]] = "newton",
-        stol: float = 1e-10,
+        solver: str | Callable[..., tuple[Any, ...]] = "newton",
+        tol: float | None = None,
         maxfev: int = 50,
         raise_on_failure: bool = True,
+        stol: float | None = None,
     ) -> MultipleShootingResult:
-        """Solve ``R(Z) = 0`` from ``Z0``: the multiple-shooting unknowns, or a single shooting's ``z`` (the nodes
-        then continue its flow, :meth:`nodes`). ``solver``: a root solver of :mod:`ocpkit.shooting.strategies`
-        (``"newton"``, ``"hybr"`` or an object). A run that ends with ``|R| > stol`` raises a
-        :class:`~ocpkit.SolverError` carrying the result (``raise_on_failure=False``: returns it)."""
-        if not stol > 0:
-            raise ValueError(f"stol must be positive, got {stol}")
+        """Solve ``R(Z) = 0`` from ``Z0`` to ``|R| <= tol`` (default 1e-10): the multiple-shooting unknowns, or a
+        single shooting's ``z`` (the nodes then continue its flow, :meth:`nodes`). ``solver``: a root solver of
+        :mod:`ocpkit.shooting.strategies` (``"newton"``, ``"hybr"`` or an object). A run that ends with ``|R| >
+        tol`` raises a :class:`~ocpkit.SolverError` carrying the result and its :class:`~ocpkit.Outcome`
+        (``raise_on_failure=False``: returns it). ``stol`` is the deprecated name of ``tol``."""
+        tol = renamed_argument("stol", "tol", stol, tol, 1e-10, "MultipleShooting.solve")
+        if not tol > 0:
+            raise ValueError(f"tol must be positive, got {tol}")
         method = solver_strategy(solver)
         Z0 = np.asarray(Z0, dtype=float).ravel()
         if Z0.size == self.shooting.nz:
@@ -295,62 +290,80 @@ class MultipleShooting:
         def jac(Z: np.ndarray) -> np.ndarray:
             counts["jac"] += 1
             D = evaluate(Z, True)[1]
-            if D is None or not np.all(np.isfinite(D)):
+            if D is None or not np.all(np.isfinite(D)):  # not integrated from this iterate, or not finite
                 raise SolverError(
-                    "multiple shooting", "the Jacobian failed at an iterate", counts["S"], unit="evaluations"
+                    "multiple shooting",
+                    "the Jacobian failed at an iterate",
+                    counts["S"],
+                    unit="evaluations",
+                    outcome=Outcome.INTEGRATION_FAILED if D is None else Outcome.SINGULAR_JACOBIAN,
                 )
             return D
 
         start = time.process_time()
+        claimed: Outcome | None
         try:
-            Z, message = method(fun, jac, Z0, stol=stol, maxfev=maxfev)
+            Z, message, claimed = run_solver(method, fun, jac, Z0, tol=tol, maxfev=maxfev)
         except SolverError as exc:
             if raise_on_failure:
                 raise
-            Z, message = Z0, str(exc)
+            Z, message, claimed = Z0, str(exc), exc.outcome or Outcome.SOLVER_FAILED
         cpu = time.process_time() - start
+        runs: list[Integration] = []
         try:
             R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
         except (SolverError, ValueError) as exc:
             if raise_on_failure:
                 raise
             message = f"{message}; the integration at the last iterate failed: {exc}"
-            Z = Z0
-            R, _, runs = self.evaluate(Z, parameters, jacobian=False, record=True)
+            claimed = Outcome.INTEGRATION_FAILED
+            try:  # the start reported instead, where it can be integrated
+                R, _, runs = self.evaluate(Z0, parameters, jacobian=False, record=True)
+                Z = Z0
+            except (SolverError, ValueError) as again:
+                message = f"{message}; and at the start: {again}"
+                R = np.full(self.nz, np.nan)
         z, Y = self._split(Z)
         m, norm = self.shooting.nz, float(np.linalg.norm(R))
         defects = R[m:].reshape(-1, self.n) / self.weights
         continuity = float(np.max(np.abs(defects) / (1.0 + np.abs(Y)))) if defects.size else 0.0
-        tf = self._start(z)[1]
-        objective = self.shooting._objective(runs[-1], tf, self.shooting._params(parameters))
+        if runs:
+            tf = self._start(z)[1]
+        else:  # nothing integrated: tf as the unknowns say (it may lie outside the domain)
+            tf = float(z[-1]) if self.shooting.free_tf else float(cast(float, self.shooting.problem.tf))
+        objective = self.shooting._objective(runs[-1], tf, self.shooting._params(parameters)) if runs else np.nan
+        converged, status = settled(norm, tol, claimed)
         result = MultipleShootingResult(
             z=z,
             nodes=Y,
             times=self._times(tf),
             residual=R,
             norm=norm,
+            tol=tol,
             terminal=float(np.linalg.norm(R[:m])),
             continuity=continuity,
-            converged=bool(np.isfinite(norm) and norm <= stol),
-            message=message,
-            n_shooting=counts["S"],
-            n_jacobian=counts["jac"],
+            converged=converged,
+            status=status,
+            detail=message,
+            evaluations=counts["S"],
+            iterations=counts["jac"],
             cpu_s=cpu,
-            objective=objective,
+            objective=float(objective),
             switchings=int(sum(r.switchings for r in runs)),
             steps=int(sum(r.accepted + r.rejected for r in runs)),
             integrations=runs,
             system=self.compiled.system,
-            free_parameters=self.shooting._free_parameters(self._start(z)[0][: self.nx]),
+            free_parameters=self.shooting._free_parameters(self.shooting._initial(z[: self.nx])[0]),
         )
         if not result.converged and raise_on_failure:
             raise SolverError(
                 "multiple shooting",
                 message,
                 counts["S"],
-                f"|R| = {norm:.3e} > stol = {stol:g}; the last iterate is the error's .result",
+                f"|R| = {norm:.3e} > tol = {tol:g}; the last iterate is the error's .result",
                 unit="evaluations",
                 result=result,
+                outcome=status,
             )
         return result
 

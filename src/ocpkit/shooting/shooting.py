@@ -45,10 +45,12 @@ import numpy as np
 
 from .._deprecation import renamed, renamed_argument
 from ..errors import SolverError
+from ..outcome import Outcome
 from ..statement import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
-from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, solver_strategy
+from .result import IndirectResult, settled
+from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, run_solver, solver_strategy
 from .trajectory import ShootingTrajectory
 
 if TYPE_CHECKING:
@@ -56,31 +58,21 @@ if TYPE_CHECKING:
 
 
 @dataclass
-class ShootingResult:
-    """A shooting run: unknowns, residual, effort, the final integration and its trajectory.
+class ShootingResult(IndirectResult):
+    """A shooting run: the fields every indirect run has (:class:`~ocpkit.shooting.result.IndirectResult`: ``z``,
+    ``residual``, ``norm``, ``tol``, ``converged``, ``status``, ``detail``, ``iterations``, ``evaluations``,
+    ``cpu_s``, ``objective``, ``free_parameters``, :attr:`trajectory`), and the shooting's own.
 
     ``z`` the unknowns (per state its initial costate, or its initial value where free; ``tf`` the final time),
-    ``p0`` the initial costates (0 for a free initial state), ``free_parameters`` the solved free parameters,
-    ``residual`` and ``norm`` S(z) and ``|S|``, ``converged`` whether ``norm <= stol``,
-    ``message`` the solver's own, ``n_shooting`` / ``n_jacobian`` / ``n_integrations``
-    the effort, ``cpu_s`` the process time of the solve, ``objective`` the cost of the
-    final trajectory, ``parameters`` the problem parameters, ``integration`` the
-    recorded final integration (steps, switchings, the Hamiltonian along it) and
-    :attr:`trajectory` the state, control and costates as functions of time.
+    ``p0`` the initial costates (0 for a free initial state), ``tf`` the final time, ``iterations`` and
+    ``evaluations`` the Jacobian and shooting-function evaluations, ``n_integrations`` the integrations,
+    ``parameters`` the problem parameters, ``integration`` the recorded final integration (steps, switchings, the
+    Hamiltonian along it) and :attr:`trajectory` the state, control and costates as functions of time.
     """
 
-    z: np.ndarray
     p0: np.ndarray
     tf: float
-    residual: np.ndarray
-    norm: float
-    converged: bool
-    message: str
-    n_shooting: int
-    n_jacobian: int
     n_integrations: int
-    cpu_s: float
-    objective: float
     #: the switching treatment of the run (a name in :data:`~ocpkit.shooting.SWITCHING_MODES`); ``detection`` is its
     #: deprecated name
     switching: str
@@ -89,9 +81,6 @@ class ShootingResult:
     #: None where the integration at the last iterate failed (``solve(raise_on_failure=False)``)
     integration: Integration | None = field(repr=False)
     system: HamiltonianSystem | None = field(repr=False, default=None)
-    #: the solved free parameters by name (states of the shooting's problem,
-    #: :meth:`~ocpkit.OptimalControlProblem.parameters_as_states`)
-    free_parameters: dict[str, float] = field(default_factory=dict)
 
     @property
     def detection(self) -> str:
@@ -103,7 +92,7 @@ class ShootingResult:
     def trajectory(self) -> ShootingTrajectory:
         """The solution as functions of time (state, control, costates; re-integration, differences)."""
         if self.integration is None:
-            raise ValueError(f"this run has no trajectory: {self.message}")
+            raise ValueError(f"this run has no trajectory: {self.status}: {self.detail}")
         if "_trajectory" not in self.__dict__:
             system = cast(HamiltonianSystem, self.system)  # (set by the shooting that made this result)
             self.__dict__["_trajectory"] = ShootingTrajectory(self.integration, system, self.objective)
@@ -111,7 +100,8 @@ class ShootingResult:
 
     def summary(self) -> dict[str, Any]:
         """The result as a table row; the switching treatment under ``"detection"``, the column of Martinon &
-        Gergaud's tables (and of ``data/paper/switching_detection.csv``)."""
+        Gergaud's tables (and of ``data/paper/switching_detection.csv``), the shooting-function and Jacobian
+        evaluations under ``"n_S"`` and ``"n_jac"`` (the published tables' columns)."""
         tr: Any = self.integration
         if tr is None:  # the integration at the last iterate failed
             nan = float("nan")
@@ -124,8 +114,8 @@ class ShootingResult:
             "objective": self.objective,
             "norm_S": self.norm,
             "converged": self.converged,
-            "n_S": self.n_shooting,
-            "n_jac": self.n_jacobian,
+            "n_S": self.evaluations,
+            "n_jac": self.iterations,
             "integrations": self.n_integrations,
             "cpu_s": self.cpu_s,
             "switchings": tr.switchings,
@@ -376,6 +366,7 @@ class Shooting:
                 res.accepted + res.rejected,
                 where or f"on [{t0:.6g}, {tf:.6g}]",
                 unit="steps",
+                outcome=Outcome.INTEGRATION_FAILED,
             )
         return res
 
@@ -450,32 +441,37 @@ class Shooting:
         z0: ArrayLike,
         parameters: Mapping[str, float] | ArrayLike | None = None,
         *,
-        solver: str | Callable[..., tuple[np.ndarray, str]] = "hybr",
-        stol: float = 1e-8,
+        solver: str | Callable[..., tuple[Any, ...]] = "hybr",
+        tol: float | None = None,
         maxfev: int = 400,
         raise_on_failure: bool = True,
         record: bool = True,
         xtol: float | None = None,
         factor: float | None = None,
+        stol: float | None = None,
     ) -> ShootingResult:
-        """Solve S(z) = 0 from ``z0``; raise :class:`~ocpkit.SolverError` (with ``|S|`` and counts) on failure.
+        """Solve S(z) = 0 from ``z0`` to ``|S| <= tol`` (default 1e-8); raise :class:`~ocpkit.SolverError` (with
+        ``|S|``, counts and the :class:`~ocpkit.Outcome`) on failure.
 
-        Converged means ``|S| <= stol`` at the returned point, whatever MINPACK's own
+        Converged means ``|S| <= tol`` at the returned point, whatever MINPACK's own
         status (which stops on ``xtol`` and can stall at a residual of 1e-16 or
-        succeed at one of 1e-3). With ``raise_on_failure=False`` a non-converged run
-        is returned with ``converged=False`` (for tables that report failures, as the
+        succeed at one of 1e-3; its success above ``tol`` is the status ``STALLED``).
+        With ``raise_on_failure=False`` a non-converged run is returned with
+        ``converged=False`` and its ``status`` (for tables that report failures, as the
         source does), also when the integration at the last iterate fails (then its
-        ``integration`` is None and ``message`` says why). ``solver``: ``"hybr"``
-        (MINPACK with its defaults), ``"newton"`` (damped Newton; a Jacobian every
-        iteration, until ``|S|`` stops decreasing below ``stol`` or ``maxfev`` evaluations),
-        or a root-solver object holding its own options (:mod:`ocpkit.shooting.strategies`:
-        ``MinpackHybrid(xtol=..., factor=...)``). ``xtol`` and ``factor`` here are
-        deprecated (MINPACK's options, which other solvers ignored). With the variational
+        ``integration`` is None, its status ``INTEGRATION_FAILED`` and ``detail`` says
+        why). ``solver``: ``"hybr"`` (MINPACK with its defaults), ``"newton"`` (damped
+        Newton; a Jacobian every iteration, until ``|S|`` stops decreasing below ``tol`` or
+        ``maxfev`` evaluations), or a root-solver object holding its own options
+        (:mod:`ocpkit.shooting.strategies`: ``MinpackHybrid(xtol=..., factor=...)``).
+        ``xtol`` and ``factor`` here are deprecated (MINPACK's options, which other solvers
+        ignored), and so is ``stol``, the old name of ``tol``. With the variational
         Jacobian the first notes only which switching mode places the switchings;
         with ``switching="none"`` the variational equations carry no jump terms.
         """
-        if not stol > 0:
-            raise ValueError(f"stol must be positive, got {stol}")
+        tol = renamed_argument("stol", "tol", stol, tol, 1e-8, "Shooting.solve")
+        if not tol > 0:
+            raise ValueError(f"tol must be positive, got {tol}")
         if xtol is not None or factor is not None:
             if solver != "hybr":
                 raise TypeError(
@@ -526,6 +522,7 @@ class Shooting:
                         f"the Jacobian at an iterate outside the domain: {exc}",
                         self.counts["S"],
                         unit="shooting-function evaluations",
+                        outcome=Outcome.INTEGRATION_FAILED,
                     ) from exc
                 if not np.all(np.isfinite(J)):
                     raise SolverError(
@@ -533,6 +530,7 @@ class Shooting:
                         "the Jacobian is not finite (a grazing switching?)",
                         self.counts["S"],
                         unit="shooting-function evaluations",
+                        outcome=Outcome.SINGULAR_JACOBIAN,
                     )
                 last_S.clear()
                 last_S[key] = S
@@ -541,12 +539,13 @@ class Shooting:
             return last_J[key]
 
         t = time.process_time()
+        claimed: Outcome | None
         try:
-            z, message = method(fun, jac, z0, stol=stol, maxfev=maxfev)
+            z, message, claimed = run_solver(method, fun, jac, z0, tol=tol, maxfev=maxfev)
         except SolverError as exc:
             if raise_on_failure:
                 raise
-            z, message = z0, str(exc)
+            z, message, claimed = z0, str(exc), exc.outcome or Outcome.SOLVER_FAILED
         cpu = time.process_time() - t
         counts = dict(self.counts)
         try:
@@ -557,8 +556,9 @@ class Shooting:
                 raise
             final, S = None, np.full(self.nz, np.nan)
             message = f"{message}; the integration at the last iterate failed: {exc}"
+            claimed = Outcome.INTEGRATION_FAILED
         norm = float(np.linalg.norm(S))
-        ok = bool(np.isfinite(norm) and norm <= stol)
+        ok, status = settled(norm, tol, claimed)
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
             unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))
         else:
@@ -570,10 +570,12 @@ class Shooting:
             tf=tf,
             residual=S,
             norm=norm,
+            tol=tol,
             converged=ok,
-            message=message,
-            n_shooting=counts["S"],
-            n_jacobian=counts["jac"],
+            status=status,
+            detail=message,
+            evaluations=counts["S"],
+            iterations=counts["jac"],
             n_integrations=counts["integrations"],
             cpu_s=cpu,
             objective=self._objective(final, tf, P) if final is not None else float("nan"),
@@ -592,11 +594,12 @@ class Shooting:
                 f"shooting ({name})",
                 message,
                 counts["S"],
-                f"|S| = {norm:.3e} > stol = {stol:g} after {counts['S']} shooting-function and "
+                f"|S| = {norm:.3e} > tol = {tol:g} after {counts['S']} shooting-function and "
                 f"{counts['jac']} Jacobian evaluations; the last iterate is the error's .result, "
                 "solve(raise_on_failure=False) returns it",
                 unit="shooting-function evaluations",
                 result=result,
+                outcome=status,
             )
         return result
 

@@ -8,18 +8,25 @@
   :class:`DampedNewton` (``"newton"``).
 
 A :class:`~ocpkit.shooting.Shooting` takes either a name or an object; a new
-strategy is a small class with the same method.
+strategy is a small class with the same method. A root solver is called as
+``solver(fun, jac, z0, *, tol, maxfev)`` and returns ``(z, detail)`` or
+``(z, detail, outcome)``, ``outcome`` the :class:`~ocpkit.Outcome` it stopped for
+(:attr:`~ocpkit.Outcome.CONVERGED` where it claims convergence, which the shooting
+checks against ``tol``); a solver that takes ``stol`` (the keyword's deprecated name)
+is still called with it, with a warning.
 """
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._deprecation import renamed
+from .._deprecation import renamed, renamed_argument
+from ..outcome import Outcome
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -118,7 +125,8 @@ def jacobian_strategy(
 class MinpackHybrid:
     """MINPACK's hybrid Powell method (``scipy.optimize.root(method="hybr")``; the slides' solver).
 
-    ``factor``: the initial trust-region bound ``factor |diag z0|``; ``xtol``: the relative step tolerance.
+    ``factor``: the initial trust-region bound ``factor |diag z0|``; ``xtol``: the relative step tolerance. MINPACK
+    stops on its step (``xtol``), not on ``|S|``: its success is a claim the shooting checks against ``tol``.
     """
 
     xtol: float = 1e-14
@@ -126,21 +134,33 @@ class MinpackHybrid:
 
     name = "hybr"
 
+    #: MINPACK's ``info`` (scipy's ``status``) as an outcome: 1 the relative step below xtol (a claim of
+    #: convergence), 2 the evaluations ran out, 3 xtol too small, 4 and 5 no progress
+    OUTCOMES = {
+        1: Outcome.CONVERGED,
+        2: Outcome.MAX_ITERATIONS,
+        3: Outcome.STALLED,
+        4: Outcome.STALLED,
+        5: Outcome.STALLED,
+    }
+
     def __call__(
         self,
         fun: Callable[[np.ndarray], np.ndarray],
         jac: Callable[[np.ndarray], np.ndarray],
         z0: ArrayLike,
         *,
-        stol: float,
+        tol: float | None = None,
         maxfev: int,
-    ) -> tuple[np.ndarray, str]:
+        stol: float | None = None,
+    ) -> tuple[np.ndarray, str, Outcome]:
         from scipy.optimize import root
 
+        renamed_argument("stol", "tol", stol, tol, 0.0, "MinpackHybrid.__call__")  # (MINPACK stops on xtol)
         sol = root(
             fun, z0, jac=jac, method="hybr", options={"xtol": self.xtol, "maxfev": maxfev, "factor": self.factor}
         )
-        return sol.x, " ".join(sol.message.split())
+        return sol.x, " ".join(sol.message.split()), self.OUTCOMES.get(int(sol.status), Outcome.SOLVER_FAILED)
 
 
 @dataclass(frozen=True)
@@ -148,9 +168,10 @@ class DampedNewton:
     """Least-squares Newton steps, halved until ``|S|^2`` decreases (Armijo, c = 1e-4).
 
     Stops at the first ``|S|`` <= 1e-15, when no step length down to 2^-14 decreases ``|S|``
-    (the integrator's noise floor, or a failure far from a solution), when ``|S|`` is
-    below ``stol`` and the last step gained less than a factor 10, or after
-    ``maxfev`` shooting-function evaluations. Returns the best point seen.
+    (the integrator's noise floor, or a failure far from a solution: :attr:`~ocpkit.Outcome.STALLED`), when
+    ``|S|`` is below ``tol`` and the last step gained less than a factor 10, when the step cannot be computed
+    (:attr:`~ocpkit.Outcome.SINGULAR_JACOBIAN`), or after ``maxfev`` shooting-function evaluations
+    (:attr:`~ocpkit.Outcome.MAX_ITERATIONS`). Returns the best point seen.
     """
 
     name = "newton"
@@ -161,24 +182,26 @@ class DampedNewton:
         jac: Callable[[np.ndarray], np.ndarray],
         z0: ArrayLike,
         *,
-        stol: float,
+        tol: float | None = None,
         maxfev: int,
-    ) -> tuple[np.ndarray, str]:
+        stol: float | None = None,
+    ) -> tuple[np.ndarray, str, Outcome]:
+        tol = renamed_argument("stol", "tol", stol, tol, 1e-8, "DampedNewton.__call__")
         z = np.asarray(z0, dtype=float)
         J = jac(z)
         S = fun(z)
         best = (np.linalg.norm(S), z)
         evaluations = 1
-        message = "maximum number of evaluations reached"
+        message, outcome = "maximum number of evaluations reached", Outcome.MAX_ITERATIONS
         while evaluations < maxfev:
             norm = np.linalg.norm(S)
             if norm <= 1e-15:
-                message = "residual at machine precision"
+                message, outcome = "residual at machine precision", Outcome.CONVERGED
                 break
             try:
                 step = np.linalg.lstsq(J, -S, rcond=None)[0]
             except np.linalg.LinAlgError:
-                message = "the Newton step could not be computed"
+                message, outcome = "the Newton step could not be computed", Outcome.SINGULAR_JACOBIAN
                 break
             a, accepted = 1.0, False
             while a >= 2.0**-14 and evaluations < maxfev:
@@ -190,7 +213,7 @@ class DampedNewton:
                     break
                 a *= 0.5
             if not accepted:
-                message = "no step length decreases |S| (noise floor or stagnation)"
+                message, outcome = "no step length decreases |S| (noise floor or stagnation)", Outcome.STALLED
                 break
             z = trial
             J = jac(z)
@@ -198,10 +221,11 @@ class DampedNewton:
             new = np.linalg.norm(S)
             if new < best[0]:
                 best = (new, z)
-            if new <= stol and new > 0.1 * norm:
-                message = "converged: |S| below stol and no longer decreasing quadratically"
+            if new <= tol and new > 0.1 * norm:
+                message = "converged: |S| below tol and no longer decreasing quadratically"
+                outcome = Outcome.CONVERGED
                 break
-        return best[1], message
+        return best[1], message, outcome
 
 
 #: the root solvers by name, as :meth:`Shooting.solve <ocpkit.shooting.shooting.Shooting.solve>` takes them
@@ -209,12 +233,41 @@ class DampedNewton:
 SOLVERS: dict[str, MinpackHybrid | DampedNewton] = {"hybr": MinpackHybrid(), "newton": DampedNewton()}
 
 
-def solver_strategy(spec: str | Callable[..., tuple[np.ndarray, str]]) -> Callable[..., tuple[np.ndarray, str]]:
+def solver_strategy(spec: str | Callable[..., tuple[Any, ...]]) -> Callable[..., tuple[Any, ...]]:
     """A root solver from its name in :data:`SOLVERS` or an object."""
     if isinstance(spec, str):
         if spec not in SOLVERS:
             raise ValueError(f"solver must be one of {tuple(SOLVERS)}, got {spec!r}")
         return SOLVERS[spec]
     if not callable(spec):
-        raise TypeError(f"a root solver must be callable (fun, jac, z0, *, stol, maxfev) -> (z, message), got {spec!r}")
+        raise TypeError(
+            f"a root solver must be callable (fun, jac, z0, *, tol, maxfev) -> (z, detail[, outcome]), got {spec!r}"
+        )
     return spec
+
+
+def run_solver(
+    solver: Callable[..., tuple[Any, ...]],
+    fun: Callable[[np.ndarray], np.ndarray],
+    jac: Callable[[np.ndarray], np.ndarray],
+    z0: np.ndarray,
+    *,
+    tol: float,
+    maxfev: int,
+) -> tuple[np.ndarray, str, Outcome | None]:
+    """``(z, detail, outcome)`` of a root solver's run (module docstring; ``outcome`` None where the solver does not
+    say). A solver that takes ``stol`` and not ``tol`` is called with ``stol``, with a DeprecationWarning."""
+    try:
+        parameters = list(inspect.signature(solver).parameters.values())
+    except (TypeError, ValueError):  # a callable without a signature: called as the protocol says
+        parameters = []
+    takes = {p.name for p in parameters}
+    if "tol" not in takes and "stol" in takes and not any(p.kind is p.VAR_KEYWORD for p in parameters):
+        renamed("a root solver's keyword stol", "tol", stacklevel=4)
+        out = solver(fun, jac, z0, stol=tol, maxfev=maxfev)
+    else:
+        out = solver(fun, jac, z0, tol=tol, maxfev=maxfev)
+    if len(out) == 2:
+        return np.asarray(out[0], dtype=float), str(out[1]), None
+    z, detail, outcome = out
+    return np.asarray(z, dtype=float), str(detail), None if outcome is None else Outcome(outcome)
