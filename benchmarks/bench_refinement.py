@@ -39,10 +39,11 @@ CASES = [
 ]
 
 
-def _same_mesh(transcription, problem):
-    if isinstance(transcription, Radau):
-        return Radau(problem, transcription.counts.tolist(), mesh=transcription.mesh.fractions)
-    return HLGL(problem, mesh=transcription.mesh.fractions)
+def _same_mesh(scheme, problem):
+    """The scheme's grid on a fresh problem (nothing a refinement built reused)."""
+    if isinstance(scheme, Radau):
+        return Radau(problem, scheme.counts.tolist(), mesh=scheme.mesh.fractions)
+    return HLGL(problem, mesh=scheme.mesh.fractions)
 
 
 def run(label, make, start, tolerance, opts):
@@ -58,7 +59,7 @@ def run(label, make, start, tolerance, opts):
     status = sol.refinement_outcome
     final = sol.program
     # the final mesh on its own: a fresh problem (nothing its refinement built is reused) from the default guess
-    alone = _same_mesh(final, make())
+    alone = _same_mesh(final.scheme, make())
     t1 = time.perf_counter()
     try:
         single_status = alone.solve(ipopt_options=opts, error_threshold=None).status

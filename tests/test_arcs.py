@@ -276,7 +276,7 @@ def test_a_continuation_through_the_death_of_a_boundary_arc(monkeypatch):
     assert info.value.outcome is Outcome.STEP_TOO_SMALL
     partial = follow_extremal(stranded, "v_max", [0.13, 0.135], raise_on_failure=False)
     assert partial.values == [0.13] and not partial.converged and partial.status is Outcome.STEP_TOO_SMALL
-    assert "no transcription" in partial.detail and partial.extremals[0].certificate.passed
+    assert "no direct program" in partial.detail and partial.extremals[0].certificate.passed
 
 
 def test_the_tumours_drug_budget_is_the_terminal_condition_it_amounts_to():

@@ -177,8 +177,36 @@ def test_to_extremals_strict_is_now_raise_on_failure():
         to_extremal(object(), strict=False, raise_on_failure=False)
 
 
+def test_the_names_before_the_program_owned_the_nlp():
+    """MultiPhase(transcriptions) is a program of linked phases, MultiPhaseSolution the one Solution, Solution.raw its
+    typed fields, SolveLoop.meshed its program."""
+    import ocpkit
+    from ocpkit import Link, MultiPhase, Program, Solution
+
+    def half(t0, tf, **ends):
+        return double_integrator().replace(name=f"di{t0}", t0=t0, tf=tf, states=[State("x", **ends), State("v")])
+
+    legs = [HLGL(half(0.0, 1.5, initial=1.0), 4), HLGL(half(1.5, 3.0, final=0.0), 4)]
+    with pytest.warns(DeprecationWarning, match=r"MultiPhase\(transcriptions, links, ...\) is deprecated; use Program"):
+        old = MultiPhase(legs, [Link(0, 1)])
+    assert isinstance(old, Program) and old.names == ["di0.0", "di1.5"]
+    with pytest.warns(DeprecationWarning, match="MultiPhase.split is deprecated; use Program.split"):
+        assert isinstance(MultiPhase.split(double_integrator(), [1.5], lambda p: HLGL(p, 4)), Program)
+    with pytest.warns(DeprecationWarning, match="MultiPhaseSolution is deprecated; use ocpkit.Solution"):
+        assert ocpkit.MultiPhaseSolution is Solution
+    sol = old.solve(error_threshold=None)
+    with pytest.warns(DeprecationWarning, match="Solution.raw is deprecated; use Solution.nlp_result"):
+        raw = sol.raw
+    assert raw["transcription"] is sol.program and np.array_equal(raw["w"], sol.nlp_result.w)
+    loop = old.loop()
+    with pytest.warns(DeprecationWarning, match="SolveLoop.meshed is deprecated; use SolveLoop.program"):
+        assert loop.meshed is old
+
+
 def test_each_deprecation_points_at_the_caller():
+    import ocpkit
     import ocpkit.shooting
+    from ocpkit import MultiPhase
     from ocpkit.transcription import multirate
 
     problem = double_integrator()
@@ -219,6 +247,10 @@ def test_each_deprecation_points_at_the_caller():
         lambda: solved.n_jacobian,
         refused(lambda: to_extremal(object(), strict=False)),
         lambda: ContinuationPath("p").message,
+        lambda: HLGL(problem, 4).solve(error_threshold=None).raw,
+        lambda: HLGL(problem, 4).loop().meshed,
+        lambda: ocpkit.MultiPhaseSolution,
+        lambda: MultiPhase([HLGL(problem, 4)]),
     ]
     for use in uses:
         with pytest.warns(DeprecationWarning) as record:

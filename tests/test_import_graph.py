@@ -1,4 +1,4 @@
-"""The compendium's modules import each other in layers: no cycle, and no private name across modules.
+"""The library's and the compendium's modules import each other in layers: no cycle, no private name across modules.
 
 The graph is read from the source with ``ast``, not by importing it: every ``import`` and ``from ... import`` of the
 package's own modules, at module level and inside functions alike (a function-level import hides a cycle, it does
@@ -177,6 +177,61 @@ def private_uses(package: str, src: Path) -> list[str]:
     return found
 
 
+def private_attributes(package: str, src: Path) -> list[str]:
+    """Where a module of ``package`` reads a private attribute (``thing._name``, ``thing`` not ``self`` nor ``cls``)
+    that no code of its own module defines: a function, class, method, assignment or attribute of that name there.
+    Stricter than :func:`private_uses` (it sees an object's private member too: another module's helper, another
+    class's state), by name: what one module keeps private, no other reads."""
+    modules = modules_of(package, src)
+    defined: dict[str, set[str]] = {}
+    trees = {m: ast.parse(path.read_text(), str(path)) for m, path in modules.items()}
+    for module, tree in trees.items():
+        names: set[str] = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+                names.add(node.name)
+            elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+                names.add(node.attr)
+            elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                names.add(node.id)
+            elif isinstance(node, ast.Constant) and isinstance(node.value, str) and _private(node.value):
+                names.add(node.value)  # object.__setattr__(self, "_name", ...) on a frozen object
+        defined[module] = names
+    found = []
+    for module, tree in trees.items():
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.Attribute) and _private(node.attr)):
+                continue
+            if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls", "sys"):
+                continue  # its own members; sys._getframe is the interpreter's
+            if node.attr not in defined[module]:
+                found.append(f"{modules[module].relative_to(src)}:{node.lineno} ._{node.attr.lstrip('_')}")
+    return found
+
+
+# -- the library ------------------------------------------------------------------------------------------------------
+
+
+def test_the_library_imports_without_a_cycle():
+    """Module-level and function-level imports alike: the statement below the program, the program below the
+    schemes, nothing that reaches back (a scheme bound to a problem imports the program, never the reverse)."""
+    graph = import_graph("ocpkit", SRC)
+    assert graph["ocpkit.transcription.base"] and cycles(graph) == []
+    below = {
+        "ocpkit.statement": ("ocpkit.program", "ocpkit.transcription"),
+        "ocpkit.program": ("ocpkit.transcription",),
+    }
+    for module, targets in graph.items():
+        for layer, above in below.items():
+            if module.startswith(layer):
+                assert not [t for t in targets if t.startswith(above)], f"{module} imports a layer above it"
+
+
+def test_no_library_module_takes_a_private_name_of_another():
+    assert private_uses("ocpkit", SRC) == []
+    assert private_attributes("ocpkit", SRC) == []
+
+
 # -- the compendium --------------------------------------------------------------------------------------------------
 
 
@@ -233,3 +288,7 @@ def test_the_checks_find_a_cycle_hidden_in_a_function_and_a_private_name(tmp_pat
         "pkg.b._x",
         "pkg.b._y",
     ]
+    (pkg / "f.py").write_text("class A:\n    def _own(self):\n        return self._own, other._state\n")
+    assert [x.split(" ", 1)[1] for x in private_attributes("pkg", tmp_path)] == ["._state", "._x", "._y"] or sorted(
+        x.split(" ", 1)[1] for x in private_attributes("pkg", tmp_path)
+    ) == ["._state", "._x", "._y"]

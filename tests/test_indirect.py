@@ -306,7 +306,7 @@ def test_the_extremals_dense_output_keeps_h_constant_between_steps():
     import casadi as ca
 
     Hf = ca.Function("H", [H.x, H.p, H.u, H.t, H.P], [H.H]).map(t.size)
-    P = np.repeat(np.asarray(tr.problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
+    P = np.repeat(np.asarray(tr.problem.full_parameters, dtype=float).reshape(-1, 1), t.size, axis=1)
     values = np.asarray(Hf(tr.state(t).T, tr.costate(t).T, tr.control(t).T, t[None, :], P)).ravel()
     assert np.ptp(values) < 1e-7 * (1 + abs(values[0]))
 

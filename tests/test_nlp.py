@@ -4,7 +4,22 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocpkit import HLGL, MultiRateHLGL, OptimalControlProblem, Radau
+from ocpkit import (
+    HLGL,
+    Constraint,
+    Control,
+    Duration,
+    FreeFinalTime,
+    FreeInitialTime,
+    FreeParameter,
+    Link,
+    MultiPhaseProblem,
+    MultiRateHLGL,
+    OptimalControlProblem,
+    Program,
+    Radau,
+    State,
+)
 from ocpkit.nlp import Block, SeparableNLP
 
 from compendium.problems import entry_landing, flat_moon_ascent, lunar_ascent
@@ -28,6 +43,42 @@ def with_lagrange(pr):
     )
 
 
+def every_kind(t0=0.0, tf=None, control=None, **kwargs):
+    """One phase with a block of every kind the program writes: path and boundary constraints, a pinned parameter
+    ``g`` and a free one ``k``, a free start and a duration, a running and a Mayer cost; and, through ``control``,
+    end values of the control (held by a point's bounds, or by a row of the control's interpolant)."""
+    return OptimalControlProblem(
+        f"every_kind_{t0}",
+        [State("x", initial=0.0), State("v", initial=0.0, scale=2.0), State("m", 1.0, 3.0, shift=2.0)],
+        [control or Control("u", -2.0, 2.0, initial=0.5, final=(-0.25, 0.25))],
+        lambda x, u, t, p: [x["v"], p["k"] * u["u"] / x["m"] - p["g"] * ca.sin(x["x"]), -0.1 * u["u"] ** 2],
+        t0=FreeInitialTime(0.0, 1.0, 0.5, scale=2.0) if t0 is None else t0,
+        tf=tf or Duration(0.5, 3.0, 1.5, scale=1.5),
+        lagrange=lambda x, u, t, p: (u["u"] * t) ** 2 + p["k"] * x["v"] ** 2,
+        mayer=lambda x0, xf, t0, tf, p: (xf["x"] - 1.0) ** 2 * tf + p["k"] * x0["m"],
+        parameters={"g": 0.3},
+        free_parameters=[FreeParameter("k", 0.5, 2.0, guess=1.0, scale=0.5, shift=1.0)],
+        path_constraints=[Constraint("speed", lambda x, u, t: x["v"] * x["m"] + u["u"] * t, upper=2.0, scale=2.0)],
+        boundary_constraints=[Constraint("end", lambda x0, xf, t0, tf, p: xf["v"] * tf - p["k"], lower=-1.0)],
+        **kwargs,
+    )
+
+
+def linked_phases():
+    """Two phases on two schemes: a state link with a jump, a free final time met by the next phase's free start
+    (a time row), a free parameter the phases share (one NLP variable), a trajectory cost and a linkage
+    constraint."""
+    first = every_kind(0.0, FreeFinalTime(0.5, 2.0, 1.0))
+    second = every_kind(None, Duration(0.5, 3.0, 1.5), control=Control("u", -2.0, 2.0, final=0.0))
+    statement = MultiPhaseProblem(
+        {"first": first, "second": second},
+        [Link("first", "second", jumps={"m": -0.5})],
+        cost=lambda e, p: e["second"].tf * p["k"] + e["first"].xf["v"] ** 2,
+        constraints=[Constraint("meet", lambda e: e["second"].xf["x"] - e["first"].x0["m"], upper=0.0)],
+    )
+    return Program(statement, {"first": HLGL(intervals=3), "second": Radau(nodes=[3, 4], intervals=2)})
+
+
 TRANSCRIPTIONS = {
     "hlgl-lunar": lambda: HLGL(lunar_ascent(), 4),
     "hlgl-flat-moon": lambda: HLGL(flat_moon_ascent(), 4),
@@ -37,7 +88,27 @@ TRANSCRIPTIONS = {
     "radau-global": lambda: Radau(with_lagrange(lunar_ascent()), 6),
     "radau-intervals": lambda: Radau(flat_moon_ascent(), [3, 4, 3], 3),
     "radau-entry-rate": lambda: Radau(entry_landing(thrust_angle_rate_deg_s=5.0), 4, 2),
+    "hlgl-every-kind": lambda: HLGL(every_kind(None), 3),
+    "radau-every-kind": lambda: Radau(every_kind(None), [3, 5], 2),
+    "multirate-every-kind": lambda: MultiRateHLGL(every_kind(None), 2, ratio=2, fast=["v"], coupling="quadrature"),
+    "multirate-fine-controls": lambda: MultiRateHLGL(
+        every_kind(None), 2, ratio=2, fast=["v", "m"], coupling="galerkin", control_mesh="fine"
+    ),
+    "program-linked-phases": linked_phases,
 }
+
+
+def test_the_checked_nlps_hold_every_kind_of_block():
+    """The derivative check sees every block the program writes, not only defects and costs (a block kind added
+    without a derivative check is trusted only through converged solves)."""
+    names = {b.name for b in linked_phases().nlp.blocks} | {b.name for b in HLGL(every_kind(None), 3).nlp.blocks}
+    for kind in ("defects", "lagrange", "mayer", "path_constraints_0", "boundary_constraints", "control_final_u"):
+        assert any(n.endswith(kind) for n in names), kind
+    for kind in ("link_0_1", "link_time_0_1", "trajectory_cost", "linkage_constraints", "lgr_dynamics"):
+        assert any(n.endswith(kind) for n in names), kind
+    program = linked_phases()
+    assert program.layout["parameter k"].size == 1  # shared: one variable, no row
+    assert {p.layout.times.t0_position is not None for p in program.phases} == {False, True}
 
 
 @pytest.mark.parametrize("name", TRANSCRIPTIONS)

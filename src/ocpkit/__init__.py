@@ -58,7 +58,8 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     if name == "MultiPhaseSolution":
-        from .transcription import phases
+        from ._deprecation import renamed
 
-        return phases.__getattr__(name)
+        renamed("ocpkit.MultiPhaseSolution", "ocpkit.Solution (one result for any number of phases)")
+        return Solution
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

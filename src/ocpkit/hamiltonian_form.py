@@ -66,7 +66,7 @@ def l1_controls(problem: OptimalControlProblem) -> set[int]:
     ham = problem.functions.hamiltonian
     H0, psi, w, b = decompose(ham.H, ham.u, problem.nu)
     rng = np.random.default_rng(3)
-    P = np.asarray(problem._P, dtype=float).ravel()
+    P = np.asarray(problem.full_parameters, dtype=float).ravel()
     out = set()
     for i in range(problem.nu):
         others = ca.vertcat(*[ham.u[j] for j in range(problem.nu) if j != i]) if problem.nu > 1 else ca.SX(0, 1)
@@ -90,7 +90,7 @@ def has_quadratic_term(problem: OptimalControlProblem) -> bool:
     b = decompose(ham.H, ham.u, problem.nu).b
     f = ca.Function("b", [ham.x, ham.p, ham.t, ham.P], [ca.vertcat(*b)])
     rng = np.random.default_rng(1)
-    P = problem._P  # the problem's parameter values (free ones at their guesses): b may depend on them
+    P = problem.full_parameters  # the problem's parameter values (free ones at their guesses): b may depend on them
     values = [np.asarray(f(rng.normal(size=problem.nx), rng.normal(size=problem.nx), 0.0, P)) for _ in range(3)]
     return bool(np.max(np.abs(values)) > 1e-12)
 

@@ -406,7 +406,7 @@ def follow_extremal(
     changes: list[tuple[float, str, str, str]] = []
 
     def words(arcs: Sequence[ArcType]) -> str:
-        return " | ".join(ArcShooting._name(a) for a in arcs)
+        return " | ".join(ArcShooting.arc_name(a) for a in arcs)
 
     def shoot(shooting: ArcShooting, z: np.ndarray, value: float) -> tuple[ArcResult, Trajectory, np.ndarray]:
         result = shooting.solve(z, {parameter: value}, tol=tol)
@@ -631,12 +631,14 @@ def _fitted_controls(solution: Solution, trajectory: Trajectory, t: np.ndarray, 
     hd, hs = direct.functions.hamiltonian, ours.functions.hamiltonian
     n = t.size
     fs = ca.Function("fs", [hs.x, hs.u, hs.t, hs.P], [ca.vertcat(hs.f, hs.L)]).map(n)
-    P = np.repeat(np.asarray(ours._P, dtype=float).reshape(-1, 1), n, axis=1)
+    P = np.repeat(np.asarray(ours.full_parameters, dtype=float).reshape(-1, 1), n, axis=1)
     target = np.asarray(fs(X.T, trajectory.control(t).T, t[None, :], P))
     scale = ca.DM([abs(v.scale) for v in direct.states] + [1.0])
     y = ca.SX.sym("y", direct.nx + 1)
     misfit = ca.sumsqr((ca.vertcat(hd.f, hd.L) - y) / scale)
-    term = ca.Function("misfit", [hd.u, hd.x, hd.t, y], [ca.substitute(misfit, hd.P, ca.DM(direct._P))]).map(n)
+    term = ca.Function(
+        "misfit", [hd.u, hd.x, hd.t, y], [ca.substitute(misfit, hd.P, ca.DM(direct.full_parameters))]
+    ).map(n)
     V = ca.MX.sym("V", direct.nu, n)
     fit = ca.nlpsol(
         "fit",
@@ -755,7 +757,7 @@ def _nodes(multiple: MultipleShooting, solution: Solution, z0: np.ndarray) -> np
     shooting's problem: its solved value, and costate 0 as a start: it enters no flow, so its continuity is linear
     and Newton settles it) and J = 0 (likewise)."""
     shooting = multiple.shooting
-    times = multiple._times(shooting._split(z0)[1])
+    times = multiple.node_times(shooting.split_unknowns(z0)[1])
     s = (times[1:-1] - times[0]) / (times[-1] - times[0])  # the interior nodes' fractions of the horizon
     t = solution.t0 + s * (solution.tf - solution.t0)
     nx, n = solution.problem.nx, shooting.problem.nx
@@ -839,7 +841,7 @@ def certify(
     Hf = ca.Function("H", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H])
     t = np.linspace(trajectory.t0, trajectory.tf, samples)
     X, L, U = trajectory.state(t), trajectory.costate(t), trajectory.control(t)
-    P = np.asarray(problem._P, dtype=float).ravel()
+    P = np.asarray(problem.full_parameters, dtype=float).ravel()
     Hmap = Hf.map(samples)
     Ps = np.repeat(P[:, None], samples, axis=1)
     H_star = np.asarray(Hmap(X.T, L.T, U.T, t[None, :], Ps)).ravel()

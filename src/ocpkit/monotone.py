@@ -44,7 +44,7 @@ def monotone_constraints(problem: OptimalControlProblem) -> dict[str, tuple[int,
     docstring) and whose ``Dc`` depends on one control: the control's value that holds ``Dc = 0``."""
     ham = problem.functions.hamiltonian
     x, u, t, P = ham.x, ham.u, ham.t, ham.P
-    P0 = ca.DM(np.asarray(problem._P, dtype=float).reshape(-1, 1)) if P.numel() else ca.DM(0, 1)
+    P0 = ca.DM(np.asarray(problem.full_parameters, dtype=float).reshape(-1, 1)) if P.numel() else ca.DM(0, 1)
     out = {}
     for q in inequalities(problem):
         if not q.pure or len(q.controls) != 1:
@@ -83,7 +83,7 @@ def as_terminal(
     ineq = {q.name: q for q in inequalities(problem)}
     t = np.array([solution.t0, solution.tf - FINAL * (solution.tf - solution.t0), solution.tf])
     X, U = solution.state(t), solution.control(t)
-    P = np.asarray(problem._P, dtype=float).ravel()
+    P = np.asarray(problem.full_parameters, dtype=float).ravel()
     relabelled, added = list(structure.arcs), []
     for name, (i, value) in candidates.items():
         c0, before, cf = (float(ineq[name].function(X[k], U[k], t[k], P)) for k in range(3))

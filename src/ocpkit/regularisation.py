@@ -21,7 +21,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from .names import call
+import casadi as ca
+
 from .statement import OptimalControlProblem
 
 
@@ -45,12 +46,11 @@ def penalise_control(
     index = [names.index(n) for n in chosen]
     shift = [problem.controls[i].shift for i in index]
     scale = [problem.controls[i].scale for i in index]
-    base = problem._spec["lagrange"]
+    base = problem.functions.L  # the problem's own running cost, L(x, u, t, P), whatever its callable's signature
 
     def lagrange(x: Any, u: Any, t: Any, p: Any = None) -> Any:
         penalty = sum(((u[i] - s) / c) ** 2 for i, s, c in zip(index, shift, scale))
-        # the problem's own running cost, called as the problem calls it: (x, u, t) or (x, u, t, p)
-        own = 0 if base is None else call(base, [x, u, t], p, has_parameters=p is not None, what="lagrange")
+        own = 0 if base is None else base(x, u, t, ca.SX(0, 1) if p is None else p.column)
         return own + weight * penalty
 
     return problem.replace(

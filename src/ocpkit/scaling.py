@@ -66,7 +66,7 @@ def _guess_cost(problem: OptimalControlProblem) -> float:
     tf, xs, us = Guess().functions(problem)
     t = np.linspace(problem.t0, tf, 41)
     X, U = xs(t), us(t)
-    P = problem._P
+    P = problem.full_parameters
     cost = 0.0
     if problem.L is not None:
         L = np.array([float(problem.L(X[k], U[k], t[k], P)) for k in range(t.size)])

@@ -276,8 +276,11 @@ class Solution(Trajectory):
     phase's.
     """
 
+    #: one solution per phase
     phases: list[PhaseSolution]
+    #: the program solved (a solution of it is its exact warm start)
     program: Program = field(repr=False)
+    #: IPOPT's return status
     status: str
     iterations: int
     objective: float
@@ -294,6 +297,7 @@ class Solution(Trajectory):
     parameters: dict[str, float] = field(default_factory=dict)
     link_residual: float = 0.0
     trajectory_cost: float = 0.0
+    #: how it was solved (IPOPT's option overrides, the acceptable level), to solve the same NLP again as it was
     solve_options: SolveOptions | None = field(default=None, repr=False)
     #: IPOPT's linear solver and its ordering in this solve (e.g. ``"mumps (QAMD ordering)"``; chosen by the
     #: transcription's structure, :attr:`~ocpkit.Radau.ipopt_defaults`); ``""`` where not recorded
@@ -333,7 +337,7 @@ class Solution(Trajectory):
 
     @property
     def links(self) -> list[LinkedStates]:
-        """The program's links between phases (resolved: indices, states and jumps)."""
+        """The program's links between phases, resolved (indices, states and jumps)."""
         return list(self.program.phased.links)
 
     @property
@@ -406,7 +410,7 @@ class Solution(Trajectory):
 
     @property
     def breakpoints(self) -> np.ndarray:
-        """Where the control may jump: the mesh's breakpoints, every phase's."""
+        """Where the control may jump, the mesh's breakpoints (every phase's)."""
         if self.single:
             return self.phases[0].breakpoints
         return unique(np.concatenate([p.breakpoints for p in self.phases]))
@@ -417,7 +421,7 @@ class Solution(Trajectory):
 
     @property
     def transcription(self) -> str:
-        """The scheme's label (of several phases: the program's)."""
+        """The scheme's label (of several phases, the program's)."""
         return self.phases[0].transcription if self.single else self.program.label
 
     @property
@@ -427,87 +431,87 @@ class Solution(Trajectory):
     # -- the one phase's fields (PhaseSolution's) ------------------------------------------------------------------------
     @property
     def state_times(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.state_times`: the times of the state points."""
+        """The one phase's ``state_times`` (:class:`PhaseSolution`), the times of the state points."""
         return self._only("state_times").state_times
 
     @property
     def state_values(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.state_values`: the states at their points."""
+        """The one phase's ``state_values`` (:class:`PhaseSolution`), the states at their points."""
         return self._only("state_values").state_values
 
     @property
     def control_times(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.control_times`: the times of the control points."""
+        """The one phase's ``control_times`` (:class:`PhaseSolution`), the times of the control points."""
         return self._only("control_times").control_times
 
     @property
     def control_values(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.control_values`: the controls at their points."""
+        """The one phase's ``control_values`` (:class:`PhaseSolution`), the controls at their points."""
         return self._only("control_values").control_values
 
     @property
     def state_interpolant(self) -> Callable[[np.ndarray], np.ndarray]:
-        """The one phase's :attr:`PhaseSolution.state_interpolant`: the scheme's state interpolant (a function of time)."""
+        """The one phase's ``state_interpolant`` (:class:`PhaseSolution`), the scheme's state interpolant (a function of time)."""
         return self._only("state_interpolant").state_interpolant
 
     @property
     def control_interpolant(self) -> Callable[[np.ndarray], np.ndarray]:
-        """The one phase's :attr:`PhaseSolution.control_interpolant`: the scheme's control interpolant, overshoots included."""
+        """The one phase's ``control_interpolant`` (:class:`PhaseSolution`), the scheme's control interpolant, overshoots included."""
         return self._only("control_interpolant").control_interpolant
 
     @property
     def costate_times(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.costate_times`: the times of the costate estimates."""
+        """The one phase's ``costate_times`` (:class:`PhaseSolution`), the times of the costate estimates."""
         return self._only("costate_times").costate_times
 
     @property
     def costate_values(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.costate_values`: the costate estimates."""
+        """The one phase's ``costate_values`` (:class:`PhaseSolution`), the costate estimates."""
         return self._only("costate_values").costate_values
 
     @property
     def path_times(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.path_times`: the times of the path-constraint points."""
+        """The one phase's ``path_times`` (:class:`PhaseSolution`), the times of the path-constraint points."""
         return self._only("path_times").path_times
 
     @property
     def path_values(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.path_values`: the path constraints at their points."""
+        """The one phase's ``path_values`` (:class:`PhaseSolution`), the path constraints at their points."""
         return self._only("path_values").path_values
 
     @property
     def path_multipliers(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.path_multipliers`: the path constraints' multipliers, in the problem's units."""
+        """The one phase's ``path_multipliers`` (:class:`PhaseSolution`), the path constraints' multipliers, in the problem's units."""
         return self._only("path_multipliers").path_multipliers
 
     @property
     def boundary_values(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.boundary_values`: the boundary constraints' values."""
+        """The one phase's ``boundary_values`` (:class:`PhaseSolution`), the boundary constraints' values."""
         return self._only("boundary_values").boundary_values
 
     @property
     def boundary_multipliers(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.boundary_multipliers`: the boundary constraints' multipliers, in the problem's units."""
+        """The one phase's ``boundary_multipliers`` (:class:`PhaseSolution`), the boundary constraints' multipliers, in the problem's units."""
         return self._only("boundary_multipliers").boundary_multipliers
 
     @property
     def estimate_breakpoints(self) -> np.ndarray | None:
-        """The one phase's :attr:`PhaseSolution.estimate_breakpoints`: the error estimate's intervals where they are not the mesh's."""
+        """The one phase's ``estimate_breakpoints`` (:class:`PhaseSolution`), the error estimate's intervals where they are not the mesh's."""
         return self._only("estimate_breakpoints").estimate_breakpoints
 
     @property
     def estimate_points(self) -> np.ndarray | int | None:
-        """The one phase's :attr:`PhaseSolution.estimate_points`: the error estimate's points per interval."""
+        """The one phase's ``estimate_points`` (:class:`PhaseSolution`), the error estimate's points per interval."""
         return self._only("estimate_points").estimate_points
 
     @property
     def estimate_intervals(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.estimate_intervals`: the intervals of the error estimate."""
+        """The one phase's ``estimate_intervals`` (:class:`PhaseSolution`), the intervals of the error estimate."""
         return self._only("estimate_intervals").estimate_intervals
 
     @property
     def control_breakpoints(self) -> np.ndarray:
-        """The one phase's :attr:`PhaseSolution.control_breakpoints`: where the control interpolant's pieces meet."""
+        """The one phase's ``control_breakpoints`` (:class:`PhaseSolution`), where the control interpolant's pieces meet."""
         return self._only("control_breakpoints").control_breakpoints
 
     def admissible(self, values: ArrayLike) -> np.ndarray:
@@ -531,8 +535,8 @@ class Solution(Trajectory):
 
     @property
     def raw(self) -> dict[str, Any]:
-        """Deprecated: the typed fields :attr:`nlp_result` (``w``, ``lam_g``, ``lam_w``, ``stats``), :attr:`program`,
-        :attr:`solve_options` and :attr:`linear_solver`, as the dict that held them."""
+        """The typed fields :attr:`nlp_result` (``w``, ``lam_g``, ``lam_w``, ``stats``), :attr:`program`,
+        :attr:`solve_options` and :attr:`linear_solver` as the dict that held them (deprecated)."""
         renamed("Solution.raw", "Solution.nlp_result, .program, .solve_options, .linear_solver")
         r = self.nlp_result
         out: dict[str, Any] = {
@@ -656,11 +660,13 @@ class Solution(Trajectory):
 
     @property
     def state_names(self) -> list[str]:
+        """The states' names (the phases'; they must share them)."""
         self._require_uniform()
         return self.phases[0].state_names
 
     @property
     def control_names(self) -> list[str]:
+        """The controls' names (the phases'; they must share them)."""
         self._require_uniform()
         return self.phases[0].control_names
 
@@ -724,11 +730,11 @@ class Solution(Trajectory):
             return self.phases[0].sample(expr, grid, n)
         t = self.time_grid(n) if grid is None else self._check_times(grid)
         if t.size == 0:
-            return t, self.phases[0]._sample(expr, t, self.parameters)
+            return t, self.phases[0].evaluate(expr, t, self.parameters)
         flat = t.ravel()
         k = self._phase_of(flat)
         parts = {
-            j: self.phases[j]._sample(
+            j: self.phases[j].evaluate(
                 expr, np.clip(flat[k == j], self.phases[j].t0, self.phases[j].tf), self.parameters
             )
             for j in unique(k)

@@ -209,7 +209,7 @@ def _active(
     to the range of its values along the trajectory): where, and the controls it involves."""
     problem = trajectory.problem
     X = np.asarray(trajectory.state(t), dtype=float).reshape(t.size, problem.nx)
-    P = np.repeat(np.asarray(problem._P, dtype=float).reshape(-1, 1), t.size, axis=1)
+    P = np.repeat(np.asarray(problem.full_parameters, dtype=float).reshape(-1, 1), t.size, axis=1)
     out = {}
     for ineq in inequalities(problem):
         c = np.asarray(ineq.function.map(t.size)(X.T, U.T, t[None, :], P)).ravel()

@@ -89,12 +89,12 @@ class Trajectory(ABC):
 
     @property
     def state_names(self) -> list[str]:
-        """The states' names, in the order of :meth:`state`'s last axis."""
+        """The states' names, in the order of :meth:`~ocpkit.trajectory.Trajectory.state`'s last axis."""
         return self.problem.state_names
 
     @property
     def control_names(self) -> list[str]:
-        """The controls' names, in the order of :meth:`control`'s last axis."""
+        """The controls' names, in the order of :meth:`~ocpkit.trajectory.Trajectory.control`'s last axis."""
         return self.problem.control_names
 
     def initial_state(self) -> np.ndarray:
@@ -153,10 +153,11 @@ class Trajectory(ABC):
         ``t.shape + (m,)`` for ``m`` of them. The control is the admissible one (:meth:`control`).
         """
         t = self.time_grid(n) if grid is None else self._check_times(grid)
-        return t, self._sample(expr, t)
+        return t, self.evaluate(expr, t)
 
-    def _sample(self, expr: Callable[..., Any], t: np.ndarray, extra: dict[str, float] | None = None) -> np.ndarray:
-        """``expr`` at the times ``t``; ``extra``: parameters by name that ``p`` has besides the problem's."""
+    def evaluate(self, expr: Callable[..., Any], t: np.ndarray, extra: dict[str, float] | None = None) -> np.ndarray:
+        """``expr(x, u, t[, p])`` at the times ``t`` (:meth:`sample`'s values); ``extra``: parameters by name that
+        ``p`` has besides the problem's (a trajectory's parameters that another phase declares)."""
         extra = {} if extra is None else {k: v for k, v in extra.items() if k not in self.problem.parameter_names}
         fun = self.problem.expression(expr, "running", "sample's expression", list(extra))
         m = fun.size1_out(0)

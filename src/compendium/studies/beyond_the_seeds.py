@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ocpkit import HLGL, Radau, SolverError, autoscale
+from ocpkit import SolverError, autoscale, scheme
 from ocpkit.accuracy import AccuracyWarning
 
 from ..paper import paper_table
@@ -51,8 +51,8 @@ class Case:
         return f"{self.scheme} {' x '.join(str(s) for s in self.start)}"
 
     def transcription(self):
-        problem = self.make()
-        return HLGL(problem, *self.start) if self.scheme == "HLGL" else Radau(problem, *self.start)
+        """The case's scheme (by its name, :data:`ocpkit.transcription.SCHEMES`) on its problem, from its start."""
+        return scheme(self.scheme, self.make(), *self.start)
 
     def measured(self, solution) -> float:
         return float(solution.objective if self.value is None else self.value(solution))

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ocpkit import HLGL, Radau, SolverError
+from ocpkit import HLGL, Program, Radau, Scheme, SolverError
 from ocpkit.indirect import to_extremal
 
 from ..paper import paper_table
@@ -63,22 +63,18 @@ class Case:
     name: str
     what: str
     problem: Callable
-    nodes: int
-    intervals: int
+    #: the direct scheme (``Radau(nodes=4, intervals=20)``, ``HLGL(intervals=40)``), configuration for the problem
+    scheme: Scheme
     solve_options: dict
     reference: Callable[[], dict] = field(default=lambda: {})
     measure: Callable[[object], dict] = field(default=lambda e: {})
     #: the problem as posed, to shoot, where the direct one restates its controls (``to_extremal(problem=...)``)
     shoot: Callable | None = None
     control_set: str = "box"
-    #: the direct scheme: ``"radau"`` (``nodes`` x ``intervals``) or ``"hlgl"`` (``intervals`` segments)
-    scheme: str = "radau"
 
-    def transcription(self):
-        """The case's direct transcription of its problem."""
-        if self.scheme == "hlgl":
-            return HLGL(self.problem(), self.intervals)
-        return Radau(self.problem(), self.nodes, self.intervals)
+    def transcription(self) -> Program:
+        """The case's direct transcription of its problem: the program of its scheme."""
+        return Program(self.problem(), self.scheme)
 
 
 def _di_reference() -> dict:
@@ -127,8 +123,7 @@ CASES = {
             "double_integrator",
             "minimum fuel, two thrusters: bang-off-bang",
             double_integrator_thrusters,
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"error_threshold": None},
             _di_reference,
             lambda e: dict(zip(("t1", "t2"), _junctions(e))),
@@ -137,8 +132,7 @@ CASES = {
             "goddard_speed_limit",
             "Goddard with v <= 0.1 (control-toolbox): bang, singular, boundary, off",
             lambda: goddard_rocket(v_max=goddard_constants()["v_max"]),
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"mesh_tolerance": 1e-6},
             _goddard_ct_reference,
             _goddard_ct_measure,
@@ -147,8 +141,7 @@ CASES = {
             "goddard_cops",
             "Goddard (COPS 3.0): bang, singular, off",
             goddard_rocket,
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"mesh_tolerance": 1e-6},
             lambda: {"final_altitude": _published("goddard_cops", None, "final_altitude")},
             lambda e: {"final_altitude": float(e.trajectory.state(e.trajectory.tf)[0])},
@@ -157,19 +150,16 @@ CASES = {
             "goddard_cops_hlgl",
             "Goddard (COPS 3.0) from HLGL: costates from its defect multipliers",
             goddard_rocket,
-            0,
-            40,
+            HLGL(intervals=40),
             {"error_threshold": None},
             lambda: {"final_altitude": _published("goddard_cops", None, "final_altitude")},
             lambda e: {"final_altitude": float(e.trajectory.state(e.trajectory.tf)[0])},
-            scheme="hlgl",
         ),
         Case(
             "catalyst_mixing",
             "catalyst mixing (COPS 3.0): bang, singular, bang",
             catalyst_mixing,
-            4,
-            30,
+            Radau(nodes=4, intervals=30),
             {"error_threshold": None},
             lambda: {"objective": _published("beyond_the_seeds", "catalyst_mixing", "objective")},
             lambda e: {"objective": e.trajectory.objective},
@@ -178,8 +168,7 @@ CASES = {
             "orbit_raising",
             "orbit raising (Bryson & Ho): regular, time-dependent mass, boundary equality",
             orbit_raising,
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"mesh_tolerance": 1e-6},
             lambda: {"final_radius": _published("beyond_the_seeds", "orbit_raising", "final_radius")},
             lambda e: {"final_radius": float(e.trajectory.state(e.trajectory.tf)[0])},
@@ -188,8 +177,7 @@ CASES = {
             "rayleigh_mixed",
             "Rayleigh, u + x1/6 <= 0: boundary arcs of a mixed constraint",
             rayleigh_mixed,
-            4,
-            30,
+            Radau(nodes=4, intervals=30),
             {"mesh_tolerance": 1e-6},
             lambda: {"objective": _published("beyond_the_seeds", "rayleigh_mixed", "objective")},
             lambda e: {"objective": e.trajectory.objective},
@@ -198,8 +186,7 @@ CASES = {
             "rayleigh",
             "Rayleigh, no constraint: its flow blows up from the direct costates (multiple shooting)",
             rayleigh,
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"error_threshold": None},
             _rayleigh_reference,
             lambda e: {"objective": e.trajectory.objective},
@@ -208,8 +195,7 @@ CASES = {
             "gto_geo_5N",
             "GTO-GEO at 5 N (the slides' transfer): thrust bounded in norm, bang-off-bang over 10 revolutions",
             lambda: orbit_transfer_direct(_transfer_thrust(), "fuel"),
-            4,
-            160,
+            Radau(nodes=4, intervals=160),
             {"error_threshold": None, "ipopt_options": {"max_iter": 3000}},
             _slides_reference,
             _transfer_measure,
@@ -220,24 +206,21 @@ CASES = {
             "entry_landing",
             "the seeds' entry landing (Radau, refined)",
             entry_landing,
-            4,
-            20,
+            Radau(nodes=4, intervals=20),
             {"mesh_tolerance": 1e-6},
         ),
         Case(
             "miser3_state_constraint",
             "MISER3: a state constraint on a regular control",
             miser3_state_constraint,
-            4,
-            30,
+            Radau(nodes=4, intervals=30),
             {"mesh_tolerance": 1e-6},
         ),
         Case(
             "tumour_anti_angiogenesis",
             "tumour anti-angiogenesis: a drug budget only the final state can reach (its terminal condition)",
             tumour,
-            4,
-            60,
+            Radau(nodes=4, intervals=60),
             {"error_threshold": None},
             lambda: {
                 "final_tumour_volume": _published("beyond_the_seeds", "tumour_anti_angiogenesis", "final_tumour_volume")
@@ -248,8 +231,7 @@ CASES = {
             "free_flying_robot",
             "free-flying robot: two controls on one mixed constraint",
             free_flying_robot,
-            4,
-            30,
+            Radau(nodes=4, intervals=30),
             {"error_threshold": None},
         ),
     ]

@@ -1,7 +1,7 @@
 """The blocks of a program's NLP beyond its schemes': everything that is the same on every scheme.
 
 Per phase (:func:`phase_blocks`): the scheme's own blocks (defects and running cost, rules 4-5 of
-:class:`~ocpkit.transcription.scheme.Scheme`), then the Mayer term ``phi(x(t0), x(tf), t0, tf) / objective_scale``
+:class:`~ocpkit.program.scheme.Scheme`), then the Mayer term ``phi(x(t0), x(tf), t0, tf) / objective_scale``
 on the phase's boundary values, the path constraints ``g / scale`` at the scheme's points, the boundary constraints
 ``psi / scale``, and each control end value that no point holds, ``sum_k w_k U_k`` (scaled). Across phases
 (:func:`link_blocks`, :func:`trajectory_blocks`): each link's ``(x_after(t0) - x_before(tf) - jump) / scale`` rows
@@ -125,8 +125,8 @@ def link_blocks(
 
 
 def ends_function(phases: Sequence[Phase]) -> tuple[ca.SX, ca.SX, ca.SX, np.ndarray, np.ndarray]:
-    """The phases' boundary values as a statement's ends column (:meth:`~ocpkit.statement.phases.MultiPhaseProblem.
-    ends_layout`): ``(z, q, e, variables, constants)``, ``e`` the column in the NLP symbols ``z`` (at ``variables``)
+    """The phases' boundary values as a statement's ends column
+    (:meth:`~ocpkit.statement.phases.MultiPhaseProblem.ends_layout`): ``(z, q, e, variables, constants)``, ``e`` the column in the NLP symbols ``z`` (at ``variables``)
     and the block constants ``q`` (``constants``)."""
     zs, qs, es, variables, constants = [], [], [], [], []
     for p in phases:

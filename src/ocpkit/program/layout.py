@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
     from ..statement import FreeFinalTime, FreeInitialTime, FreeParameter
     from ..transcription.mesh import Mesh
-    from ..transcription.scheme import PathPoints, Scheme, VariableGroup
+    from .scheme import PathPoints, Scheme, VariableGroup
 
 
 class GlobalVariables:
@@ -159,7 +159,7 @@ class GlobalVariables:
         """The parameter vector ``P`` from ``z``'s tail: the pinned values, then the free parameters."""
         pr = self.problem
         if not self.n_pinned + self.n_free:
-            return pr._P
+            return pr.full_parameters
         start = z.numel() - self.size
         parts = [z[start : start + self.n_pinned]] if self.n_pinned else []
         if self.n_free:
@@ -182,8 +182,7 @@ def segment_clock(times: GlobalVariables | OptimalControlProblem, z: Any, p: Any
 
 @dataclass(frozen=True, eq=False)
 class PhaseLayout:
-    """One phase's variables in its own numbering, as its scheme sees them (:class:`~ocpkit.transcription.scheme.
-    Scheme`): the scheme's ``groups`` and their index ``tables`` (each ``(variables, points)``), then the phase's
+    """One phase's variables in its own numbering, as its scheme sees them (:class:`~ocpkit.program.scheme.Scheme`): the scheme's ``groups`` and their index ``tables`` (each ``(variables, points)``), then the phase's
     problem-wide variables ``times`` (last, :meth:`global_indices`); ``objective_scale``: the program's, which the
     scheme's objective blocks divide by."""
 
@@ -218,12 +217,12 @@ class PhaseLayout:
 
     @property
     def size(self) -> int:
-        """The variables of the phase's own numbering: its groups' and its problem-wide ones."""
+        """How many variables the phase's own numbering holds, its groups' and its problem-wide ones."""
         return self.n_group_variables + self.times.size
 
     @cached_property
     def global_indices(self) -> np.ndarray:
-        """The phase's numbers of its problem-wide variables (:attr:`times`), last."""
+        """The phase's numbers of its problem-wide variables (``times``), last."""
         return np.arange(self.n_group_variables, self.size, dtype=np.int64)
 
     def table(self, name: str) -> np.ndarray:
@@ -295,7 +294,7 @@ class PhaseLayout:
 @dataclass(frozen=True, eq=False)
 class ControlEnd:
     """A control's end value held by a constraint row (where the scheme has no point there, rule 6 of
-    :class:`~ocpkit.transcription.scheme.Scheme`): ``lower <= sum_k weights_k U_k <= upper`` on the control's
+    :class:`~ocpkit.program.scheme.Scheme`): ``lower <= sum_k weights_k U_k <= upper`` on the control's
     values at ``points`` of its group (physical units)."""
 
     control: Control
@@ -432,6 +431,11 @@ class Layout(Mapping[str, np.ndarray]):
             for position, label in _tail_labels(times):
                 slices[f"{name}.{label}"] = to_global[tail[position : position + 1]]
             path_points = tuple(scheme.path_points(layout)) if problem.functions.path is not None else ()
+            if problem.functions.path is not None and not path_points:
+                raise ValueError(
+                    f"phase {name!r}: {scheme.label} enforces no path constraints (its path_points gives none), and "
+                    f"{problem.name!r} has {list(problem.functions.path.names)}; transcribe it with a scheme that does"
+                )
             phase = Phase(
                 k,
                 layout,
@@ -468,8 +472,8 @@ class Layout(Mapping[str, np.ndarray]):
     # -- parameters ---------------------------------------------------------------------------------------------------
     @cached_property
     def parameter_slots(self) -> dict[str, np.ndarray]:
-        """Per fixed parameter name, its NLP indices in every phase that has it (one value for all of them: each
-        pinned by its bounds)."""
+        """The NLP indices of each fixed parameter by name, in every phase that has it (one value for all of them,
+        each pinned by its bounds)."""
         slots: dict[str, list[np.ndarray]] = {}
         for p in self.phases:
             g = p.to_global[p.layout.global_indices]

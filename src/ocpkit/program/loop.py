@@ -143,6 +143,7 @@ class SolveLoop:
         allow_acceptable: bool = False,
         raise_on_failure: bool = True,
     ) -> None:
+        #: the program solved
         self.program = program.build()
         self.ipopt_options = dict(ipopt_options or {})
         self.allow_acceptable = bool(allow_acceptable)

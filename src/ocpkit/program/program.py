@@ -2,7 +2,7 @@
 
 A program is a statement (a single-phase :class:`~ocpkit.statement.problem.OptimalControlProblem`, or a
 :class:`~ocpkit.statement.phases.MultiPhaseProblem` of named, linked phases) transcribed by one scheme per phase
-(:class:`~ocpkit.transcription.scheme.Scheme`: configuration on a grid). It lays out the whole NLP once
+(:class:`~ocpkit.program.scheme.Scheme`: configuration on a grid). It lays out the whole NLP once
 (:class:`~ocpkit.program.layout.Layout`), builds its blocks once (:mod:`ocpkit.program.assembly`, the schemes'
 own), keeps the :class:`~ocpkit.nlp.SeparableNLP` and its IPOPT instances, computes the bounds, the start and the
 packing of every result into a :class:`~ocpkit.Solution`, and solves by one policy (:mod:`ocpkit.program.solve`: one
@@ -28,19 +28,17 @@ from ..statement.variables import EndValues
 from ..trajectory import Trajectory
 from . import assembly
 from .layout import Layout, Phase
+from .scheme import Scheme
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from ..statement import Constraint
     from ..statement.phases import Link
-    from ..transcription.scheme import Scheme
     from .loop import SolveLoop
 
 
 def _is_scheme(value: Any) -> bool:
-    from ..transcription.scheme import Scheme
-
     return isinstance(value, Scheme)
 
 
@@ -58,7 +56,7 @@ class Program:
         phase's.
     compile : str or bool
         Whether the NLP's Jacobian and Hessian blocks are compiled to C (``"auto"``: where one evaluation is large
-        and a C compiler is found; :mod:`ocpkit._compiled_blocks`); set before the NLP is built. A refinement's
+        and a C compiler is found); set before the NLP is built. A refinement's
         meshes keep it.
     """
 
@@ -75,11 +73,15 @@ class Program:
             phased = statement
         else:
             raise TypeError(f"expected an OptimalControlProblem or a MultiPhaseProblem, got {type(statement).__name__}")
+        #: the problem as stated (a single phase's problem, or the phases' :class:`~ocpkit.MultiPhaseProblem`)
         self.statement = statement
         #: the statement as phases (a single-phase problem is one phase named after it)
         self.phased = phased
+        #: one scheme per phase
         self.schemes = self._schemes(phased, scheme)
+        #: whether the NLP's blocks are compiled to C (``"auto"``, True or False)
         self.compile = compile
+        #: the NLP's layout (:class:`~ocpkit.program.layout.Layout`), built once
         self.layout = Layout.build(phased, self.schemes)
         self._nlp: SeparableNLP | None = None
         self._objective_blocks: list[list[Block]] = []
@@ -201,12 +203,13 @@ class Program:
 
     @property
     def problem(self) -> OptimalControlProblem:
-        """The problem of a single-phase program (of several: ``phased.phase(name)``)."""
+        """The problem of a single-phase program (a program of several phases has one per phase,
+        ``phased.phase(name)``)."""
         return self._only("problem").problem
 
     @property
     def scheme(self) -> Scheme:
-        """The scheme of a single-phase program (of several: ``schemes``)."""
+        """The scheme of a single-phase program (a program of several phases has one per phase, ``schemes``)."""
         return self._only("scheme").scheme
 
     @property
@@ -234,14 +237,17 @@ class Program:
     # -- sizes ------------------------------------------------------------------------------------------------------
     @property
     def n_variables(self) -> int:
+        """The NLP's variables (the layout's size)."""
         return self.layout.size
 
     @property
     def n_constraints(self) -> int:
+        """The NLP's constraint rows."""
         return self.layout.n_constraints
 
     @property
     def n_defects(self) -> int:
+        """The schemes' defect equations, over the phases."""
         return int(sum(p.n_defects for p in self.phases))
 
     @property
@@ -898,7 +904,7 @@ class Program:
         self, errors: Sequence[np.ndarray], tolerance: float, cuts: Sequence[Sequence[np.ndarray] | None] | None = None
     ) -> Program:
         """The same statement with each phase's mesh refined by its scheme (rule 9 of
-        :class:`~ocpkit.transcription.scheme.Scheme`) on its ``errors`` (one array per phase, per estimate interval,
+        :class:`~ocpkit.program.scheme.Scheme`) on its ``errors`` (one array per phase, per estimate interval,
         :meth:`estimate_counts`) and ``cuts`` (likewise); this very program where no scheme refines anything."""
         if len(errors) != len(self.phases):
             raise ValueError(f"{len(errors)} arrays of interval errors for {len(self.phases)} phases")

@@ -134,7 +134,7 @@ class ArcFlows:
             return False
         d = ca.Function("d", [self.x, self.p, self.u, self.t, self.P], [ca.jacobian(expr, ui), expr])
         rng = np.random.default_rng(7)
-        P = np.asarray(self.problem._P, dtype=float).ravel()
+        P = np.asarray(self.problem.full_parameters, dtype=float).ravel()
         x = np.array([sample_value(s) for s in self.problem.states])
         for _ in range(6):
             lo = np.array([c.lower if np.isfinite(c.lower) else -1.0 for c in self.problem.controls])
@@ -230,7 +230,7 @@ class ArcFlows:
         control = ca.vertcat(*value)
         if ca.depends_on(ca.vertcat(control, mu), u):
             raise ValueError(
-                f"on the arc {ArcShooting._name(kind)} a control depends on another that no condition determines "
+                f"on the arc {ArcShooting.arc_name(kind)} a control depends on another that no condition determines "
                 "(several controls inside their bounds, coupled): this combination is not derived; keep the direct "
                 "solution"
             )
@@ -517,7 +517,7 @@ class ArcShooting:
         S = ca.vertcat(*rows)
         if S.numel() < nz:
             raise ValueError(
-                f"the arcs {[self._name(k) for k in self.kinds]} give {S.numel()} conditions for {nz} unknowns: "
+                f"the arcs {[self.arc_name(k) for k in self.kinds]} give {S.numel()} conditions for {nz} unknowns: "
                 "this structure is not one the derived junction conditions close (a junction the theory treats "
                 "otherwise); keep the direct solution"
             )
@@ -570,7 +570,8 @@ class ArcShooting:
         return not self.flows.ineq[cast(str, self.kinds[k].constraint)].pure
 
     @staticmethod
-    def _name(kind: ArcType) -> str:
+    def arc_name(kind: ArcType) -> str:
+        """An arc's name in messages: its controls' kinds, and its active constraint (``"bang/singular (x_max)"``)."""
         k = "/".join(kind.kinds)
         return k if kind.constraint is None else f"{k} ({kind.constraint})"
 
@@ -673,9 +674,9 @@ class ArcShooting:
     def _P(self, parameters: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The parameter vector: the problem's, a full vector, or a mapping of some names to values."""
         if parameters is None:
-            return np.asarray(self.problem._P, dtype=float).ravel()
+            return np.asarray(self.problem.full_parameters, dtype=float).ravel()
         if isinstance(parameters, Mapping):
-            return np.asarray(self.problem.replace(parameters=dict(parameters))._P, dtype=float).ravel()
+            return np.asarray(self.problem.replace(parameters=dict(parameters)).full_parameters, dtype=float).ravel()
         return np.asarray(parameters, dtype=float).ravel()
 
     # -- solve --------------------------------------------------------------------------------------------
@@ -841,7 +842,7 @@ class ArcTrajectory(Trajectory):
             D = np.asarray(f(Y.T, t[None, :], np.repeat(P[:, None], t.size, axis=1))).T
             u = ca.Function("u", [fl.x, fl.p, fl.t, fl.P, flow.w], [flow.control, flow.mu])
             self._pieces.append((t, Y, D, u))
-        self._P = P
+        self.full_parameters = P
 
     @staticmethod
     def _x0(shooting: ArcShooting, z: np.ndarray) -> np.ndarray:
@@ -886,7 +887,7 @@ class ArcTrajectory(Trajectory):
                 y[sel, :n].T,
                 y[sel, n : 2 * n].T,
                 flat[sel][None, :],
-                np.repeat(self._P[:, None], sel.size, axis=1),
+                np.repeat(self.full_parameters[:, None], sel.size, axis=1),
                 w.T,
             )
             U[sel] = np.asarray(u).T

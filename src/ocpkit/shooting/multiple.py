@@ -141,7 +141,8 @@ class MultipleShooting:
         self.weights = np.ones((self.segments - 1, self.n))
 
     # -- the multiple shooting function ----------------------------------------------------------------
-    def _times(self, tf: float) -> np.ndarray:
+    def node_times(self, tf: float) -> np.ndarray:
+        """The nodes' times ``t_0 .. t_K`` for a final time ``tf`` (the segments' fractions of the horizon)."""
         t0 = float(self.shooting.problem.t0)
         return t0 + self.fractions * (tf - t0)
 
@@ -151,17 +152,17 @@ class MultipleShooting:
         return self.shooting.flow(y0, ta, tb, P, Psi0=Psi0, record=record, system=self.compiled)
 
     def _start(self, z: ArrayLike) -> tuple[np.ndarray, float]:
-        unknowns, tf = self.shooting._split(z)
-        x0, p0 = self.shooting._initial(unknowns)
+        unknowns, tf = self.shooting.split_unknowns(z)
+        x0, p0 = self.shooting.initial_values(unknowns)
         return np.concatenate([x0, p0, [0.0]]), tf
 
     def nodes(self, z: ArrayLike, parameters: Mapping[str, float] | ArrayLike | None = None) -> np.ndarray:
         """The multiple-shooting unknowns ``Z`` continuing a single shooting's ``z``: each node where the flow
         from the previous one arrives."""
-        P = self.shooting._params(parameters)
+        P = self.shooting.parameter_vector(parameters)
         z = np.asarray(z, dtype=float).ravel()
         y, tf = self._start(z)
-        times, out = self._times(tf), [z]
+        times, out = self.node_times(tf), [z]
         for k in range(self.segments - 1):
             y = self._integrate(y, times[k], times[k + 1], P).y
             out.append(y)
@@ -186,10 +187,10 @@ class MultipleShooting:
     ) -> tuple[np.ndarray, np.ndarray | None, list[Integration]]:
         """``(R, dR/dZ, integrations)`` at ``Z`` (``dR/dZ`` None without ``jacobian``)."""
         s, sysm = self.shooting, self.compiled.system
-        P = s._params(parameters)
+        P = s.parameter_vector(parameters)
         z, Y = self._split(Z)
         y0, tf = self._start(z)
-        times, nx, n, m, K = self._times(tf), self.nx, self.n, s.nz, self.segments
+        times, nx, n, m, K = self.node_times(tf), self.nx, self.n, s.nz, self.segments
         R = np.empty(self.nz)
         D = np.zeros((self.nz, self.nz)) if jacobian else None
         first = np.zeros((n, 2 * nx))  # the first segment's columns: z's unknowns (an initial costate or state)
@@ -209,7 +210,7 @@ class MultipleShooting:
                 rows = slice(m + k * n, m + (k + 1) * n)
                 R[rows] = (yb - Y[k]) * self.weights[k]
             else:
-                S, dSdy, dSdtf = (np.asarray(v) for v in s._S(yb, tf, mode, P))
+                S, dSdy, dSdtf = (np.asarray(v) for v in s.terminal(yb, tf, mode, P))
                 rows = slice(0, m)
                 R[rows] = S.ravel()
             if not jacobian:
@@ -331,12 +332,14 @@ class MultipleShooting:
             tf = self._start(z)[1]
         else:  # nothing integrated: tf as the unknowns say (it may lie outside the domain)
             tf = float(z[-1]) if self.shooting.free_tf else float(cast(float, self.shooting.problem.tf))
-        objective = self.shooting._objective(runs[-1], tf, self.shooting._params(parameters)) if runs else np.nan
+        objective = (
+            self.shooting.objective_of(runs[-1], tf, self.shooting.parameter_vector(parameters)) if runs else np.nan
+        )
         converged, status = settled(norm, tol, claimed)
         result = MultipleShootingResult(
             z=z,
             nodes=Y,
-            times=self._times(tf),
+            times=self.node_times(tf),
             residual=R,
             norm=norm,
             tol=tol,
@@ -353,7 +356,7 @@ class MultipleShooting:
             steps=int(sum(r.accepted + r.rejected for r in runs)),
             integrations=runs,
             system=self.compiled.system,
-            free_parameters=self.shooting._free_parameters(self.shooting._initial(z[: self.nx])[0]),
+            free_parameters=self.shooting.solved_free_parameters(self.shooting.initial_values(z[: self.nx])[0]),
         )
         if not result.converged and raise_on_failure:
             raise SolverError(

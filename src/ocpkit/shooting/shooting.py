@@ -287,11 +287,14 @@ class Shooting:
         if self.free_tf:
             rows.append(sysm.hamiltonian(yf, mode, P) + ca.gradient(phi, tf))
         S = ca.vertcat(*rows)
-        self._S = ca.Function("S", [yf, tf, mode, P], [S, ca.jacobian(S, yf), ca.jacobian(S, tf)])
+        #: ``(S, dS/dy(tf), dS/dtf)`` of the final point ``y(tf)``, ``tf``, the control's mode there and ``P``: the
+        #: shooting function's terminal conditions
+        self.terminal = ca.Function("S", [yf, tf, mode, P], [S, ca.jacobian(S, yf), ca.jacobian(S, tf)])
         self.counts = {"S": 0, "jac": 0, "integrations": 0}
 
     # -- shooting function ------------------------------------------------------------------
-    def _split(self, z: ArrayLike) -> tuple[np.ndarray, float]:
+    def split_unknowns(self, z: ArrayLike) -> tuple[np.ndarray, float]:
+        """``(unknowns at t0, tf)`` of the shooting's unknowns ``z`` (tf: the problem's where it is fixed)."""
         z = np.asarray(z, dtype=float).ravel()
         if z.size != self.nz:
             raise ValueError(
@@ -316,10 +319,10 @@ class Shooting:
         ``parameters``: the problem's parameter vector; default, this problem's values
         (not those of the problem the shared compiled system was built from).
         """
-        P = self._params(parameters)
-        unknowns, tf = self._split(z)
+        P = self.parameter_vector(parameters)
+        unknowns, tf = self.split_unknowns(z)
         nx, sysm = self.problem.nx, self.compiled.system
-        x0, p0 = self._initial(unknowns)
+        x0, p0 = self.initial_values(unknowns)
         y0 = np.concatenate([x0, p0, [0.0]])
         Psi0 = None
         if variational:
@@ -370,16 +373,17 @@ class Shooting:
             )
         return res
 
-    def _initial(self, unknowns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def initial_values(self, unknowns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The initial state and costates from the unknowns (initial costates, or initial values of free states)."""
         x0 = np.where(self.free_initial, unknowns, self.x0)
         p0 = np.where(self.free_initial, 0.0, unknowns)
         return x0, p0
 
-    def _params(self, parameters: Mapping[str, float] | ArrayLike | None) -> np.ndarray:
+    def parameter_vector(self, parameters: Mapping[str, float] | ArrayLike | None) -> np.ndarray:
+        """The problem's parameter vector, some values replaced by ``parameters`` (by name, or a whole vector)."""
         return self.problem.parameter_vector(parameters)
 
-    def _free_parameters(self, x0: np.ndarray) -> dict[str, float]:
+    def solved_free_parameters(self, x0: np.ndarray) -> dict[str, float]:
         """The free parameters by name in the initial state ``x0`` of the shooting's problem (they are states)."""
         return {v.name: float(x0[self.problem.state_index(v.name)]) for v in self.statement.free_parameters}
 
@@ -390,20 +394,20 @@ class Shooting:
         integration: Integration | None = None,
     ) -> np.ndarray:
         """S(z)."""
-        P = self._params(parameters)
+        P = self.parameter_vector(parameters)
         res = integration if integration is not None else self.integrate(z, P)
-        _, tf = self._split(z)
+        _, tf = self.split_unknowns(z)
         mode = self.compiled.system.mode_at(res.y, P)
-        return np.asarray(self._S(res.y, tf, mode, P)[0]).ravel()
+        return np.asarray(self.terminal(res.y, tf, mode, P)[0]).ravel()
 
     def residual_and_derivatives(
         self, z: ArrayLike, P: np.ndarray, integration: Integration, variational: bool = True
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(S(z), dS/dz)`` from an integration that carried the variational columns ``Psi = dy/dz``."""
-        _, tf = self._split(z)
+        _, tf = self.split_unknowns(z)
         sysm = self.compiled.system
         mode = sysm.mode_at(integration.y, P)
-        S, dSdy, dSdtf = (np.asarray(v) for v in self._S(integration.y, tf, mode, P))
+        S, dSdy, dSdtf = (np.asarray(v) for v in self.terminal(integration.y, tf, mode, P))
         J = dSdy @ cast(np.ndarray, integration.Psi)  # (integrated with the variational columns)
         if self.free_tf:
             ydot = np.asarray(sysm.flow(integration.y, mode, P)).ravel()
@@ -423,14 +427,14 @@ class Shooting:
         ``S0``: S(z) when already known, spared by the finite differences.
         """
         strategy = self._jacobian if method is None else jacobian_strategy(method)
-        P = self._params(parameters)
+        P = self.parameter_vector(parameters)
         z = np.asarray(z, dtype=float).ravel()
         return strategy(self, z, P, S0)
 
     def noise(self, z: ArrayLike, parameters: Mapping[str, float] | ArrayLike | None = None, **options: Any) -> float:
         """The level below which ``|S(z)|`` is chance (:func:`residual_noise`; ``options``: its ``samples``,
         ``relative``, ``seed``)."""
-        P = self._params(parameters)
+        P = self.parameter_vector(parameters)
         return residual_noise(
             lambda y: self.residual(y, P), lambda y: self.jacobian_matrix(y, P, method="variational"), z, **options
         )
@@ -484,7 +488,7 @@ class Shooting:
                 xtol=defaults.xtol if xtol is None else xtol, factor=defaults.factor if factor is None else factor
             )
         method = solver_strategy(solver)
-        P = self._params(parameters)
+        P = self.parameter_vector(parameters)
         z0 = np.asarray(z0, dtype=float).ravel()
         if z0.size != self.nz:
             raise ValueError(f"z0 must have {self.nz} entries, got {z0.size}")
@@ -562,8 +566,8 @@ class Shooting:
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
             unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))
         else:
-            unknowns, tf = self._split(z)
-        x0, p0 = self._initial(unknowns)
+            unknowns, tf = self.split_unknowns(z)
+        x0, p0 = self.initial_values(unknowns)
         result = ShootingResult(
             z=z,
             p0=p0,
@@ -578,13 +582,13 @@ class Shooting:
             iterations=counts["jac"],
             n_integrations=counts["integrations"],
             cpu_s=cpu,
-            objective=self._objective(final, tf, P) if final is not None else float("nan"),
+            objective=self.objective_of(final, tf, P) if final is not None else float("nan"),
             switching=self.switching,
             jacobian=self.jacobian,
             parameters=P,
             integration=final,
             system=self.compiled.system,
-            free_parameters=self._free_parameters(x0),
+            free_parameters=self.solved_free_parameters(x0),
         )
         if not ok and raise_on_failure:
             name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(
@@ -603,7 +607,7 @@ class Shooting:
             )
         return result
 
-    def _objective(self, res: Integration, tf: float, P: np.ndarray) -> float:
+    def objective_of(self, res: Integration, tf: float, P: np.ndarray) -> float:
         """Running cost (integrated along the trajectory) plus the Mayer term."""
         nx = self.problem.nx
         J = float(res.y[2 * nx])

@@ -43,7 +43,7 @@ class ShootingTrajectory(Trajectory):
         self.integration = integration
         self.objective = float(objective)
         P = system.problem.parameter_vector(integration.parameters)
-        self._P = P
+        self.full_parameters = P
         t = integration.step_times
         keep = np.concatenate([[True], np.diff(t) > 0])  # a switching at tf repeats the last time
         self._t, Y = t[keep], integration.states[keep]
@@ -74,7 +74,7 @@ class ShootingTrajectory(Trajectory):
 
     def _modes_at(self, Y: np.ndarray) -> np.ndarray:
         law = self.system.law
-        g = np.asarray(self.system.switching.map(Y.shape[0])(Y.T, self._P)).T
+        g = np.asarray(self.system.switching.map(Y.shape[0])(Y.T, self.full_parameters)).T
         modes = np.zeros(Y.shape[0], dtype=int)
         stride, k = 1, 0
         for size in law.group_sizes:
@@ -116,5 +116,5 @@ class ShootingTrajectory(Trajectory):
         out = np.empty((Y.shape[0], self.system.law.nu))
         for m in unique(modes):
             sel = np.flatnonzero(modes == m)
-            out[sel] = np.asarray(self.system.control.map(sel.size)(Y[sel].T, m, self._P)).T
+            out[sel] = np.asarray(self.system.control.map(sel.size)(Y[sel].T, m, self.full_parameters)).T
         return out.reshape(shape + (out.shape[-1],))

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 class Guess:
     """An initial guess for a transcription.
 
-    ``states`` and ``controls`` map names to a :data:`GuessSpec` (a function of time,
+    ``states`` and ``controls`` map names to a :data:`~ocpkit.statement.bounds.GuessSpec` (a function of time,
     a constant, or a ``(start, end)`` tuple linear in time); names left out use each
     variable's own guess. ``tf`` defaults to the problem's guess (a free initial time
     starts at its guess), and ``parameters`` (free parameter name -> value) to each free

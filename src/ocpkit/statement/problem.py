@@ -366,39 +366,44 @@ class OptimalControlProblem:
         return self.parameter_vector()
 
     @cached_property
-    def _P(self) -> ca.DM:
-        """The parameter vector of the functions: the fixed values, then each free parameter's guess."""
+    def full_parameters(self) -> ca.DM:
+        """The parameter vector ``P`` of the functions (:attr:`functions`): the fixed values, then each free
+        parameter's guess."""
         values = [*self.parameter_vector(), *(v.guess_value for v in self.free_parameters)]
         return ca.DM(values) if values else ca.DM(0, 1)
 
     def dynamics(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """``f(x, u, t)`` with this problem's parameters, or ``P`` (numbers give a DM, CasADi symbols an expression).
 
-        Here and below, ``P`` (default ``_P``) is the full parameter vector: the fixed
+        Here and below, ``P`` (default :attr:`full_parameters`) is the full parameter vector: the fixed
         values, then the free parameters (their guesses by default; a transcription passes
         its NLP symbols).
         """
-        return self.functions.f(x, u, t, self._P if P is None else P)
+        return self.functions.f(x, u, t, self.full_parameters if P is None else P)
 
     def lagrange(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """``L(x, u, t)`` with this problem's parameters; 0 without a running cost."""
-        return self.functions.L(x, u, t, self._P if P is None else P) if self.functions.L is not None else ca.DM(0)
+        return (
+            self.functions.L(x, u, t, self.full_parameters if P is None else P)
+            if self.functions.L is not None
+            else ca.DM(0)
+        )
 
     def mayer(self, x0: Any, xf: Any, t0: Any, tf: Any, P: Any = None) -> Any:
         """``phi(x0, xf, t0, tf)`` with this problem's parameters; 0 without a Mayer term."""
         if self.functions.phi is None:
             return ca.DM(0)
-        return self.functions.phi(x0, xf, t0, tf, self._P if P is None else P)
+        return self.functions.phi(x0, xf, t0, tf, self.full_parameters if P is None else P)
 
     def path(self, x: Any, u: Any, t: Any, P: Any = None) -> Any:
         """The stacked path constraints ``g(x, u, t)`` with this problem's parameters (None without)."""
         c = self.functions.path
-        return None if c is None else c.function(x, u, t, self._P if P is None else P)
+        return None if c is None else c.function(x, u, t, self.full_parameters if P is None else P)
 
     def boundary(self, x0: Any, xf: Any, t0: Any, tf: Any, P: Any = None) -> Any:
         """The stacked boundary constraints ``psi(x0, xf, t0, tf)`` with this problem's parameters (None without)."""
         c = self.functions.boundary
-        return None if c is None else c.function(x0, xf, t0, tf, self._P if P is None else P)
+        return None if c is None else c.function(x0, xf, t0, tf, self.full_parameters if P is None else P)
 
     def expression(
         self,

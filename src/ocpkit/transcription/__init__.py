@@ -9,6 +9,7 @@ share, and a scheme bound to a problem as the shorthand of its program), :mod:`~
 
 from typing import Any
 
+from ..program.scheme import Scheme
 from .base import Transcription
 from .hlgl import HLGL
 from .loop import LoopResult, SolveLoop
@@ -17,7 +18,6 @@ from .multirate import MultiRateHLGL, state_partition
 from .phases import Link, MultiPhase
 from .radau import Radau
 from .registry import SCHEMES, scheme
-from .scheme import Scheme
 
 __all__ = [
     "HLGL",
@@ -38,7 +38,9 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     if name == "MultiPhaseSolution":
-        from . import phases
+        from .._deprecation import renamed
+        from ..solution import Solution
 
-        return phases.__getattr__(name)
+        renamed("ocpkit.transcription.MultiPhaseSolution", "ocpkit.Solution (one result for any number of phases)")
+        return Solution
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

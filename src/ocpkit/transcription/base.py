@@ -2,7 +2,7 @@
 
 A scheme (:class:`Transcription`'s subclasses: :class:`~ocpkit.transcription.hlgl.HLGL`,
 :class:`~ocpkit.transcription.radau.Radau`, :class:`~ocpkit.transcription.multirate.MultiRateHLGL`) is
-configuration on a grid; what it must provide is :class:`~ocpkit.transcription.scheme.Scheme`'s contract. Given a
+configuration on a grid; what it must provide is :class:`~ocpkit.program.scheme.Scheme`'s contract. Given a
 problem first, ``HLGL(problem, intervals=20)``, a scheme is also the shorthand of the one-phase
 :class:`~ocpkit.program.Program` of that problem: ``solve``, ``loop``, ``nlp`` and the program's other members are
 that program's (:attr:`Transcription.program`).
@@ -23,8 +23,8 @@ if TYPE_CHECKING:
     from ..nlp import Block
     from ..program.layout import PhaseLayout
     from ..program.loop import SolveLoop
+    from ..program.scheme import PathPoints, PhaseFields, VariableGroup
     from ..solution import Solution
-    from .scheme import PathPoints, PhaseFields, VariableGroup
 
 
 class _OfProgram:
@@ -32,7 +32,7 @@ class _OfProgram:
 
     def __set_name__(self, owner: type, name: str) -> None:
         self.name = name
-        self.__doc__ = f"The one-phase program's :attr:`~ocpkit.program.Program.{name}` (a scheme bound to a problem)."
+        self.__doc__ = f"The one-phase program's ``{name}`` (:class:`~ocpkit.program.program.Program`; a bound scheme)."
 
     def __get__(self, obj: Any, owner: Any = None) -> Any:
         if obj is None:
@@ -41,7 +41,7 @@ class _OfProgram:
 
 
 class Transcription(ABC):
-    """A transcription scheme: configuration on a grid (the contract, :class:`~ocpkit.transcription.scheme.Scheme`).
+    """A transcription scheme: configuration on a grid (the contract, :class:`~ocpkit.program.scheme.Scheme`).
 
     ``problem``: None for a scheme alone (``Radau(nodes=4, intervals=20)``, for a
     :class:`~ocpkit.program.Program` of any number of phases); a problem binds the scheme to it, and the scheme is
@@ -59,7 +59,7 @@ class Transcription(ABC):
         self._program: Program | None = None
         self._compile: str | bool = "auto"
 
-    # -- the contract (ocpkit.transcription.scheme.Scheme) -------------------------------------------------------------
+    # -- the contract (ocpkit.program.scheme.Scheme) -------------------------------------------------------------
     @property
     @abstractmethod
     def label(self) -> str:

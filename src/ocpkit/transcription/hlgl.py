@@ -30,10 +30,10 @@ from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block
+from ..program.scheme import PathPoints, PhaseFields, VariableGroup
 from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import Transcription
 from .mesh import Mesh, h_refined
-from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

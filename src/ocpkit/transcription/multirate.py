@@ -55,11 +55,11 @@ from .. import nodes
 from .._deprecation import renamed, renamed_argument
 from ..interpolation import PiecewiseEvaluator, piecewise_polynomial
 from ..nlp import Block
+from ..program.scheme import PathPoints, PhaseFields, VariableGroup
 from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import Transcription
 from .hlgl import hermite_coefficients, hlgl_collocation_states, hlgl_defects, segment_points
 from .mesh import Mesh, h_refined
-from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

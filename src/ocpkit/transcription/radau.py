@@ -32,10 +32,10 @@ import numpy as np
 from .._arrays import unique
 from ..nlp import Block
 from ..nodes import barycentric_weights, lagrange_matrix, lgr_differentiation_matrix, lgr_nodes, lgr_weights
+from ..program.scheme import PathPoints, PhaseFields, VariableGroup
 from ..statement import OptimalControlProblem, unwrap_periodic
 from .base import Transcription
 from .mesh import Mesh
-from .scheme import PathPoints, PhaseFields, VariableGroup
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

@@ -8,12 +8,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..program.scheme import Scheme
 from .hlgl import HLGL
 from .multirate import MultiRateHLGL
 from .radau import Radau
-from .scheme import Scheme
 
-#: The schemes by name: ``"hlgl"`` (:class:`~ocpkit.transcription.hlgl.HLGL`), ``"radau"``
+#: The schemes by name, ``"hlgl"`` (:class:`~ocpkit.transcription.hlgl.HLGL`), ``"radau"``
 #: (:class:`~ocpkit.transcription.radau.Radau`), ``"multirate"``
 #: (:class:`~ocpkit.transcription.multirate.MultiRateHLGL`).
 SCHEMES: dict[str, Callable[..., Scheme]] = {"hlgl": HLGL, "radau": Radau, "multirate": MultiRateHLGL}
