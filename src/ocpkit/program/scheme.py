@@ -5,7 +5,7 @@ dynamics hold between them, for any problem. A :class:`~ocpkit.program.Program` 
 phase's variables, asks the phase's scheme for what only the scheme knows, and builds everything else itself (the
 bounds, the boundary conditions, the Mayer term, the path and boundary constraints at the scheme's points, the
 links between phases, the solve and the solution). A new scheme (Legendre-Gauss, say) is one module that provides
-the members of :class:`Scheme`, one entry in :data:`SCHEMES`, and its test; the contract, rule by rule:
+the members of :class:`Scheme`, one entry in :data:`~ocpkit.transcription.registry.SCHEMES`, and its test; the contract, rule by rule:
 
 1. ``label``: a short description for messages and tables, ``"Radau(nodes=4, intervals=20)"``.
 2. ``ipopt_defaults``: IPOPT options its NLP's structure asks for (a fill-reducing ordering), applied after
