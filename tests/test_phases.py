@@ -359,23 +359,25 @@ def test_linked_phases_take_new_parameter_values_without_rebuilding():
         mp.solve(parameters={"g": 1.0})
 
 
+def bd(t0, tf, path, **ends):
+    """Bryson-Denham on [t0, tf], with x <= 1/9 as a path constraint where ``path``, and the given end conditions."""
+    from ocpkit import Constraint
+
+    return OptimalControlProblem(
+        f"bd{t0}",
+        [State("x", **ends.get("x", {})), State("v", **ends.get("v", {}))],
+        [Control("u")],
+        lambda x, u, t: [x["v"], u["u"]],
+        t0=t0,
+        tf=tf,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+        path_constraints=[Constraint("x_max", lambda x, u, t: x["x"], upper=1 / 9)] if path else [],
+    )
+
+
 def test_refinement_with_path_constraints_in_some_phases_only():
     """Bryson-Denham split at 0.6 with x <= 1/9 in the first phase only: the phase without the constraint does
     not blind the refinement to the other's violations between points (it used to stop with them over)."""
-    from ocpkit import Constraint
-
-    def bd(t0, tf, path, **ends):
-        return OptimalControlProblem(
-            f"bd{t0}",
-            [State("x", **ends.get("x", {})), State("v", **ends.get("v", {}))],
-            [Control("u")],
-            lambda x, u, t: [x["v"], u["u"]],
-            t0=t0,
-            tf=tf,
-            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-            path_constraints=[Constraint("x_max", lambda x, u, t: x["x"], upper=1 / 9)] if path else [],
-        )
-
     first = Radau(bd(0.0, 0.6, True, x={"initial": 0.0}, v={"initial": 1.0}), 3, 3)
     second = Radau(bd(0.6, 1.0, False, x={"final": 0.0}, v={"final": -1.0}), 3, 3)
     sol = Program.from_phases([first, second]).solve(mesh_tolerance=1e-6)

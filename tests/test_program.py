@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from test_phases import leg
+from test_phases import bd, leg
 
 from ocpkit import (
     HLGL,
@@ -157,18 +157,6 @@ def test_one_result_answers_the_same_questions_on_one_phase_and_many():
     two; the result links its program and the user's statement; the one phase's fields answer only where there is
     one phase."""
     from ocpkit import Constraint
-
-    def bd(t0, tf, path, **ends):
-        return OptimalControlProblem(
-            f"bd{t0}",
-            [State("x", **ends.get("x", {})), State("v", **ends.get("v", {}))],
-            [Control("u")],
-            lambda x, u, t: [x["v"], u["u"]],
-            t0=t0,
-            tf=tf,
-            lagrange=lambda x, u, t: u["u"] ** 2 / 2,
-            path_constraints=[Constraint("x_max", lambda x, u, t: x["x"], upper=1 / 9)] if path else [],
-        )
 
     one = Radau(bryson_denham(), 4, 10).solve(error_threshold=None)
     statement = MultiPhaseProblem(

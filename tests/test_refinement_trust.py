@@ -16,13 +16,13 @@ from ocpkit import (
     FreeFinalTime,
     FreeParameter,
     OptimalControlProblem,
-    Program,
     Radau,
     SolverError,
     State,
 )
 from ocpkit.accuracy import AccuracyWarning
 from ocpkit.nlp import dense_columns, least_squares_multipliers
+from ocpkit.program import solve as policy
 
 from compendium.paper import paper_table
 from compendium.problems import catalyst_mixing, entry_landing, hang_glider, tumour
@@ -130,15 +130,15 @@ def test_a_singular_arc_that_ipopt_cannot_finish_fails_loudly_with_the_best_mesh
 def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_solution(monkeypatch):
     tr = Radau(entry_landing(), 4, 10)
     calls = {"n": 0}
-    original = Program.solve_once
+    original = policy.solve_once
 
-    def fail_on_third(self, *args, **kwargs):
+    def fail_on_third(program, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 3:
             raise MemoryError("not enough memory to perform factorisation")
-        return original(self, *args, **kwargs)
+        return original(program, *args, **kwargs)
 
-    monkeypatch.setattr(Program, "solve_once", fail_on_third)
+    monkeypatch.setattr(policy, "solve_once", fail_on_third)
     with pytest.raises(SolverError) as info:
         tr.solve(mesh_tolerance=1e-7)
     err = info.value
@@ -150,16 +150,16 @@ def test_a_failure_inside_refinement_raises_naming_the_mesh_and_keeps_the_best_s
 def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(monkeypatch):
     tr = Radau(entry_landing(), 4, 10)
     calls = {"n": 0}
-    original = Program.solve_once
+    original = policy.solve_once
 
-    def starve_second(self, guess, ipopt_options, *args, **kwargs):
+    def starve_second(program, guess, ipopt_options, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 2:
             ipopt_options = {**(ipopt_options or {}), "max_iter": 1}
             kwargs["estimate_multipliers"] = False
-        return original(self, guess, ipopt_options, *args, **kwargs)
+        return original(program, guess, ipopt_options, *args, **kwargs)
 
-    monkeypatch.setattr(Program, "solve_once", starve_second)
+    monkeypatch.setattr(policy, "solve_once", starve_second)
     with pytest.raises(SolverError) as info:
         tr.solve(mesh_tolerance=1e-7)
     err = info.value

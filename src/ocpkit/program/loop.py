@@ -194,20 +194,7 @@ class SolveLoop:
 
     def _parameters(self, parameters: Mapping[str, float] | None) -> dict[str, float]:
         """The values given, by name, checked (empty where none is given)."""
-        if parameters is None:
-            return {}
-        if not isinstance(parameters, Mapping):
-            raise TypeError(f"parameters must be a mapping of names to values, got {type(parameters).__name__}")
-        unknown = [k for k in parameters if k not in self._defaults]
-        if unknown:
-            raise KeyError(f"unknown parameters {sorted(unknown)}; {self.program.label} has {sorted(self._defaults)}")
-        given = {}
-        for name, value in parameters.items():
-            value = float(value)
-            if not np.isfinite(value):
-                raise ValueError(f"parameter {name!r} must be finite, got {value!r}")
-            given[name] = value
-        return given
+        return {} if parameters is None else self.program.check_parameters(parameters)
 
     def _start_of(
         self, guess: Any, lbw: np.ndarray, ubw: np.ndarray

@@ -27,7 +27,9 @@ from ..statement.phases import MultiPhaseProblem
 from ..statement.variables import EndValues
 from ..trajectory import Trajectory
 from . import assembly
+from . import solve as policy
 from .layout import Layout, Phase
+from .loop import SolveLoop
 from .scheme import Scheme
 
 if TYPE_CHECKING:
@@ -35,7 +37,6 @@ if TYPE_CHECKING:
 
     from ..statement import Constraint
     from ..statement.phases import Link
-    from .loop import SolveLoop
 
 
 def _is_scheme(value: Any) -> bool:
@@ -329,7 +330,10 @@ class Program:
 
     # -- bounds ------------------------------------------------------------------------------------------------------
     def check_parameters(self, parameters: Mapping[str, float]) -> dict[str, float]:
-        """New values of some of the phases' fixed parameters, checked by name (a KeyError names them all)."""
+        """New values of some of the phases' fixed parameters, checked by name (a KeyError names them all) and as
+        finite numbers."""
+        if not isinstance(parameters, Mapping):
+            raise TypeError(f"parameters must be a mapping of names to values, got {type(parameters).__name__}")
         known = sorted(self.layout.parameter_slots)
         unknown = sorted(set(parameters) - set(known))
         if unknown:
@@ -753,9 +757,7 @@ class Program:
     def package(self, result: NLPResult, raise_on_failure: bool = True) -> Solution:
         """The :class:`~ocpkit.Solution` of an NLP result from any solver (a failed one raises
         :class:`~ocpkit.SolverError` naming its status, unless ``raise_on_failure`` is False)."""
-        from .solve import settle
-
-        return settle(result, self.solution, raise_on_failure)
+        return policy.settle(result, self.solution, raise_on_failure)
 
     def linkage_values(self, result: NLPResult) -> tuple[np.ndarray, np.ndarray]:
         """The trajectory's linkage constraints at a result: values and multipliers in the problem's units."""
@@ -845,9 +847,7 @@ class Program:
             pinned by their bounds, so the NLP and the IPOPT instance are built once and reused for any values: a
             study of many values builds once. The solution's problem carries the values solved with.
         """
-        from .solve import solve
-
-        return solve(
+        return policy.solve(
             self,
             guess,
             ipopt_options=ipopt_options,
@@ -857,22 +857,6 @@ class Program:
             mesh_tolerance=mesh_tolerance,
             max_mesh_iterations=max_mesh_iterations,
             parameters=parameters,
-        )
-
-    def solve_once(
-        self,
-        guess: Any,
-        ipopt_options: dict[str, Any] | None,
-        allow_acceptable: bool,
-        raise_on_failure: bool,
-        parameters: Mapping[str, float] | None = None,
-        estimate_multipliers: bool = False,
-    ) -> Solution:
-        """One IPOPT solve of this program (:func:`ocpkit.program.solve.solve_once`): the step of every mesh."""
-        from .solve import solve_once
-
-        return solve_once(
-            self, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters, estimate_multipliers
         )
 
     def loop(
@@ -889,8 +873,6 @@ class Program:
         objective, IPOPT's status and iterations; ``.solution`` the full Solution), equal to
         ``solve(guess, parameters=parameters, error_threshold=None)`` with the same options, to the last bit.
         """
-        from .loop import SolveLoop
-
         return SolveLoop(
             self, ipopt_options=ipopt_options, allow_acceptable=allow_acceptable, raise_on_failure=raise_on_failure
         )

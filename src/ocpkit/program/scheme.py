@@ -47,7 +47,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import casadi as ca
 import numpy as np
@@ -57,6 +57,10 @@ from ..statement import AffineScaling, Control, OptimalControlProblem, State, Va
 if TYPE_CHECKING:
     from ..nlp import Block
     from ..program.layout import PhaseLayout
+
+
+#: The value of an IPOPT option (a scheme's preferences, rule 2)
+IpoptOption = str | int | float
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,9 +105,9 @@ class PathPoints:
 
     z: ca.SX
     p: ca.SX
-    x: list[Any]
-    u: list[Any]
-    t: list[Any]
+    x: list[ca.SX]
+    u: list[ca.SX]
+    t: list[ca.SX]
     variables: np.ndarray
     constants: np.ndarray
     fractions: np.ndarray
@@ -144,7 +148,7 @@ class Scheme(Protocol):
     def label(self) -> str: ...
 
     @property
-    def ipopt_defaults(self) -> Mapping[str, Any]: ...
+    def ipopt_defaults(self) -> Mapping[str, IpoptOption]: ...
 
     def groups(self, problem: OptimalControlProblem) -> tuple[VariableGroup, ...]: ...
 
@@ -167,4 +171,4 @@ class Scheme(Protocol):
     def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> Scheme: ...
 
 
-__all__ = ["PathPoints", "PhaseFields", "Scheme", "VariableGroup"]
+__all__ = ["IpoptOption", "PathPoints", "PhaseFields", "Scheme", "VariableGroup"]

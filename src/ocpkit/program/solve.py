@@ -108,7 +108,7 @@ def solve(
             program, guess, mesh_tolerance, max_mesh_iterations, options, raise_on_failure, parameters
         )
     else:
-        solution = program.solve_once(guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
+        solution = solve_once(program, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         if error_threshold is not None and solution.converged:
             warn_inaccurate(solution, error_threshold)
     record_solve(solution, ipopt_options, allow_acceptable)
@@ -241,7 +241,8 @@ def solve_refined(
     for iteration in range(max_iterations):
         start = time.perf_counter()
         try:
-            solution = mesh.solve_once(
+            solution = solve_once(
+                mesh,
                 guess if solution is None else solution,
                 options["ipopt_options"],
                 options["allow_acceptable"],

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from ..nlp import Block
     from ..program.layout import PhaseLayout
     from ..program.loop import SolveLoop
-    from ..program.scheme import PathPoints, PhaseFields, VariableGroup
+    from ..program.scheme import IpoptOption, PathPoints, PhaseFields, VariableGroup
     from ..solution import Solution
 
 
@@ -49,7 +49,7 @@ class Transcription(ABC):
     """
 
     #: IPOPT options this scheme prefers over :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (user options win).
-    ipopt_defaults: Mapping[str, Any] = {}
+    ipopt_defaults: Mapping[str, IpoptOption] = {}
 
     def __init__(self, problem: OptimalControlProblem | None = None) -> None:
         if problem is not None and not isinstance(problem, OptimalControlProblem):

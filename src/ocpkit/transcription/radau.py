@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from ..program.layout import PhaseLayout
+    from ..program.scheme import IpoptOption
 
 
 class PiecewiseBarycentric:
@@ -113,7 +114,7 @@ class Radau(Transcription):
     """
 
     @property
-    def ipopt_defaults(self) -> dict[str, Any]:  # type: ignore[override]  # read-only here, a class attribute above
+    def ipopt_defaults(self) -> dict[str, IpoptOption]:  # type: ignore[override]  # read-only here, an attribute above
         """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
         interval, QAMD for several" (issue 26): it picks the faster ordering on 17 of 19 comparable cases (five
         problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
@@ -268,7 +269,7 @@ class Radau(Transcription):
         n, o = int(self.counts[-1]), int(self.offsets[-1])
         z, p, x, u, t, _ = self._point_symbols(phase, n)
         ell = lagrange_matrix(self.tau[-1], np.array([1.0]))[0]
-        u_end = sum(float(ell[k]) * u[k] for k in range(n)) if pr.nu else ca.SX(0, 1)
+        u_end = cast(ca.SX, sum(float(ell[k]) * u[k] for k in range(n))) if pr.nu else ca.SX(0, 1)
         var = np.concatenate([X[:, -1], U[:, o : o + n].T.ravel(), phase.global_indices])
         params = phase.block_constants(self.mesh, np.array([1.0]), self.mesh.fractions[-1:])
         end = PathPoints(z, p, [x], [u_end], [t], var[:, None], params, np.ones((1, 1)))
