@@ -280,3 +280,72 @@ def test_penalise_control_keeps_a_running_cost_written_without_the_parameters():
     penalised = HLGL(penalise_control(problem, 0.1), 10).solve(error_threshold=None)
     # the penalty 0.1 int u^2 adds a fifth of the energy cost at the same control (the optimum barely moves)
     assert penalised.objective == pytest.approx(plain.objective * 1.2, rel=1e-6)
+
+
+# -- found in review ----------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("make", [lambda p: HLGL(p, 10), lambda p: Radau(p, 4, 5)])
+def test_end_values_are_not_truncated_by_integer_bounds(make):
+    """A group whose bounds are all integers built its bounds as an integer array: an initial value 0.5 was held
+    at 0 and a final 1.5 at 1, silently (states as well as controls)."""
+    problem = OptimalControlProblem(
+        "integers",
+        [State("x", -2, 2, initial=0.5, final=1.5), State("v", -5, 5, initial=0, final=0)],
+        [Control("u", -1, 1, initial=0.25, final=0.3)],
+        lambda x, u, t: [x["v"], u["u"]],
+        tf=3.0,
+        lagrange=lambda x, u, t: u["u"] ** 2,
+    )
+    sol = make(problem).solve(error_threshold=None)
+    assert sol.state(0.0)[0] == pytest.approx(0.5, abs=1e-9) and sol.state(3.0)[0] == pytest.approx(1.5, abs=1e-9)
+    assert sol.control(0.0)[0] == pytest.approx(0.25, abs=1e-9) and sol.control(3.0)[0] == pytest.approx(0.3, abs=1e-9)
+
+
+def test_one_phase_with_a_trajectory_cost_is_not_a_plain_problem():
+    """A problem "cut" at no interior time is one phase whose Mayer term sits at the trajectory level: its solution
+    reports that cost, its accuracy counts it, and its problem is the problem cut."""
+    race = OptimalControlProblem(
+        "race",
+        [State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t: [x["v"], u["u"]],
+        tf=3.0,
+        mayer=lambda x0, xf, t0, tf: (xf["x"] - 1.0) ** 2,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+    )
+    whole = Radau(race, 4, 10).solve(error_threshold=None)
+    cut = Program.split(race, [3.0], Radau(nodes=4, intervals=10))
+    assert len(cut.phases) == 1 and not cut.plain
+    sol = cut.solve(error_threshold=None)
+    assert sol.objective == pytest.approx(whole.objective, rel=1e-10) and not sol.single
+    assert sol.phases[0].objective + sol.trajectory_cost == pytest.approx(sol.objective, rel=1e-12)
+    assert sol.problem is race and sol.accuracy.objective < 1e-6
+
+
+def test_a_problem_cut_into_phases_takes_one_guess_of_its_whole_horizon():
+    """A solution (or a Guess) of the whole horizon starts every phase at its own window of it; the re-solve from
+    an extremal of a cut problem works (it raised a TypeError)."""
+    from ocpkit.indirect import _resolved_from, _statement
+
+    whole = double_integrator(Control("u", -0.5, 0.5))
+    alone = Radau(whole, 4, 21).solve(error_threshold=None)
+    cut = Program.split(whole, [1.0, 2.0], Radau(nodes=4, intervals=7))
+    start = cut.initial_point(alone)
+    for p in cut.phases:
+        x0 = start[p.to_global[p.layout.table("states")[0, 0]]]
+        assert x0 == pytest.approx(alone.state(p.problem.t0)[0], abs=1e-6)
+    direct = cut.solve(alone, error_threshold=None)
+    extremal = to_extremal(direct)
+    again = _resolved_from(direct, _statement(direct), extremal.trajectory, extremal.shooting, restated=False)
+    assert again is not None and again.converged and again.objective == pytest.approx(direct.objective, rel=1e-7)
+
+
+def test_a_cut_problem_with_a_cost_at_its_cuts_is_not_shot_as_the_whole():
+    """A cost at a cut time (a measurement) is not the problem cut: to_extremal refuses it by name instead of
+    shooting the problem without it."""
+    whole = double_integrator(Control("u", -0.5, 0.5))
+    fit = Program.split(whole, [1.5], Radau(nodes=4, intervals=5), cost=lambda e: (e.at(1.5)["x"] - 0.5) ** 2)
+    assert fit.phased.source is None
+    with pytest.raises(ValueError, match="not one problem cut at fixed times"):
+        to_extremal(fit.solve(error_threshold=None))

@@ -523,7 +523,7 @@ def _statement(solution: Solution) -> OptimalControlProblem:
     program = _program(solution)
     if program is None:
         return solution.problem
-    statement = program.problem if program.single else cast("OptimalControlProblem", program.phased.source)
+    statement = program.problem if program.plain else cast("OptimalControlProblem", program.phased.source)
     solved = solution.problem.parameters
     values = {n: solved[n] for n in statement.parameters if n in solved}
     return statement.replace(parameters=values) if values != dict(statement.parameters) else statement
@@ -536,7 +536,7 @@ def _one_problem(solution: Any) -> None:
     from .solution import Solution
 
     if not isinstance(solution, Solution) or solution.single:
-        return
+        return  # a single-phase problem's (or another trajectory)
     phased = solution.program.phased
     for linked in phased.links:
         label = f"link {phased.names[linked.before]!r} -> {phased.names[linked.after]!r}"
@@ -554,9 +554,9 @@ def _one_problem(solution: Any) -> None:
             )
     if phased.source is None:
         raise ValueError(
-            f"the phases {phased.names} are not one problem cut at fixed times (Program.split): the shooting derives "
-            "no multi-phase boundary value problem (each phase's own dynamics and costs); shoot a phase alone, "
-            "phase(name)"
+            f"the phases {phased.names} are not one problem cut at fixed times (Program.split, with no cost, "
+            "constraints or local parameters at the cuts): the shooting derives no multi-phase boundary value problem "
+            "(each phase's own dynamics and costs, conditions at interior times); shoot a phase alone, phase(name)"
         )
 
 
@@ -618,7 +618,7 @@ def _resolved_from(
             parameters=dict(getattr(result, "free_parameters", None) or {}),
         )
         return program.solve(guess, parameters=values, error_threshold=None, **options)
-    except (SolverError, ValueError, KeyError, RuntimeError):
+    except (SolverError, ValueError, KeyError, TypeError, RuntimeError):
         return None
 
 

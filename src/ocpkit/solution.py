@@ -356,8 +356,9 @@ class Solution(Trajectory):
 
     @property
     def single(self) -> bool:
-        """Whether the solution has one phase."""
-        return len(self.phases) == 1
+        """Whether the solution is its one phase's (a single-phase problem's: one phase, and no cost or linkage
+        constraint of the trajectory)."""
+        return self.program.plain
 
     # -- what is the one phase's: the trajectory's definition --------------------------------------------------------
     @property
@@ -539,12 +540,14 @@ class Solution(Trajectory):
         :attr:`solve_options` and :attr:`linear_solver` as the dict that held them (deprecated)."""
         renamed("Solution.raw", "Solution.nlp_result, .program, .solve_options, .linear_solver")
         r = self.nlp_result
+        program = self.program  # a bound scheme was its own transcription object: the scheme, as before
+        bound = program.plain and getattr(program.scheme, "problem", None) is not None
         out: dict[str, Any] = {
             "w": r.w,
             "lam_g": r.lam_g,
             "lam_w": r.lam_w,
             "stats": r.stats,
-            "transcription": self.program,
+            "transcription": program.scheme if bound else program,
         }
         if self.solve_options is not None:
             out["solve_options"] = self.solve_options.as_kwargs()
@@ -590,7 +593,7 @@ class Solution(Trajectory):
     def accuracy(self) -> Accuracy | MultiPhaseAccuracy:
         """Every part of the estimated error (:class:`ocpkit.accuracy.Accuracy`; over several phases,
         :class:`ocpkit.accuracy.MultiPhaseAccuracy`)."""
-        if self.single and not self.trajectory_cost:
+        if self.single:
             return self.phases[0].accuracy
         from .accuracy import MultiPhaseAccuracy
 
@@ -652,11 +655,7 @@ class Solution(Trajectory):
     @property
     def uniform(self) -> bool:
         """Whether every phase has the first's states and controls (then the phases make one trajectory)."""
-        first = self.phases[0].problem
-        return all(
-            (p.problem.state_names, p.problem.control_names) == (first.state_names, first.control_names)
-            for p in self.phases
-        )
+        return self.program.phased.uniform
 
     @property
     def state_names(self) -> list[str]:
@@ -777,8 +776,10 @@ class Solution(Trajectory):
         ``phase(name).reintegrate()``). ``n`` points per phase."""
         if self.single:
             return self.phases[0].reintegrate(rtol=rtol, atol=atol, n=n, controls=controls)
-        if not all(p.problem.state_names == self.phases[0].problem.state_names for p in self.phases):
-            raise ValueError("the phases have different states: reintegrate each, phase(name).reintegrate()")
+        if not self.uniform:
+            raise ValueError(
+                "the phases have different states or controls: reintegrate each, phase(name).reintegrate()"
+            )
         parts = self._reintegrations(rtol=rtol, atol=atol, n=n, controls=controls)
         first = parts[0]
         same = all(np.array_equal(r.scale, first.scale) for r in parts)

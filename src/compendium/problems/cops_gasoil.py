@@ -6,7 +6,7 @@ Dolan, Moré & Munson, COPS 3.0 (ANL/MCS-TM-273, 2004), "Catalytic cracking of g
     subject to  y1' = -(theta1 + theta3) y1^2
                 y2' = theta1 y1^2 - theta2 y2,       y(0) = (1, 0),  theta >= 0,  t in [0, 0.95].
 
-The cost sits at the measurement times: the problem is cut there into linked phases (``MultiPhase.split``)
+The cost sits at the measurement times: the problem is cut there into linked phases (``Program.split``)
 whose rate constants are one parameter of the trajectory, and the cost is a sum over the cut times.
 """
 

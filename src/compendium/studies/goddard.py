@@ -7,7 +7,7 @@ import warnings
 
 import pandas as pd
 
-from ocpkit import HLGL, Radau
+from ocpkit import HLGL, Radau, Solution
 from ocpkit.accuracy import AccuracyWarning
 from ocpkit.analysis import total_variation
 from ocpkit.regularisation import penalise_control
@@ -21,7 +21,7 @@ def goddard_row(solution, scheme: str, weight: float, mesh: str) -> dict:
         "scheme": scheme,
         "mesh": mesh,
         "weight": weight,
-        "collocation_points": solution.program.n_collocation_points if "transcription" in solution.raw else None,
+        "collocation_points": solution.program.n_collocation_points if isinstance(solution, Solution) else None,
         "final_altitude": float(solution.state(solution.tf)[0]),
         "tf": solution.tf,
         "error_estimate": solution.error_estimate,

@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from ..statement import Control, Duration, OptimalControlProblem
-from ..statement.phases import LinkedStates, MultiPhaseProblem
+from ..statement.phases import MultiPhaseProblem
 from ..statement.variables import AffineScaling
 
 if TYPE_CHECKING:
@@ -67,11 +67,6 @@ class GlobalVariables:
         """The scaled values of the free parameters from physical ones by name (default their guesses)."""
         values = {v.name: v.guess_value for v in self.free} | dict(values)
         return self.free_scaling.to_nlp([values[v.name] for v in self.free])
-
-    def free_value(self, j: int, scaled: Any) -> Any:
-        """Free parameter ``j``'s physical value from its scaled NLP value (a number or a symbol)."""
-        sc = self.free_scaling
-        return float(sc.scale[j]) * scaled + float(sc.shift[j])
 
     @property
     def t0_position(self) -> int | None:
@@ -145,17 +140,17 @@ class GlobalVariables:
         return np.concatenate(lb), np.concatenate(ub)
 
     # -- symbols (a block's ``z`` ends with these variables; ``q`` holds its constants) -------------------------
-    def t0(self, z: Any) -> Any:
+    def t0(self, z: ca.SX) -> ca.SX | float:
         """The symbolic initial time: its NLP variable in ``z``'s tail when free, else the constant."""
         if self.t0_position is None:
             return self.problem.t0
         return z[z.numel() - self.size + self.t0_position] * cast("FreeInitialTime", self.problem.initial_time).scale
 
-    def tf(self, z: Any, q: Any, index: int) -> Any:
+    def tf(self, z: ca.SX, q: ca.SX, index: int) -> ca.SX:
         """The symbolic final time: its NLP variable in ``z``'s tail when free, else the block constant ``q[index]``."""
         return self._final(self.t0(z), z[z.numel() - 1]) if self.tf_position is not None else q[index]
 
-    def P(self, z: Any) -> Any:
+    def P(self, z: ca.SX) -> ca.SX | ca.DM:
         """The parameter vector ``P`` from ``z``'s tail: the pinned values, then the free parameters."""
         pr = self.problem
         if not self.n_pinned + self.n_free:
@@ -168,7 +163,7 @@ class GlobalVariables:
         return ca.vertcat(*parts)
 
 
-def segment_clock(times: GlobalVariables | OptimalControlProblem, z: Any, p: Any) -> tuple[Any, Any, Any]:
+def segment_clock(times: GlobalVariables | OptimalControlProblem, z: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
     """``(t_begin, T, h)`` of a block whose constants are ``[s, fraction, (tf)]`` (:meth:`~ocpkit.transcription.mesh.Mesh.block_constants`),
     ``times`` the phase's problem-wide variables (or its problem, whose are then laid out again).
 
@@ -262,7 +257,7 @@ class PhaseLayout:
         return self.times.constants
 
     # -- helpers of the schemes' blocks --------------------------------------------------------------------------------
-    def clock(self, z: Any, p: Any) -> tuple[Any, Any, Any]:
+    def clock(self, z: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
         """``(t_begin, T, h)`` of a block with constants ``[s, fraction, (tf)]``
         (:func:`~ocpkit.transcription.mesh.segment_clock`)."""
         return segment_clock(self.times, z, p)
@@ -271,7 +266,7 @@ class PhaseLayout:
         """``mesh``'s block constants ``[s, fraction, (tf)]`` (:meth:`~ocpkit.transcription.mesh.Mesh.block_constants`)."""
         return mesh.block_constants(self.times, s, fractions)
 
-    def boundary_symbols(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, Any, Any, Any]:
+    def boundary_symbols(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX | float, ca.SX, ca.SX | ca.DM]:
         """Symbols ``z = [x(t0), x(tf), problem-wide variables]`` (scaled, the layout of :meth:`boundary_variables`)
         and ``q = [(tf)]``, and in them the physical ``x0, xf, t0, tf`` and the parameter vector ``P``."""
         nx = self.problem.nx
@@ -480,10 +475,6 @@ class Layout(Mapping[str, np.ndarray]):
             for position, name in enumerate(p.problem.parameters):
                 slots.setdefault(name, []).append(g[position : position + 1])
         return {name: np.concatenate(parts) for name, parts in slots.items()}
-
-    @property
-    def links(self) -> Sequence[LinkedStates]:
-        return self.statement.links
 
     def __repr__(self) -> str:
         return f"Layout({self.size} variables, {self.n_constraints} rows, phases {[p.name for p in self.phases]})"

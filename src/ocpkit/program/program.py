@@ -85,7 +85,7 @@ class Program:
         #: the NLP's layout (:class:`~ocpkit.program.layout.Layout`), built once
         self.layout = Layout.build(phased, self.schemes)
         self._nlp: SeparableNLP | None = None
-        self._objective_blocks: list[list[Block]] = []
+        self._objective_blocks: list[list[tuple[Block, ca.Function]]] = []
         self._trajectory_cost: ca.Function | None = None
         self._trajectory_variables = np.zeros(0, dtype=np.int64)
         self._trajectory_constants = np.zeros(0)
@@ -195,7 +195,14 @@ class Program:
 
     @property
     def single(self) -> bool:
+        """Whether the program has one phase."""
         return len(self.phases) == 1
+
+    @property
+    def plain(self) -> bool:
+        """Whether the program is a single-phase problem's: one phase, and no cost or linkage constraint of the
+        trajectory (its solution is then its phase's)."""
+        return self.single and self.phased.cost is None and self.phased.linkage is None
 
     def _only(self, what: str) -> Phase:
         if not self.single:
@@ -280,7 +287,9 @@ class Program:
             self._objective_blocks = []
             for p in self.phases:
                 own = assembly.phase_blocks(p, "" if self.single else f"phase{p.index}_")
-                self._objective_blocks.append([b for b in own if b.rows is None])
+                self._objective_blocks.append(
+                    [(b, b.function.map(b.variables.shape[1])) for b in own if b.rows is None]
+                )
                 blocks += own
             layout = self.layout
             blocks += assembly.link_blocks(self.phased, self.phases, layout.link_rows)
@@ -370,8 +379,10 @@ class Program:
         layout = phase.layout
         lower, upper = [], []
         for g in layout.groups:
-            lo = np.tile([v.lower for v in g.variables], (g.points, 1)).reshape(g.points, len(g.variables))
-            hi = np.tile([v.upper for v in g.variables], (g.points, 1)).reshape(g.points, len(g.variables))
+            # float: a group whose bounds are all integers would truncate its end values (0.5 stored as 0)
+            lo = np.tile(np.array([v.lower for v in g.variables], dtype=float), (g.points, 1))
+            hi = np.tile(np.array([v.upper for v in g.variables], dtype=float), (g.points, 1))
+            lo, hi = lo.reshape(g.points, len(g.variables)), hi.reshape(g.points, len(g.variables))
             fractions = np.asarray(g.fractions, dtype=float)
             for j, v in enumerate(g.variables):
                 if not isinstance(v, EndValues):
@@ -455,11 +466,11 @@ class Program:
             if len(guess) != n:
                 raise ValueError(f"give one guess per phase: {n} phases, {len(guess)} guesses")
             return list(guess)
-        if n == 1:
-            return [guess]
+        if n == 1 or isinstance(guess, (Guess, Trajectory)):
+            return [guess] * n  # one guess of the whole horizon: each phase takes its own window of it
         raise TypeError(
-            f"a program of {n} phases takes one guess per phase (a list or a mapping by name), or a solution of "
-            f"{n} phases; got {type(guess).__name__}"
+            f"a program of {n} phases takes one guess per phase (a list or a mapping by name), a solution of "
+            f"{n} phases, or one Guess or trajectory of the whole horizon; got {type(guess).__name__}"
         )
 
     def _phase_start(self, phase: Phase, guess: Any) -> np.ndarray:
@@ -480,6 +491,9 @@ class Program:
             t0 = None
         else:
             raise TypeError(f"guess must be a Guess or a Solution, got {type(guess).__name__}")
+        if not self.single:  # a phase's window of a guess of the whole horizon: its own times where they are fixed
+            tf = tf if pr.free_final_time else cast(float, pr.tf)
+            t0 = t0 if pr.free_initial_time else None
         layout = phase.layout
         start = pr.t0 if t0 is None else t0
         index = {name: k for k, name in enumerate(pr.state_names)} | {
@@ -627,7 +641,7 @@ class Program:
         lam = np.asarray(result.lam_g, dtype=float)
         defects = lam[phase.row_offset : phase.row_offset + phase.n_defects]
         costates = phase.scheme.costates(layout, defects, t0, tf)
-        if self.single:
+        if self.plain:
             objective = result.objective * self.objective_scale
         else:
             objective = self._phase_objective(phase, result.w)
@@ -691,9 +705,8 @@ class Program:
         """A phase's objective at ``w``: the sum of its objective blocks, in the problem's units."""
         self.build()
         total = 0.0
-        for b in self._objective_blocks[phase.index]:
-            count = b.variables.shape[1]
-            total += float(np.sum(np.asarray(b.function.map(count)(w[b.variables], b.constants))))
+        for b, mapped in self._objective_blocks[phase.index]:
+            total += float(np.sum(np.asarray(mapped(w[b.variables], b.constants))))
         return total * self.objective_scale
 
     def trajectory_cost_at(self, w: ArrayLike) -> float:
@@ -720,13 +733,13 @@ class Program:
 
     def solution(self, result: NLPResult, g: np.ndarray | None = None) -> Solution:
         """The :class:`~ocpkit.Solution` of an NLP result (``g``: its constraint values, when already evaluated)."""
-        needs_g = not self.single or any(
+        needs_g = not self.plain or any(
             p.problem.functions.path is not None or p.problem.functions.boundary is not None for p in self.phases
         )
         if g is None and needs_g:
             g = np.asarray(self.nlp.constraint_function(result.w)).ravel()
         phases = [self._phase_solution(p, result, g) for p in self.phases]
-        if self.single:
+        if self.plain:
             objective = result.objective * self.objective_scale
             parameters, residual, trajectory_cost = phases[0].parameters, 0.0, 0.0
         else:

@@ -37,8 +37,9 @@ the members of :class:`Scheme`, one entry in :data:`~ocpkit.transcription.regist
    fractions in (0, 1) where the control switches or a path constraint's arc begins); this very object where
    nothing needs refining (the refinement then stops: the next mesh would be this one).
 
-The program never asks a scheme anything else, so everything a scheme does not provide works the same on every
-scheme and on any number of phases. :data:`~ocpkit.transcription.registry.SCHEMES` names them;
+The program never asks a scheme anything else (but for a ``problem`` it may carry, the problem it is bound to, which
+must be its phase's), so everything a scheme does not provide works the same on every scheme and on any number of
+phases. :data:`~ocpkit.transcription.registry.SCHEMES` names them;
 :func:`ocpkit.transcription.registry.scheme` builds one from its name, so that a study or a table chooses a scheme
 by name without a dispatch of its own.
 """

@@ -207,7 +207,8 @@ class MultiPhaseProblem:
         self.linkage = self._linkage_constraints(self.constraints)
         #: the times a problem was cut at (:meth:`split`), else None
         self.cut_times: np.ndarray | None = None
-        #: the problem the phases were cut from (:meth:`split`), else None
+        #: the problem the phases are, cut at times (:meth:`split` without a cost, constraints or local parameters of
+        #: its own), else None
         self.source: OptimalControlProblem | None = None
 
     def _default_links(self) -> list[Link]:
@@ -551,9 +552,13 @@ class MultiPhaseProblem:
 
         moved = [boundary(c) for c in problem.boundary_constraints]
         has_cost = cost is not None or functions.phi is not None
+        options.setdefault("objective_scale", problem.objective_scale)  # the whole problem's, whatever the pieces'
         out = cls(pieces, cost=total_cost if has_cost else None, constraints=[*moved, *constraints], **options)
         out.cut_times = cuts
-        out.source = problem
+        # the phases are exactly the problem cut (nothing stated at the cut times, every parameter one): its solution
+        # is one of that problem
+        if cost is None and not constraints and not out.local_parameters:
+            out.source = problem
         return out
 
     def __repr__(self) -> str:

@@ -67,7 +67,7 @@ class OptimalControlProblem:
         ``phi(x0, xf, t0, tf)`` returning a scalar.
     lagrange : callable, optional
         ``L(x, u, t)`` returning a scalar. Without either the cost is 0: a
-        feasibility problem, or a phase of a :class:`~ocpkit.MultiPhase` whose cost lies in other phases.
+        feasibility problem, or a phase of a :class:`~ocpkit.MultiPhaseProblem` whose cost lies in other phases.
     objective_scale : float
         The NLP minimises ``J / objective_scale``.
     parameters : Mapping[str, float], optional

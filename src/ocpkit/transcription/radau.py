@@ -24,6 +24,7 @@ N = 100); multi-interval is ``intervals=K`` with a few nodes each.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cached_property
 from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
@@ -182,8 +183,14 @@ class Radau(Transcription):
 
     def state_point_fractions(self) -> np.ndarray:
         """Normalised times (0..1) of the state points: every collocation point, then the final time."""
+        return self._state_points
+
+    @cached_property
+    def _state_points(self) -> np.ndarray:
         s = [a + f * (tau + 1) / 2 for a, f, tau in zip(self.mesh.starts, self.mesh.fractions, self.tau)]
-        return np.concatenate(s + [[1.0]])
+        points = np.concatenate(s + [[1.0]])
+        points.flags.writeable = False  # shared by every caller
+        return points
 
     def collocation_fractions(self) -> np.ndarray:
         return self.state_point_fractions()[:-1]
