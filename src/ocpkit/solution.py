@@ -356,7 +356,7 @@ class Solution(Trajectory):
 
     @property
     def single(self) -> bool:
-        """Whether the solution is its one phase's (a single-phase problem's: one phase, and no cost or linkage
+        """Whether the solution is its one phase's (a single-phase problem's, with one phase and no cost or linkage
         constraint of the trajectory)."""
         return self.program.plain
 

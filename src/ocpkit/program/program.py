@@ -200,7 +200,7 @@ class Program:
 
     @property
     def plain(self) -> bool:
-        """Whether the program is a single-phase problem's: one phase, and no cost or linkage constraint of the
+        """Whether the program is a single-phase problem's, one phase and no cost or linkage constraint of the
         trajectory (its solution is then its phase's)."""
         return self.single and self.phased.cost is None and self.phased.linkage is None
 
