@@ -25,7 +25,7 @@ import numpy as np
 from .._deprecation import renamed
 from ..nlp import WARM_START, NLPResult, succeeded
 from ..solution import Solution
-from .solve import record_solve, settle
+from .solve import exact_start, record_solve, settle
 
 if TYPE_CHECKING:
     import casadi as ca
@@ -202,8 +202,8 @@ class SolveLoop:
         """The IPOPT instance, start vector and multipliers for ``guess`` (the module docstring)."""
         if isinstance(guess, LoopResult) and guess._loop.program is self.program:
             return self._warm, np.clip(guess.w, lbw, ubw), guess.lam_w, guess.lam_g
-        if isinstance(guess, Solution) and guess.program is self.program:
-            previous = guess.nlp_result
+        previous = exact_start(self.program, guess)
+        if previous is not None:
             return self._warm, np.clip(previous.w, lbw, ubw), previous.lam_w, previous.lam_g
         if guess is None:
             if self._start is None:

@@ -123,6 +123,12 @@ def record_solve(solution: Solution, ipopt_options: dict[str, Any] | None, allow
     solution.linear_solver = linear_solver(solution.program.effective_ipopt_options(ipopt_options))
 
 
+def exact_start(program: Program, guess: object) -> NLPResult | None:
+    """The NLP iterate and IPOPT's multipliers of a solution of this same program (its exact warm start), else
+    None: the one rule of every solve and loop."""
+    return guess.nlp_result if isinstance(guess, Solution) and guess.program is program else None
+
+
 def solve_once(
     program: Program,
     guess: Any,
@@ -150,8 +156,8 @@ def solve_once(
         )
 
     warm_options = {**WARM_START, **(ipopt_options or {})}
-    if isinstance(guess, Solution) and guess.program is program:
-        previous = guess.nlp_result
+    previous = exact_start(program, guess)
+    if previous is not None:
         result = run(np.clip(previous.w, lbw, ubw), warm_options, (previous.lam_g, previous.lam_w))
         return settle(result, program.solution, raise_on_failure)
     w0 = np.clip(program.initial_point(guess), lbw, ubw)
@@ -421,6 +427,7 @@ __all__ = [
     "STALL_MESHES",
     "MeshIteration",
     "cuts",
+    "exact_start",
     "hint",
     "mesh_fractions",
     "path_where",
