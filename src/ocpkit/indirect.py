@@ -165,6 +165,16 @@ class Extremal:
         return f"{self.shooting.detail}; failed checks {self.certificate.failed}"
 
     @property
+    def noise(self) -> float | None:
+        """The noise floor of S measured where the shooting stalled above ``tol`` (None where it did not)."""
+        return self.shooting.noise
+
+    @property
+    def remedy(self) -> str:
+        """What to try next: the failed certificate's remedy, else the shooting's (with its measured noise)."""
+        return self.shooting.remedy if self.certificate.passed else Outcome.CERTIFICATE_FAILED.remedy
+
+    @property
     def iterations(self) -> int:
         """The shooting's Newton iterations (Jacobian evaluations)."""
         return self.shooting.iterations
