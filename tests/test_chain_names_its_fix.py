@@ -63,3 +63,46 @@ def test_the_noise_floor_is_the_scatter_about_a_line_and_a_stall_far_above_it_is
     assert 3e-7 <= noise_floor(noisy, np.array([1.4, 0.3])) <= 3e-6
     assert "tol=1e-05 would pass" in stall_advice(3e-6, 1e-10, 1.2e-6)
     assert "not the integrator's noise" in stall_advice(1e-2, 1e-10, 1e-6)
+
+
+def planar_robot(output: bool = True) -> OptimalControlProblem:
+    """A planar flying robot, rest to rest from the origin to (3, 4) in 6 with an unbounded thrust, minimum energy
+    int |u|^2 dt: as an output state J' = |u|^2 with the cost J(t_f), or as the running cost. Closed form: the
+    linear thrust of the double integrator, J = 2 * 12 * 25 / 6^3 = 25/18."""
+    states = [State(n, initial=0.0, final=f) for n, f in (("x", 3.0), ("y", 4.0), ("vx", 0.0), ("vy", 0.0))]
+    thrust = [Control("u1"), Control("u2")]
+    if output:
+        return OptimalControlProblem(
+            "planar_robot_output_energy",
+            [*states, State("J", initial=0.0)],
+            thrust,
+            lambda x, u, t: [x[2], x[3], u[0], u[1], u[0] ** 2 + u[1] ** 2],
+            tf=6.0,
+            mayer=lambda x0, xf, t0, tf: xf[4],
+        )
+    return OptimalControlProblem(
+        "planar_robot_energy",
+        states,
+        thrust,
+        lambda x, u, t: [x[2], x[3], u[0], u[1]],
+        tf=6.0,
+        lagrange=lambda x, u, t: u[0] ** 2 + u[1] ** 2,
+    )
+
+
+def test_an_output_integral_is_named_with_its_fix_and_the_fix_certifies():
+    """With J' = |u|^2 a state, H's quadratic coefficient in u is the costate of J: an unknown of the shooting, of
+    either sign at the law's checks, so no law derives (the error said only that H has no minimum). The error
+    names J and the fix; stated as the running cost, the chain certifies the closed form."""
+    from ocpkit.indirect import output_states
+
+    problem = planar_robot()
+    assert output_states(problem) == {"J": 1.0} and output_states(planar_robot(output=False)) == {}
+    direct = Radau(problem, 4, 20).solve(error_threshold=None)
+    with pytest.raises(
+        ValueError,
+        match=r"reads the state 'J' \(an output integral.*lagrange = 1 \* \(J's right-hand side\), drop 'J'.* no box law",
+    ):
+        to_extremal(direct)
+    extremal = to_extremal(Radau(planar_robot(output=False), 4, 20).solve(error_threshold=None))
+    assert extremal.certificate.passed and extremal.objective == pytest.approx(25 / 18, abs=1e-12)
