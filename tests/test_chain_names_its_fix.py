@@ -106,3 +106,17 @@ def test_an_output_integral_is_named_with_its_fix_and_the_fix_certifies():
         to_extremal(direct)
     extremal = to_extremal(Radau(planar_robot(output=False), 4, 20).solve(error_threshold=None))
     assert extremal.certificate.passed and extremal.objective == pytest.approx(25 / 18, abs=1e-12)
+
+
+def test_a_shooting_failure_with_an_output_integral_names_it_too(monkeypatch):
+    """Thrust bounded by 0.5 (the law derives, saturated) and a tol no integration reaches: the shooting stalls at
+    its noise, and the error names the noise, the tol that would pass and the output state (multiple shooting, which
+    cannot reach it either, is not tried: seconds, not twenty)."""
+    import ocpkit.indirect as indirect
+
+    monkeypatch.setattr(indirect, "SEGMENTS", ())
+    problem = planar_robot().replace(controls=[Control("u1", -0.5, 0.5), Control("u2", -0.5, 0.5)])
+    direct = Radau(problem, 4, 20).solve(error_threshold=None)
+    with pytest.raises(SolverError, match=r"stalled at the integrator's noise.*reads the state 'J'") as info:
+        to_extremal(direct, tol=1e-30)
+    assert info.value.outcome is Outcome.STALLED and info.value.result.noise > 0
