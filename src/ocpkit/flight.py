@@ -8,8 +8,9 @@ larger), and converted to coefficients by the inverse Chebyshev-Vandermonde matr
 
     dz/ds = (b - a) [ f(x, u(s), t, P) / x_scale ;  L(x, u(s), t, P) / J_scale ],   x = x_scale z,
 
-with ``u(s)`` the series summed by Clenshaw's recurrence and made admissible (a periodic control wrapped into
-``[lower, lower + period)``, then clipped to its bounds, as :meth:`~ocpkit.Solution.admissible` does), is integrated
+with ``u(s)`` the series summed by Clenshaw's recurrence and made admissible (a periodic control with a finite bound
+wrapped into its declared turn, :func:`~ocpkit.statement.wrap_periodic`, then clipped to its bounds, as
+:meth:`~ocpkit.Solution.admissible` does), is integrated
 by SUNDIALS' CVODES (Adams-Moulton, variable order and step, relative and absolute tolerance ``tol`` on the scaled
 variables) through CasADi. The integrator is built once per problem and degree (kept with the problem's functions,
 which every copy of the problem with other parameter values shares) and mapped over the intervals with
@@ -29,6 +30,8 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 from numpy.polynomial import chebyshev
+
+from .statement import declared_turn
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -76,14 +79,11 @@ def fly(trajectory: Trajectory, tol: float = TOLERANCE, x0: ArrayLike | None = N
     J_scale = max(1.0, abs(float(trajectory.objective)))
     lower = np.array([c.lower for c in problem.controls], dtype=float)
     upper = np.array([c.upper for c in problem.controls], dtype=float)
-    period = np.array(
-        [
-            c.period if c.period is not None and np.isfinite(c.lower) and c.upper - c.lower >= c.period else 0.0
-            for c in problem.controls
-        ],
-        dtype=float,
-    )
-    fixed = np.concatenate([lower, upper, period, x_scale, [J_scale], P])
+    # wrap_periodic's turns: the controls it moves (period > 0) and where their turns start
+    wrapped = [declared_turn(c) if np.isfinite(c.lower) or np.isfinite(c.upper) else None for c in problem.controls]
+    period = np.array([0.0 if a is None else c.period for c, a in zip(problem.controls, wrapped)], dtype=float)
+    turn = np.array([0.0 if a is None else a for a in wrapped], dtype=float)
+    fixed = np.concatenate([lower, upper, period, turn, x_scale, [J_scale], P])
     p = np.vstack([a, h, coefficients.transpose(0, 2, 1).reshape(K, nu * n).T, np.tile(fixed[:, None], (1, K))])
     integrator = _integrator(problem.functions, nx, nu, n, P.size, tol)
     try:
@@ -124,7 +124,8 @@ def _control_series(trajectory: Trajectory, stops: np.ndarray) -> np.ndarray:
 def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.Function:
     """The CVODES integrator of one interval (module docstring), built once per problem functions, series length
     ``n`` and tolerance. Its parameter vector: ``a, b - a``, the series (``n`` coefficients per control), the
-    controls' lower and upper bounds and periods (0: not periodic), the state scales, the cost scale, ``P``."""
+    controls' lower and upper bounds, periods (0: not wrapped) and turns' starts, the state scales, the cost scale,
+    ``P``."""
     cache = functions.derived
     key = ("flight", n, tol)
     if key in cache:
@@ -133,6 +134,7 @@ def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, 
     a, h = ca.SX.sym("a"), ca.SX.sym("h")
     series = ca.SX.sym("c", n, nu)
     lower, upper, period = ca.SX.sym("lower", nu), ca.SX.sym("upper", nu), ca.SX.sym("period", nu)
+    turn = ca.SX.sym("turn", nu)
     x_scale, J_scale, P = ca.SX.sym("x_scale", nx), ca.SX.sym("J_scale"), ca.SX.sym("P", nP)
     xi = 2.0 * s - 1.0
     columns = []
@@ -142,7 +144,7 @@ def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, 
             b1, b2 = 2.0 * xi * b1 - b2 + series[k, j], b1
         v = xi * b1 - b2 + series[0, j]
         span = ca.if_else(period[j] > 0, period[j], 1.0)
-        v = ca.if_else(period[j] > 0, v - span * ca.floor((v - lower[j]) / span), v)
+        v = ca.if_else(period[j] > 0, v - span * ca.floor((v - turn[j]) / span), v)
         columns.append(ca.fmin(ca.fmax(v, lower[j]), upper[j]))
     u = ca.vertcat(*columns) if columns else ca.SX(0, 1)
     t, x = a + h * s, z * x_scale
@@ -150,7 +152,7 @@ def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, 
     cost = functions.L(x, u, t, P) / J_scale if functions.L is not None else ca.SX(0)
     dae = {
         "x": ca.vertcat(z, J),
-        "p": ca.vertcat(a, h, ca.vec(series), lower, upper, period, x_scale, J_scale, P),
+        "p": ca.vertcat(a, h, ca.vec(series), lower, upper, period, turn, x_scale, J_scale, P),
         "t": s,
         "ode": h * ca.vertcat(rate, cost),
     }

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP
 from ..solution import PhaseSolution, Solution
-from ..statement import Guess, OptimalControlProblem
+from ..statement import Guess, OptimalControlProblem, wrap_periodic
 from ..statement.phases import MultiPhaseProblem
 from ..statement.variables import EndValues
 from ..trajectory import Trajectory
@@ -503,6 +503,8 @@ class Program:
         for g in layout.groups:
             source = xs if g.is_state else us
             values = np.asarray(source(start + (tf - start) * np.asarray(g.fractions)), dtype=float)
+            if g.is_control:  # a periodic control (a solution's continuous angle) moved into its bounds by turns
+                values = wrap_periodic(values, pr.controls)
             values = values[:, [index[v.name] for v in g.variables]] if g.variables else np.zeros((g.points, 0))
             if values.shape != (g.points, len(g.variables)):
                 raise ValueError(f"{g.name} have shape {values.shape}, expected ({g.points}, {len(g.variables)})")
