@@ -144,7 +144,8 @@ def test_the_declared_turn_is_the_lower_bound_then_the_upper_then_centred():
 
 def test_a_heading_starts_in_the_turn_of_its_bounds():
     problem = tracking(0.0, TURN)  # the heading starts at pi - 0.5, ends at pi + 0.5: inside [0, 2 pi)
-    sol = quiet(lambda: Radau(problem, 8, 2).solve(Guess(controls={"theta": heading}), error_threshold=None))
+    guess = Guess(controls={"theta": lambda t: math.pi - 0.5 + np.asarray(t)})
+    sol = quiet(lambda: Radau(problem, 8, 2).solve(guess, error_threshold=None))
     t = sol.time_grid(401)
     assert_continuous_from_the_declared_turn(t, sol.control(t)[:, 0], start=0.0)
     assert np.abs(sol.control(t)[:, 0] - (math.pi - 0.5 + t)).max() < 1e-4

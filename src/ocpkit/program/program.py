@@ -503,7 +503,7 @@ class Program:
         for g in layout.groups:
             source = xs if g.is_state else us
             values = np.asarray(source(start + (tf - start) * np.asarray(g.fractions)), dtype=float)
-            if g.is_control:  # a periodic control (a solution's continuous angle) moved into its bounds by turns
+            if g.is_control and isinstance(guess, Trajectory):  # a continuous angle into its bounds by whole turns
                 values = wrap_periodic(values, pr.controls)
             values = values[:, [index[v.name] for v in g.variables]] if g.variables else np.zeros((g.points, 0))
             if values.shape != (g.points, len(g.variables)):
