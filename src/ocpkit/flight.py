@@ -15,7 +15,11 @@ by SUNDIALS' CVODES (Adams-Moulton, variable order and step, relative and absolu
 variables) through CasADi. The integrator is built once per problem and degree (kept with the problem's functions,
 which every copy of the problem with other parameter values shares) and mapped over the intervals with
 ``mapaccum``: a whole flight is one call into compiled code, with no Python in the loop. Every interval starts
-afresh at its left end, so no step straddles a jump or a kink of the control.
+afresh at its left end, so no step straddles a jump or a kink of the control: the intervals are also cut where the
+control's polynomial crosses one of its bounds (:func:`bound_crossings`), the kink of its clipping. Without those
+cuts a multistep method steps over the kinks with an error its tolerance does not control: catalyst mixing on Radau
+4 x 50, whose polynomial control overshoots its bounds on 40 % of the horizon, flew to a cost 2.7e-4 (relative) off
+the converged one at ``tol = 1e-12`` and 1.5e-3 off at 1e-10; with them, 1e-7 off at 1e-8.
 
 At ``tol = 1e-12`` the flown cost agrees with SciPy's DOP853 at ``rtol = atol = 1e-13`` to about 1e-11 (relative)
 on the hyper-sensitive problem, the entry landing and the hang glider (``tests/test_flight.py``), 10 to 30 times
@@ -31,7 +35,11 @@ import casadi as ca
 import numpy as np
 from numpy.polynomial import chebyshev
 
+<<<<<<< HEAD
 from .statement import declared_turn
+=======
+from ._arrays import unique
+>>>>>>> main
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -67,7 +75,8 @@ def fly(trajectory: Trajectory, tol: float = TOLERANCE, x0: ArrayLike | None = N
     P = problem.parameter_vector() if problem.parameters else np.zeros(0)
     stops = np.asarray(trajectory.breakpoints, dtype=float)
     if hasattr(trajectory, "control_breakpoints"):  # a control mesh finer than the state's (multi-rate)
-        stops = np.union1d(stops, trajectory.control_breakpoints)
+        stops = unique(np.concatenate([stops, trajectory.control_breakpoints]))
+    stops = unique(np.concatenate([stops, bound_crossings(trajectory, stops)]))
     a, h = stops[:-1], np.diff(stops)
     K = a.size
     coefficients = _control_series(trajectory, stops)  # (K, n, nu)
@@ -99,6 +108,38 @@ def fly(trajectory: Trajectory, tol: float = TOLERANCE, x0: ArrayLike | None = N
     if problem.phi is not None:
         mayer = float(problem.phi(x0, xf, trajectory.t0, trajectory.tf, P))
     return Flight(final_state=xf, running_cost=running, objective=mayer + running, tolerance=tol)
+
+
+#: Samples per interval at which :func:`bound_crossings` looks for the control's polynomial crossing a bound
+CROSSING_SAMPLES = 64
+
+
+def bound_crossings(trajectory: Trajectory, stops: np.ndarray, samples: int = CROSSING_SAMPLES) -> np.ndarray:
+    """Where the trajectory's control polynomial (its raw interpolant, before the projection onto the bounds) crosses
+    a finite bound of its control between ``stops``: the kinks of the admissible control, which :func:`fly` makes
+    stops. Each crossing is found between two of ``samples`` + 1 equally spaced samples of every interval and placed
+    by linear interpolation (its distance to the kink is of the order of the square of the samples' spacing).
+    Controls wrapped by a period (:attr:`~ocpkit.Control.period`) are left out; none where the trajectory has no raw
+    interpolant."""
+    raw = getattr(trajectory, "control_interpolant", None)
+    controls = trajectory.problem.controls
+    if raw is None or not controls or stops.size < 2:
+        return np.zeros(0)
+    s = np.linspace(0.0, 1.0, samples + 1)
+    t = (stops[:-1, None] + np.diff(stops)[:, None] * s[None, :]).ravel()
+    U = np.asarray(raw(t), dtype=float).reshape(t.size, len(controls))
+    found = []
+    for j, c in enumerate(controls):
+        if c.period is not None and np.isfinite(c.lower) and c.upper - c.lower >= c.period:
+            continue
+        for bound in (c.lower, c.upper):
+            if not np.isfinite(bound):
+                continue
+            d = U[:, j] - bound
+            i = np.flatnonzero(d[1:] * d[:-1] < 0)
+            i = i[(i + 1) % (samples + 1) != 0]  # (not across two intervals)
+            found.append(t[i] - d[i] * (t[i + 1] - t[i]) / (d[i + 1] - d[i]))
+    return np.concatenate(found) if found else np.zeros(0)
 
 
 def _control_series(trajectory: Trajectory, stops: np.ndarray) -> np.ndarray:
@@ -166,4 +207,4 @@ def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, 
     return cache[key]
 
 
-__all__ = ["Flight", "fly"]
+__all__ = ["Flight", "bound_crossings", "fly"]

@@ -23,6 +23,7 @@ from ._deprecation import renamed
 from .nlp import NLPResult
 from .statement import OptimalControlProblem, declared_turn, wrap_periodic
 from .trajectory import Reintegration, Trajectory
+from .verdict import DEFAULT_TOLERANCE, Verdict
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
     from .accuracy import Accuracy, MultiPhaseAccuracy
     from .program import Program
     from .statement.phases import LinkedStates, MultiPhaseProblem
+    from .verdict import VerdictKind
 
 __all__ = ["PhaseSolution", "Reintegration", "Solution", "SolveOptions"]
 
@@ -104,10 +106,18 @@ class PhaseSolution(Trajectory):
         return self.breakpoints if self.estimate_breakpoints is None else self.estimate_breakpoints
 
     @property
-    def error_estimate(self) -> float:
-        """The largest of :attr:`interval_errors`, the phase's estimated relative state error (the other parts
-        of its error, the objective's and the path constraints', are in :attr:`accuracy`)."""
+    def state_error(self) -> float:
+        """The largest of :attr:`interval_errors`, the phase's estimated relative state error: the state part of
+        the solution's :attr:`~Solution.verdict` (the other parts, the objective's and the path constraints', are
+        in :attr:`accuracy`)."""
         return float(self.interval_errors.max())
+
+    @property
+    def error_estimate(self) -> float:
+        """Deprecated name of :attr:`state_error` (the state part of the verdict; every part is in the solution's
+        :attr:`~Solution.verdict`)."""
+        renamed("PhaseSolution.error_estimate", "PhaseSolution.state_error")
+        return self.state_error
 
     @cached_property
     def accuracy(self) -> Accuracy:
@@ -345,6 +355,10 @@ class Solution(Trajectory):
     #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
+    #: the tolerance and kind of the solve's :attr:`verdict` (its ``error_threshold``, or a refinement's
+    #: ``mesh_tolerance``; ``solve(verdict=...)``)
+    verdict_tolerance: float = field(default=DEFAULT_TOLERANCE, repr=False)
+    verdict_kind: VerdictKind = field(default="whole", repr=False)
 
     def __post_init__(self) -> None:
         if not self.phases:
@@ -633,9 +647,31 @@ class Solution(Trajectory):
         return np.concatenate([p.interval_errors for p in self.phases])
 
     @property
+    def state_error(self) -> float:
+        """The largest of the phases' estimated relative state errors (:attr:`PhaseSolution.state_error`): the
+        state part of the :attr:`verdict`."""
+        return max(p.state_error for p in self.phases)
+
+    @property
     def error_estimate(self) -> float:
-        """The largest of the phases' estimated relative state errors (:attr:`PhaseSolution.error_estimate`)."""
-        return max(p.error_estimate for p in self.phases)
+        """Deprecated: the state part of the verdict is :attr:`state_error`, every part is in :attr:`verdict`."""
+        renamed("Solution.error_estimate", "Solution.state_error (every part of the error: Solution.verdict)")
+        return self.state_error
+
+    @cached_property
+    def verdict(self) -> Verdict:
+        """The whole verdict of the solve (:class:`ocpkit.verdict.Verdict`): every part of the estimated error
+        (state, objective, each path constraint's violation between points) against the solve's
+        ``error_threshold`` (:data:`~ocpkit.verdict.DEFAULT_TOLERANCE` where it gave none; a refinement's
+        ``mesh_tolerance``), whether it ``passed``, and its notes (a free time or parameter on its bound, a control
+        on a bound over the whole horizon, a state no function reads). ``solve(verdict="fast")``: all but the
+        objective's part, which the verdict says it skipped (:meth:`judge` computes any verdict)."""
+        return self.judge(self.verdict_tolerance, self.verdict_kind)
+
+    def judge(self, tolerance: float | None = None, kind: VerdictKind = "whole") -> Verdict:
+        """A :class:`~ocpkit.verdict.Verdict` of this solution at ``tolerance`` (default the solve's), ``kind``
+        ``"whole"`` (every part) or ``"fast"`` (all but the objective's)."""
+        return Verdict(self, self.verdict_tolerance if tolerance is None else tolerance, kind)
 
     @cached_property
     def accuracy(self) -> Accuracy | MultiPhaseAccuracy:
