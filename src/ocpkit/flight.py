@@ -35,11 +35,8 @@ import casadi as ca
 import numpy as np
 from numpy.polynomial import chebyshev
 
-<<<<<<< HEAD
-from .statement import declared_turn
-=======
 from ._arrays import unique
->>>>>>> main
+from .statement import declared_turn
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -119,7 +116,7 @@ def bound_crossings(trajectory: Trajectory, stops: np.ndarray, samples: int = CR
     a finite bound of its control between ``stops``: the kinks of the admissible control, which :func:`fly` makes
     stops. Each crossing is found between two of ``samples`` + 1 equally spaced samples of every interval and placed
     by linear interpolation (its distance to the kink is of the order of the square of the samples' spacing).
-    Controls wrapped by a period (:attr:`~ocpkit.Control.period`) are left out; none where the trajectory has no raw
+    Controls the flight wraps by their period (:func:`~ocpkit.statement.declared_turn`) are left out; none where the trajectory has no raw
     interpolant."""
     raw = getattr(trajectory, "control_interpolant", None)
     controls = trajectory.problem.controls
@@ -130,8 +127,8 @@ def bound_crossings(trajectory: Trajectory, stops: np.ndarray, samples: int = CR
     U = np.asarray(raw(t), dtype=float).reshape(t.size, len(controls))
     found = []
     for j, c in enumerate(controls):
-        if c.period is not None and np.isfinite(c.lower) and c.upper - c.lower >= c.period:
-            continue
+        if declared_turn(c) is not None and (np.isfinite(c.lower) or np.isfinite(c.upper)):
+            continue  # wrapped into its turn by the flight, not clipped
         for bound in (c.lower, c.upper):
             if not np.isfinite(bound):
                 continue
