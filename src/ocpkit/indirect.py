@@ -761,8 +761,11 @@ def _fitted_controls(solution: Solution, trajectory: Trajectory, t: np.ndarray, 
         {"x": ca.vec(V), "f": ca.sum2(term(V, X.T, t[None, :], target))},
         {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12},
     )
+    from .statement import wrap_periodic
+
     s = (t - trajectory.t0) / (trajectory.tf - trajectory.t0)
-    start = solution.control(solution.t0 + s * (solution.tf - solution.t0)).T
+    # a periodic control's continuous angle moved into its bounds by whole turns, where clipping would change it
+    start = wrap_periodic(solution.control(solution.t0 + s * (solution.tf - solution.t0)), direct.controls).T
     lo = np.repeat([[c.lower] for c in direct.controls], n, axis=1)
     hi = np.repeat([[c.upper] for c in direct.controls], n, axis=1)
     out = fit(x0=np.clip(start, lo, hi).ravel(order="F"), lbx=lo.ravel(order="F"), ubx=hi.ravel(order="F"))
