@@ -241,8 +241,9 @@ def to_extremal(
     extremal, stays with it, not that the first direct solution approximated it.
 
     A state that no dynamics reads (an output integral such as ``J' = |u|^2`` with the cost ``J(t_f)``:
-    :func:`output_states`) is named, with the fix (its integrand as the running cost), in any error of the law's
-    derivation or of the shooting: its costate is a known constant that the shooting carries as an unknown.
+    :func:`output_states`, with a nonzero weight in the cost) is named, with the fix (its integrand as the running
+    cost), in any error of the law's derivation or of the shooting: its costate is a known constant that the shooting
+    carries as an unknown.
 
     ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``raise_on_failure`` (default True): a
     certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (outcome
@@ -277,7 +278,8 @@ def to_extremal(
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
         statement, structure, budgets = as_terminal(statement, structure, solution)
     problem = statement
-    outputs = output_states(statement)
+    # an output with a zero weight (the entry landing's downrange) has a zero costate, which the shooting finds
+    outputs = {name: c for name, c in output_states(statement).items() if c != 0}
     try:
         return _extremal(
             solution,
