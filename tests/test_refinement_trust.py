@@ -152,6 +152,30 @@ def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(mo
     calls = {"n": 0}
     original = policy.solve_once
 
+    def starve_after_first(program, guess, ipopt_options, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] >= 2:  # the second mesh and both recoveries
+            ipopt_options = {**(ipopt_options or {}), "max_iter": 1}
+            kwargs["estimate_multipliers"] = False
+        return original(program, guess, ipopt_options, *args, **kwargs)
+
+    monkeypatch.setattr(policy, "solve_once", starve_after_first)
+    with pytest.raises(SolverError) as info:
+        tr.solve(mesh_tolerance=1e-7)
+    err = info.value
+    assert err.status == "Maximum_Iterations_Exceeded" and "mesh iteration 1" in str(err)
+    assert "recovery tried in vain: cold start on" in str(err) and "uniform mesh on Radau(nodes=3" in str(err)
+    assert err.result is not None and not err.result.converged
+    assert err.best is not None and err.best.converged
+
+
+def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_said(monkeypatch):
+    """The recovery (solve.RECOVERIES): the second mesh's warm start fails, its cold start from the guess is
+    taken, recorded on the mesh history and said in the outcome's reason."""
+    tr = Radau(entry_landing(), 4, 10)
+    calls = {"n": 0}
+    original = policy.solve_once
+
     def starve_second(program, guess, ipopt_options, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 2:
@@ -160,12 +184,11 @@ def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(mo
         return original(program, guess, ipopt_options, *args, **kwargs)
 
     monkeypatch.setattr(policy, "solve_once", starve_second)
-    with pytest.raises(SolverError) as info:
-        tr.solve(mesh_tolerance=1e-7)
-    err = info.value
-    assert err.status == "Maximum_Iterations_Exceeded" and "mesh iteration 1" in str(err)
-    assert err.result is not None and not err.result.converged
-    assert err.best is not None and err.best.converged
+    sol = tr.solve(mesh_tolerance=1e-7)
+    assert sol.refinement_outcome == "met"
+    assert [h.recovery for h in sol.mesh_history][:3] == ["", "cold start", ""]
+    assert "met after a recovery: mesh iteration 1" in sol.refinement_reason
+    assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
 
 
 def test_a_cut_at_a_switch_never_coarsens_global_collocation():
