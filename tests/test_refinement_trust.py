@@ -507,3 +507,16 @@ def test_the_cops_hang_glider_is_copss_statement():
     assert [s.upper for s in problem.states] == [np.inf] * 4 and problem.states[2].initial == 13.23
     table = paper_table("beyond_the_seeds").set_index(["problem", "quantity"]).value
     assert table["hang_glider_cops", "final_range_m"] == 1247.98
+
+
+def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
+    """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
+    solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the
+    stall did, returning the stalled solution with its own history, and its reason says what the recovery met."""
+    from compendium.problems import catalyst_mixing
+
+    with pytest.warns(AccuracyWarning, match=r"stalled short of 1e-06.*a recovery from the stall failed on mesh"):
+        sol = Radau(catalyst_mixing(), 4, 10).solve(mesh_tolerance=1e-6)
+    assert sol.converged and sol.refinement_outcome == "stalled"
+    assert sol.mesh_history[-1].collocation_points == sol.program.n_collocation_points
+    assert sol.objective == pytest.approx(-0.0481623, abs=1e-6)

@@ -252,6 +252,9 @@ def solve_refined(
     tried = ""  # the recoveries tried in vain, for the outcome's reason
     pending: tuple[Solution, str, float] | None = None  # a stall's recovery, the next mesh iteration's solution
     since = 0  # the stall rule counts the meshes since the last recovery
+    # the solution a stall's recovery set out from, and the stall's reason: where the recovery ends in a failure, the
+    # refinement ends as that stall did (a recovery never makes an outcome worse)
+    stall: tuple[Solution, str, int] | None = None
     for iteration in range(max_iterations):
         start = time.perf_counter()
         recovery = ""
@@ -290,6 +293,11 @@ def solve_refined(
             if failure is not None:
                 if not history:  # the first mesh: the solve's own error (IPOPT's status)
                     raise failure
+                if stall is not None:
+                    solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failure)
+                    del history[stall[2] :]  # the stalled solution's own history; the reason says what followed
+                    warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+                    break
                 raise _refinement_failure(failure, iteration, mesh, best, history, tried=tried) from failure
         assert solution is not None  # (solved, recovered, or raised above)
         try:
@@ -319,6 +327,12 @@ def solve_refined(
             best = solution
             best.mesh_history = list(history)
         if not solution.converged:
+            if stall is not None:
+                failed_on = solution.status
+                solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failed_on)
+                del history[stall[2] :]
+                warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+                break
             outcome, reason = "failed", f"IPOPT's status {solution.status} on {mesh.label}"
             if tried:
                 reason = f"{reason}; recovery tried in vain: {tried}"
@@ -366,17 +380,10 @@ def solve_refined(
                     f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
                 )
                 pending, since = (*rescued, recovering), len(history)
+                stall = (solution, _stall_reason(program, tolerance, history, stalled, solution, ""), len(history))
                 continue
         if stalled:
-            why = hint(solution)
-            parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-            outcome = "stalled"
-            reason = (
-                f"{program.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
-                f"{history[-1].transcription}"
-                + (f"; {why}" if why else "")
-                + (f"; recovery tried in vain: {tried}" if tried else "")
-            )
+            outcome, reason = "stalled", _stall_reason(program, tolerance, history, stalled, solution, tried)
             warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
             break
         if iteration + 1 < max_iterations:
@@ -417,6 +424,31 @@ def solve_refined(
     solution.mesh_history = history
     solution.refinement_outcome, solution.refinement_reason = outcome, reason
     return solution
+
+
+def _stall_reason(
+    program: Program, tolerance: float, history: Sequence[MeshIteration], stalled: str, solution: Solution, tried: str
+) -> str:
+    """The reason of a stalled refinement: the tolerance, the failing parts, the stall rule's words, the last mesh,
+    what may keep the estimate from falling (:func:`hint`) and the recoveries tried in vain."""
+    why = hint(solution)
+    parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
+    return (
+        f"{program.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
+        f"{history[-1].transcription}"
+        + (f"; {why}" if why else "")
+        + (f"; recovery tried in vain: {tried}" if tried else "")
+    )
+
+
+def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverError | str) -> str:
+    """A stall's reason, where the recovery from it ended in a failure on mesh ``iteration``: the refinement returns
+    the stalled solution (a recovery never makes an outcome worse)."""
+    status = failure.status if isinstance(failure, SolverError) else failure
+    return (
+        f"{reason}; a recovery from the stall failed on mesh iteration {iteration} ({mesh.label}: IPOPT's status "
+        f"{status}), so the stalled solution is returned"
+    )
 
 
 #: The recoveries of a refinement whose warm start leads nowhere (a refined mesh's solve fails from the previous
