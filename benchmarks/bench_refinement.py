@@ -74,7 +74,7 @@ def run(label, make, start, tolerance, opts):
         "status": status,
         "mesh_iterations": len(history),
         "collocation_points": final.n_collocation_points,
-        "error_estimate": sol.error_estimate,
+        "error_estimate": sol.state_error,
         "objective": sol.objective,
         "total_s": total,
         "builds_s": builds,

@@ -40,7 +40,7 @@ def test_integration_matrix_is_exact_for_polynomials():
 )
 def test_the_estimate_is_at_rounding_level_where_the_scheme_is_exact(make):
     sol = make(minimum_energy()).solve()
-    assert sol.error_estimate < 1e-13
+    assert sol.state_error < 1e-13
 
 
 def test_the_estimate_follows_the_true_error_on_the_flat_moon():
@@ -55,7 +55,7 @@ def test_the_estimate_follows_the_true_error_on_the_flat_moon():
         X = sol.state(t)
         truth = exact.state(t * exact.tf / sol.tf)
         true_errors.append(float((np.abs(X - truth) / (1 + np.abs(truth).max(axis=0))).max()))
-        estimates.append(sol.error_estimate)
+        estimates.append(sol.state_error)
     ratio = np.array(estimates) / np.array(true_errors)
     assert np.all((ratio > 1 / 30) & (ratio < 30)), (estimates, true_errors)
     assert estimates[0] / estimates[-1] > 4**4, "the estimate falls with the mesh"
@@ -80,7 +80,7 @@ def hyper_sensitive(tf=40.0):
 def test_refinement_meets_the_tolerance_and_puts_points_in_the_boundary_layers(make):
     sol = make(hyper_sensitive()).solve(mesh_tolerance=1e-6)
     history = sol.mesh_history
-    assert sol.error_estimate <= 1e-6 and history[-1].error_estimate == sol.error_estimate
+    assert sol.state_error <= 1e-6 and history[-1].error_estimate == sol.state_error
     assert len(history) >= 2 and history[0].error_estimate > 1e-6
     fractions = history[-1].fractions
     lengths = fractions * 40.0
@@ -93,7 +93,7 @@ def test_refinement_meets_the_tolerance_and_puts_points_in_the_boundary_layers(m
         uniform = HLGL(hyper_sensitive(), final.intervals)
     else:
         uniform = Radau(hyper_sensitive(), 4, final.n_collocation // 4)
-    assert uniform.solve(error_threshold=None).error_estimate > 100 * sol.error_estimate
+    assert uniform.solve(error_threshold=None).state_error > 100 * sol.state_error
 
 
 def test_refinement_that_cannot_meet_the_tolerance_says_so():
@@ -114,7 +114,7 @@ def test_multirate_refines_its_coarse_mesh():
     """Errors are estimated on the fine segments; a coarse segment splits where its worst fine segment is."""
     tr = MultiRateHLGL(flat_moon_ascent(), 2, ratio=2, fast=["vx", "vy"])
     sol = tr.solve(mesh_tolerance=1e-8)
-    assert sol.error_estimate <= 1e-8
+    assert sol.state_error <= 1e-8
     assert sol.interval_errors.size == 2 * sol.program.scheme.intervals
     assert sol.program.scheme.intervals > 2
 
@@ -153,7 +153,7 @@ def test_refinement_puts_a_breakpoint_at_the_switch(make):
     """Cut at the switch, the mesh holds the bang-bang control exactly: the tolerance is met in a few iterations."""
     sol = make(minimum_time_double_integrator()).solve(mesh_tolerance=1e-7)
     # measured: Radau 2 mesh iterations (17 points), HLGL 4; without the cuts, 23 and 11 at 1e-6
-    assert sol.error_estimate <= 1e-7 and len(sol.mesh_history) <= 5
+    assert sol.state_error <= 1e-7 and len(sol.mesh_history) <= 5
     assert abs(sol.tf - 2.0) < 1e-6
     assert np.abs(sol.estimate_intervals - 1.0).min() < 1e-4
 
@@ -205,7 +205,7 @@ def test_multiplier_estimates_shorten_a_refinement_and_change_nothing_else():
 
     sol = Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-5)
     later = [h.ipopt_iterations for h in sol.mesh_history[2:]]
-    assert sol.error_estimate <= 1e-5 and max(later) <= 15
+    assert sol.state_error <= 1e-5 and max(later) <= 15
     # where no bound is active the estimate at IPOPT's solution is IPOPT's multipliers (the constraint Jacobian has
     # full rank: the least-squares solution is the exact one)
     tr = HLGL(minimum_energy(), 6)

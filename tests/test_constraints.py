@@ -243,7 +243,7 @@ def test_a_free_initial_time():
         again = HLGL(pr, 8).solve(sol)
         assert again.t0 == pytest.approx(1.0, abs=1e-8) and again.iterations <= sol.iterations
     refined = HLGL(pr, 2).solve(mesh_tolerance=1e-10)
-    assert refined.error_estimate <= 1e-10 and refined.t0 == pytest.approx(1.0, abs=1e-8)
+    assert refined.state_error <= 1e-10 and refined.t0 == pytest.approx(1.0, abs=1e-8)
 
 
 def test_free_times_and_parameters_are_checked():

@@ -26,7 +26,7 @@ def test_a_solve_needs_none_of_them_either():
         "    [Control('u')], lambda x, u, t: ca.vertcat(x[1], u[0]), tf=1.0, lagrange=lambda x, u, t: u[0] ** 2)\n"
         "for tr in (HLGL(p, 4), Radau(p, 4, 2)):\n"
         "    s = tr.solve()\n"
-        "    s.state(0.5), s.control(0.5), s.error_estimate\n"
+        "    s.state(0.5), s.control(0.5), s.state_error\n"
         "print(','.join(sorted(m for m in ('scipy', 'pandas', 'matplotlib') if m in sys.modules)))\n"
         "HLGL(p, 4).solve(mesh_tolerance=1e-8)\n"
         "print(','.join(sorted(m for m in ('scipy', 'pandas', 'matplotlib') if m in sys.modules)))"
@@ -44,7 +44,7 @@ def test_a_solve_does_not_load_numpy_ma():
         "from ocpkit import HLGL, Radau\n"
         "from compendium.problems import flat_moon_ascent\n"
         "for tr in (HLGL(flat_moon_ascent(), 10), Radau(flat_moon_ascent(), 4, 3)):\n"
-        "    tr.solve().error_estimate\n"
+        "    tr.solve().state_error\n"
         "print('numpy.ma' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.strip()

@@ -32,7 +32,7 @@ def test_two_phases_are_one_problem():
     assert np.allclose(sol.control(t)[:, 0], 6 - 12 * t, atol=1e-6)
     assert np.allclose(sol.state(t)[:, 0], 3 * t**2 - 2 * t**3, atol=1e-8)
     assert sol.t0 == 0.0 and sol.tf == 1.0 and sol.max_reintegration_error() < 1e-8
-    assert sol.error_estimate == max(p.error_estimate for p in sol.phases) < 1e-12  # polynomials both schemes hold
+    assert sol.state_error == max(p.state_error for p in sol.phases) < 1e-12  # polynomials both schemes hold
     assert mp.n_constraints == sum(p.n_rows for p in mp.phases) + 2
 
 
@@ -330,7 +330,7 @@ def test_linked_phases_have_the_one_solve_session():
     mp = split_brachistochrone(lambda p: Radau(p, 3, 2))
     with pytest.warns(AccuracyWarning, match=r"phase 'first', Radau\(nodes=3, intervals=2\): estimated relative"):
         coarse = mp.solve()
-    assert coarse.refinement_outcome is None and coarse.error_estimate > 1e-4
+    assert coarse.refinement_outcome is None and coarse.state_error > 1e-4
     sol = mp.solve(mesh_tolerance=1e-7)
     assert sol.refinement_outcome == "met" and len(sol.mesh_history) >= 3
     assert sol.accuracy.failing(1e-7) == [] and sol.objective == pytest.approx(cycloid_time(), rel=1e-9)

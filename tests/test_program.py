@@ -175,7 +175,7 @@ def test_one_result_answers_the_same_questions_on_one_phase_and_many():
         t, x = sol.sample(lambda x, u, t: x["x"], grid=[0.25, 0.75])
         assert x == pytest.approx(sol.state(t)[:, 0])
         assert sol.value(lambda x0, xf, t0, tf: xf["v"]) == pytest.approx(-1.0, abs=1e-8)
-        assert sol.reintegrate().max_error < 1e-3 and sol.accuracy.state == sol.error_estimate
+        assert sol.reintegrate().max_error < 1e-3 and sol.accuracy.state == sol.state_error
     assert set(two.path_dataframe()["phase"]) == {"bd0.0", "bd0.5"}
     assert two.constraint("end_speed")["values"] == pytest.approx([-1.0])
     assert one.state_values.shape[1] == 2 and one.problem.name == "bryson_denham"

@@ -99,7 +99,7 @@ def test_hang_glider_refinement_from_radau_4x50_reaches_the_published_range():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         sol = Radau(hang_glider(), 4, 50).solve(mesh_tolerance=1e-5, max_mesh_iterations=12)
-    assert sol.converged and sol.error_estimate <= 1e-5
+    assert sol.converged and sol.state_error <= 1e-5
     assert -sol.objective == pytest.approx(published("hang_glider", "final_range_m"), rel=1e-5)
     assert sol.tf == pytest.approx(published("hang_glider", "final_time_s"), rel=1e-4)
 

@@ -56,6 +56,6 @@ def test_goddard_thrust_chatters_without_the_penalty_and_not_with_it():
 
 def test_goddard_refined_meets_the_tolerance_and_the_published_altitude():
     sol = Radau(goddard_rocket(), 4, 10).solve(mesh_tolerance=1e-6)
-    assert sol.error_estimate <= 1e-6
+    assert sol.state_error <= 1e-6
     assert -sol.objective == pytest.approx(1.01283, abs=1e-5)
     assert sol.state(sol.tf)[2] == pytest.approx(0.6, abs=1e-9)  # the final mass

@@ -288,7 +288,7 @@ class TranscriptionFamily:
         return {
             "status": solution.status,
             "iterations": solution.iterations,
-            "error_estimate": float(solution.error_estimate),
+            "error_estimate": float(solution.state_error),
             "objective": float(solution.objective),
             "objective_label": self.objective_label,
             "note": "" if self.note is None else str(self.note(solution)),

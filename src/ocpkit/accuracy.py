@@ -22,7 +22,7 @@ Radau intervals), so their accuracy compares directly.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
@@ -200,6 +200,28 @@ def path_junctions(
     return out
 
 
+def state_error_message(
+    label: str,
+    errors: np.ndarray,
+    breakpoints: np.ndarray,
+    threshold: float | None,
+    hint: Callable[[], str] | None = None,
+) -> str:
+    """What :func:`warn_if_inaccurate` says (the estimate, its interval, the threshold and the remedy), or ``""``
+    when the largest of ``errors`` is within ``threshold`` (a NaN estimate is over it)."""
+    if threshold is None or errors.size == 0:
+        return ""
+    k = int(np.argmax(np.where(np.isnan(errors), np.inf, errors)))
+    if errors[k] <= threshold:
+        return ""
+    return (
+        f"{label}: estimated relative state error {errors[k]:.1e} on interval {k} "
+        f"[{breakpoints[k]:.6g}, {breakpoints[k + 1]:.6g}] exceeds {threshold:g}; refine the mesh "
+        "(solve(mesh_tolerance=...)) or check the solution (reintegrate())"
+        + (f"; {text}" if hint is not None and (text := hint()) else "")
+    )
+
+
 def warn_if_inaccurate(
     label: str,
     errors: np.ndarray,
@@ -209,20 +231,10 @@ def warn_if_inaccurate(
     stacklevel: int = 3,
 ) -> None:
     """Warn (:class:`AccuracyWarning`) naming the estimate and the interval when it exceeds ``threshold``
-    (``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint` of the solution;
-    ``stacklevel``: :func:`warnings.warn`'s, counted from here)."""
-    if threshold is None or errors.size == 0:
-        return
-    k = int(np.argmax(errors))
-    if errors[k] > threshold:
-        warnings.warn(
-            f"{label}: estimated relative state error {errors[k]:.1e} on interval {k} "
-            f"[{breakpoints[k]:.6g}, {breakpoints[k + 1]:.6g}] exceeds {threshold:g}; refine the mesh "
-            "(solve(mesh_tolerance=...)) or check the solution (reintegrate())"
-            + (f"; {text}" if hint is not None and (text := hint()) else ""),
-            AccuracyWarning,
-            stacklevel=stacklevel,
-        )
+    (:func:`state_error_message`; ``hint``: a callable giving a sentence to add, e.g. :func:`periodic_control_hint`
+    of the solution; ``stacklevel``: :func:`warnings.warn`'s, counted from here)."""
+    if message := state_error_message(label, errors, breakpoints, threshold, hint):
+        warnings.warn(message, AccuracyWarning, stacklevel=stacklevel)
 
 
 # -- the whole solution: objective and path constraints ------------------------------------------------------------
@@ -352,18 +364,21 @@ class Accuracy:
       dynamics the flown cost measures the instability as much as the discretisation);
     * ``path``: per path constraint expression, the largest violation between the scheme's points
       (:func:`path_violations`), in units of the constraint's scale.
+
+    ``flight_tolerance``: CVODES' tolerance for the flown cost (default :data:`ocpkit.flight.TOLERANCE`; a verdict
+    at a loose tolerance flies at a looser one, :func:`ocpkit.verdict.flight_tolerance`).
     """
 
     solution: PhaseSolution | Solution
     path: dict[str, float]
 
-    def __init__(self, solution: PhaseSolution) -> None:
+    def __init__(self, solution: PhaseSolution, flight_tolerance: float | None = None) -> None:
         self.solution = solution
         self.state = float(solution.interval_errors.max())
         self.objective_nlp = float(solution.objective)
         self.objective_failure = ""
         try:
-            self.objective_flown = flown_objective(solution)
+            self.objective_flown = flown_objective(solution, flight_tolerance)
         except (RuntimeError, ValueError, ArithmeticError) as exc:  # the control cannot be flown: unknown, not small
             self.objective_flown, self.objective_failure = float("nan"), str(exc)
         floor = 1e-3 * float(solution.problem.objective_scale)
@@ -432,20 +447,29 @@ class MultiPhaseAccuracy(Accuracy):
                 self.path[label] = max(self.path.get(label, 0.0), value)
 
 
+def path_violation_message(label: str, worst: Mapping[str, float], threshold: float | None) -> str:
+    """What :func:`warn_if_path_violated` says: each path constraint whose largest violation between the scheme's
+    points (``worst``, by label, in units of its scale: :func:`path_violations`) exceeds ``threshold``, and the
+    remedy; ``""`` where none does."""
+    if threshold is None:
+        return ""
+    bad = [f"{k} by {v:.1e}" for k, v in worst.items() if not v <= threshold]
+    if not bad:
+        return ""
+    return (
+        f"{label}: path constraints violated between collocation points ({', '.join(bad)}, in units of each "
+        f"constraint's scale) by more than {threshold:g}; refine the mesh (solve(mesh_tolerance=...))"
+    )
+
+
 def warn_if_path_violated(label: str, solution: PhaseSolution, threshold: float | None, stacklevel: int = 3) -> None:
     """Warn (:class:`AccuracyWarning`) naming each path constraint violated between the scheme's points by more
-    than ``threshold`` (in units of its scale; :func:`path_violations`)."""
+    than ``threshold`` (:func:`path_violation_message`)."""
     if threshold is None or solution.problem.functions.path is None:
         return
     labels, worst, _ = path_violations(solution, solution.estimate_intervals)
-    bad = [f"{k} by {v:.1e}" for k, v in zip(labels, worst) if not v <= threshold]
-    if bad:
-        warnings.warn(
-            f"{label}: path constraints violated between collocation points ({', '.join(bad)}, in units of each "
-            f"constraint's scale) by more than {threshold:g}; refine the mesh (solve(mesh_tolerance=...))",
-            AccuracyWarning,
-            stacklevel=stacklevel,
-        )
+    if message := path_violation_message(label, dict(zip(labels, worst.tolist())), threshold):
+        warnings.warn(message, AccuracyWarning, stacklevel=stacklevel)
 
 
 # -- singular arcs --------------------------------------------------------------------------------------------------

@@ -165,6 +165,16 @@ class Extremal:
         return f"{self.shooting.detail}; failed checks {self.certificate.failed}"
 
     @property
+    def noise(self) -> float | None:
+        """The noise floor of S measured where the shooting stalled above ``tol`` (None where it did not)."""
+        return self.shooting.noise
+
+    @property
+    def remedy(self) -> str:
+        """What to try next: the failed certificate's remedy, else the shooting's (with its measured noise)."""
+        return self.shooting.remedy if self.certificate.passed else Outcome.CERTIFICATE_FAILED.remedy
+
+    @property
     def iterations(self) -> int:
         """The shooting's Newton iterations (Jacobian evaluations)."""
         return self.shooting.iterations
@@ -230,6 +240,10 @@ def to_extremal(
     (the same NLP: not a phase cut from its links). The guarantee is then that the direct method, started from the
     extremal, stays with it, not that the first direct solution approximated it.
 
+    A state that no dynamics reads (an output integral such as ``J' = |u|^2`` with the cost ``J(t_f)``:
+    :func:`output_states`) is named, with the fix (its integrand as the running cost), in any error of the law's
+    derivation or of the shooting: its costate is a known constant that the shooting carries as an unknown.
+
     ``method``: ``"arcs"``, ``"switching"`` or ``"auto"`` (module docstring). ``raise_on_failure`` (default True): a
     certificate that fails raises a :class:`~ocpkit.SolverError` naming the failed checks (outcome
     :attr:`~ocpkit.Outcome.CERTIFICATE_FAILED`; the extremal is its ``.result``); False: the extremal is returned
@@ -238,8 +252,6 @@ def to_extremal(
     name of ``raise_on_failure``. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     """
     raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
-    from .shooting import Shooting, control_law
-    from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.hamiltonian import CONTROL_SETS
 
     if method not in METHODS:
@@ -264,6 +276,64 @@ def to_extremal(
     budgets: list[str] = []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
         statement, structure, budgets = as_terminal(statement, structure, solution)
+    problem = statement
+    outputs = output_states(statement)
+    try:
+        return _extremal(
+            solution,
+            statement,
+            base,
+            structure,
+            budgets,
+            restated,
+            control_set,
+            tol,
+            method,
+            switching,
+            jacobian,
+            solver,
+            raise_on_failure,
+            detect_s,
+        )
+    except ValueError as exc:
+        if not outputs:
+            raise
+        raise ValueError(f"{_named_outputs(statement, outputs)} (the chain stopped: {exc})") from exc
+    except SolverError as exc:
+        if not outputs or exc.outcome is Outcome.CERTIFICATE_FAILED:
+            raise
+        raise SolverError(
+            exc.solver,
+            exc.status,
+            exc.iterations,
+            f"{exc.detail}; {_named_outputs(statement, outputs)}",
+            unit=exc.unit,
+            result=exc.result,
+            outcome=exc.outcome,
+        ) from exc
+
+
+def _extremal(
+    solution: Solution,
+    statement: OptimalControlProblem,
+    base: OptimalControlProblem,
+    structure: Structure,
+    budgets: list[str],
+    restated: bool,
+    control_set: str,
+    tol: float,
+    method: str,
+    switching: str,
+    jacobian: str | Callable[..., tuple[np.ndarray, np.ndarray]],
+    solver: str | Callable[..., tuple[Any, ...]],
+    raise_on_failure: bool,
+    detect_s: float,
+) -> Extremal:
+    """The chain of :func:`to_extremal` from its statement and structure on: the shooting, its certificate, the
+    re-solve from the extremal where only the comparisons with the direct solution fail."""
+    from .shooting import Shooting, control_law
+    from .shooting.arcs import ArcShooting, arc_sequence
+
     problem = statement
     radius = _ball_radius(statement) if control_set == "ball" else 1.0
     if method == "auto":
@@ -498,6 +568,51 @@ def _terminal_multipliers(result: Any, budgets: Sequence[str]) -> dict[str, floa
     return dict(zip(budgets, np.ravel(getattr(result, "multipliers", []))[-len(budgets) :]))
 
 
+def output_states(problem: OptimalControlProblem) -> dict[str, float]:
+    """The states no dynamics reads (output integrals, ``J' = |u|^2`` with the cost ``J(t_f)``), by name, each with
+    its Mayer weight ``c = dphi/dJ(t_f)``: states that no right-hand side, running cost, path constraint or boundary
+    constraint depends on, with a fixed initial and a free final value, and that the Mayer term reads linearly (a
+    constant ``c``, 0 where it does not read them). Their costate is the constant ``c`` (``p' = -dH/dJ = 0``,
+    ``p(t_f) = c``), which the shooting does not know: it is an unknown whose estimate enters the control law (as
+    the quadratic coefficient of ``H`` for an energy integral). Stated as the running cost ``c J'`` instead, the
+    state is gone and the law's coefficient is the number ``c``."""
+    ham = problem.functions.hamiltonian
+    x, u, t, P = ham.x, ham.u, ham.t, ham.P
+    read = [ham.f, ham.L]
+    if problem.functions.path is not None:
+        read.append(problem.functions.path.function(x, u, t, P))
+    X0, XF, T0, TF = ca.SX.sym("x0", problem.nx), ca.SX.sym("xf", problem.nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+    boundary = problem.functions.boundary
+    ends = boundary.function(X0, XF, T0, TF, P) if boundary is not None else ca.SX(0, 1)
+    phi = problem.phi(X0, XF, T0, TF, P) if problem.phi is not None else ca.SX(0)
+    read_by_dynamics = ca.vertcat(*read)
+    out = {}
+    for i, state in enumerate(problem.states):
+        if state.fixed_initial is None or state.final is not None:
+            continue
+        if ca.depends_on(read_by_dynamics, x[i]) or ca.depends_on(ends, ca.vertcat(X0[i], XF[i])):
+            continue
+        weight = ca.gradient(phi, XF[i])
+        if not weight.is_constant() or ca.depends_on(phi, X0[i]):
+            continue  # not linear in J(tf): its costate is not known before the shooting
+        out[state.name] = float(ca.evalf(weight))
+    return out
+
+
+def _named_outputs(problem: OptimalControlProblem, outputs: Mapping[str, float]) -> str:
+    """The sentence that names the output states of ``problem`` (:func:`output_states`) and the fix."""
+    ham = problem.functions.hamiltonian
+    rates = "; ".join(f"{n}' = {ham.f[problem.state_names.index(n)]}, Mayer weight {c:g}" for n, c in outputs.items())
+    names = ", ".join(repr(n) for n in outputs)
+    costs = " + ".join(f"{c:g} * ({n}'s right-hand side)" for n, c in outputs.items())
+    return (
+        f"no dynamics, running cost or constraint of {problem.name!r} reads the state {names} (an output integral: "
+        f"{rates}): its costate is that constant weight, which the shooting carries as an unknown and its control "
+        f"law cannot use; state the cost as the running cost, lagrange = {costs}, drop {names}, and solve the "
+        "direct problem again"
+    )
+
+
 def _needs_arcs(problem: OptimalControlProblem, structure: Structure) -> bool:
     """Whether only the arc method fits: a singular or boundary arc, constraints, or explicit time."""
     if any(a.kind in ("singular", "boundary") for a in structure.arcs):
@@ -646,8 +761,11 @@ def _fitted_controls(solution: Solution, trajectory: Trajectory, t: np.ndarray, 
         {"x": ca.vec(V), "f": ca.sum2(term(V, X.T, t[None, :], target))},
         {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12},
     )
+    from .statement import wrap_periodic
+
     s = (t - trajectory.t0) / (trajectory.tf - trajectory.t0)
-    start = solution.control(solution.t0 + s * (solution.tf - solution.t0)).T
+    # a periodic control's continuous angle moved into its bounds by whole turns, where clipping would change it
+    start = wrap_periodic(solution.control(solution.t0 + s * (solution.tf - solution.t0)), direct.controls).T
     lo = np.repeat([[c.lower] for c in direct.controls], n, axis=1)
     hi = np.repeat([[c.upper] for c in direct.controls], n, axis=1)
     out = fit(x0=np.clip(start, lo, hi).ravel(order="F"), lbx=lo.ravel(order="F"), ubx=hi.ravel(order="F"))
@@ -1017,4 +1135,14 @@ def _arc_conditions(
     return max(kelley, 0.0), max(sign, 0.0)
 
 
-__all__ = ["METHODS", "Certificate", "Check", "Extremal", "ExtremalPath", "certify", "follow_extremal", "to_extremal"]
+__all__ = [
+    "METHODS",
+    "Certificate",
+    "Check",
+    "Extremal",
+    "ExtremalPath",
+    "certify",
+    "follow_extremal",
+    "output_states",
+    "to_extremal",
+]

@@ -19,7 +19,10 @@ instances, and IPOPT receives the exact Hessian (options ``jac_g`` and
 
 from __future__ import annotations
 
+import difflib
+import re
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -408,7 +411,35 @@ class SeparableNLP:
         opts: dict[str, Any] = {"ipopt": ip, "print_time": False, "jac_g": self.jac_g}
         if approximation == "exact":
             opts["hess_lag"] = self.hess_lag
-        return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
+        try:
+            return ca.nlpsol("ocpkit_nlp", "ipopt", {"x": self.w, "f": self.f, "g": self.g}, opts)
+        except RuntimeError as exc:
+            unknown = re.search(r"No such IPOPT option: (\S+)", str(exc))
+            if unknown is None:
+                raise
+            raise ValueError(unknown_ipopt_option(unknown.group(1), ip)) from None
+
+
+#: IPOPT options a user of ocpkit sets, to suggest the one meant by a misspelt name (IPOPT has many more)
+KNOWN_IPOPT_OPTIONS = (
+    "tol", "max_iter", "max_cpu_time", "max_wall_time", "acceptable_tol", "acceptable_iter", "constr_viol_tol",
+    "dual_inf_tol", "compl_inf_tol", "print_level", "print_timing_statistics", "sb", "linear_solver",
+    "mu_strategy", "mu_init", "mu_oracle", "nlp_scaling_method", "obj_scaling_factor", "hessian_approximation",
+    "warm_start_init_point", "warm_start_bound_push", "warm_start_mult_bound_push", "bound_push", "bound_frac",
+    "bound_relax_factor", "mumps_pivtol", "mumps_mem_percent", "mumps_permuting_scaling", "mumps_scaling",
+    "ma57_pivot_order", "expect_infeasible_problem", "check_derivatives_for_naninf", "derivative_test",
+)  # fmt: skip
+
+
+def unknown_ipopt_option(name: str, given: Mapping[str, Any]) -> str:
+    """The message of an IPOPT option name IPOPT does not know: the name, the one meant if close to a known one
+    (:data:`KNOWN_IPOPT_OPTIONS` and the options given), and where the options are listed."""
+    close = difflib.get_close_matches(name, [k for k in (*KNOWN_IPOPT_OPTIONS, *given) if k != name], n=1)
+    meant = f"; did you mean {close[0]!r}?" if close else ""
+    return (
+        f"ipopt_options: IPOPT has no option {name!r}{meant} (the names are IPOPT's, without CasADi's 'ipopt.' "
+        "prefix: https://coin-or.github.io/Ipopt/OPTIONS.html)"
+    )
 
 
 #: Work budget of :func:`least_squares_multipliers`, in nonzeros of the normal matrix (8 bytes each, before fill).

@@ -39,9 +39,10 @@ class Outcome(enum.StrEnum):
     #: the residual stopped decreasing above ``tol``
     STALLED = (
         "stalled",
-        "|S| stopped decreasing above tol: compare tol with the residual's noise (Shooting.noise(z)), tighten the "
-        "integrator's rtol/atol, use switching='correction' and jacobian='variational', or multiple shooting; far "
-        "from a solution, start nearer one",
+        "|S| stopped decreasing above tol: the result's noise is S's measured noise floor and its detail the tol "
+        "that would pass where |S| is at that noise; lower the noise by stating the problem in units of order one or "
+        "tightening the integrator's rtol/atol, use switching='correction' and jacobian='variational', or multiple "
+        "shooting; far from a solution (|S| well above the noise), start nearer one",
     )
     #: the Jacobian of the shooting function is singular or not finite
     SINGULAR_JACOBIAN = (

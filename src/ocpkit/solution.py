@@ -21,8 +21,9 @@ import numpy as np
 from ._arrays import unique
 from ._deprecation import renamed
 from .nlp import NLPResult
-from .statement import OptimalControlProblem
+from .statement import OptimalControlProblem, declared_turn, wrap_periodic
 from .trajectory import Reintegration, Trajectory
+from .verdict import DEFAULT_TOLERANCE, Verdict
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
     from .accuracy import Accuracy, MultiPhaseAccuracy
     from .program import Program
     from .statement.phases import LinkedStates, MultiPhaseProblem
+    from .verdict import VerdictKind
 
 __all__ = ["PhaseSolution", "Reintegration", "Solution", "SolveOptions"]
 
@@ -86,6 +88,9 @@ class PhaseSolution(Trajectory):
     #: the phase's solved free parameters (:class:`~ocpkit.FreeParameter`) by name; the problem's constants, and
     #: these fixed at their solved values, are ``problem.parameters``
     parameters: dict[str, float] = field(default_factory=dict)
+    #: the control values, by name, that the phase's periodic controls start nearest (whole periods apart), so that
+    #: it continues the phase before it; the ones not given start in their declared turn (:attr:`~ocpkit.Control.period`)
+    control_start: dict[str, float] = field(default_factory=dict, repr=False)
 
     # -- accuracy ---------------------------------------------------------------------
     @cached_property
@@ -101,10 +106,18 @@ class PhaseSolution(Trajectory):
         return self.breakpoints if self.estimate_breakpoints is None else self.estimate_breakpoints
 
     @property
-    def error_estimate(self) -> float:
-        """The largest of :attr:`interval_errors`, the phase's estimated relative state error (the other parts
-        of its error, the objective's and the path constraints', are in :attr:`accuracy`)."""
+    def state_error(self) -> float:
+        """The largest of :attr:`interval_errors`, the phase's estimated relative state error: the state part of
+        the solution's :attr:`~Solution.verdict` (the other parts, the objective's and the path constraints', are
+        in :attr:`accuracy`)."""
         return float(self.interval_errors.max())
+
+    @property
+    def error_estimate(self) -> float:
+        """Deprecated name of :attr:`state_error` (the state part of the verdict; every part is in the solution's
+        :attr:`~Solution.verdict`)."""
+        renamed("PhaseSolution.error_estimate", "PhaseSolution.state_error")
+        return self.state_error
 
     @cached_property
     def accuracy(self) -> Accuracy:
@@ -120,24 +133,57 @@ class PhaseSolution(Trajectory):
         return self.state_interpolant(t)
 
     def _control(self, t: np.ndarray) -> np.ndarray:
-        """The transcription's control interpolant, projected onto the control bounds.
+        """The transcription's control interpolant, projected onto the control bounds, its periodic controls as
+        continuous angles (:attr:`control_turns`).
 
         Between its parameters a polynomial control can overshoot a bound it
         touches (and an LGR control, extrapolated past the last collocation point,
         can leave it); the projection gives the only values the dynamics admit.
         """
-        return self.admissible(self.control_interpolant(t))
+        raw = self.control_interpolant(t)
+        values = self.admissible(raw)
+        angles = [j for j, c in enumerate(self.problem.controls) if declared_turn(c) is not None]
+        if angles:
+            breaks = self.control_breakpoints
+            piece = np.clip(np.searchsorted(breaks, t, side="right") - 1, 0, breaks.size - 2)
+            values[..., angles] = raw[..., angles] + self.control_turns[piece][..., angles]
+        return values
+
+    @cached_property
+    def control_turns(self) -> np.ndarray:
+        """What the control interpolant's pieces (between :attr:`control_breakpoints`) are moved by to report the
+        periodic controls as continuous angles (:attr:`~ocpkit.Control.period`): whole periods, shape ``(pieces,
+        controls)``, zero for the other controls. Each piece starts within half a period of where the one before
+        ends; the first starts in the control's declared turn (:func:`~ocpkit.statement.declared_turn`), or
+        nearest its :attr:`control_start`."""
+        breaks = self.control_breakpoints
+        controls = self.problem.controls
+        turns = np.zeros((breaks.size - 1, len(controls)))
+        if not any(declared_turn(c) is not None for c in controls):
+            return turns
+        starts = self.control_interpolant(breaks[:-1])  # each piece at its left end
+        ends = self.control_interpolant(np.nextafter(breaks[1:], -np.inf))  # each piece at its right end
+        for j, c in enumerate(controls):
+            a = declared_turn(c)
+            if a is None:
+                continue
+            period = cast(float, c.period)  # (a declared turn is a periodic control's)
+            first = starts[0, j]
+            if c.name in self.control_start:
+                shift = np.round((self.control_start[c.name] - first) / period)
+            else:
+                shift = -np.floor((first - a) / period)
+            steps = np.round((ends[:-1, j] - starts[1:, j]) / period)
+            turns[:, j] = period * (shift + np.concatenate([[0.0], np.cumsum(steps)]))
+        return turns
 
     def admissible(self, values: ArrayLike) -> np.ndarray:
         """Control values (last axis: the controls) as the dynamics admit them: a periodic control
-        (:attr:`~ocpkit.Control.period`) wrapped into ``[lower, lower + period)`` when its bounds are finite and
-        at least a period apart, then every control clipped to its bounds."""
+        (:attr:`~ocpkit.Control.period`) with a finite bound and bounds at least a period apart moved by whole
+        periods into its declared turn (:func:`~ocpkit.statement.wrap_periodic`), then every control clipped to its
+        bounds. (:meth:`control` reports a periodic control as a continuous angle instead, the same angle.)"""
         lo, hi = self._control_bounds
-        values = np.array(values, dtype=float, copy=True)
-        for j, c in enumerate(self.problem.controls):
-            if c.period is not None and np.isfinite(lo[j]) and hi[j] - lo[j] >= c.period:
-                values[..., j] = lo[j] + np.mod(values[..., j] - lo[j], c.period)
-        return np.clip(values, lo, hi)
+        return np.clip(wrap_periodic(values, self.problem.controls), lo, hi)
 
     @property
     def control_breakpoints(self) -> np.ndarray:
@@ -309,10 +355,26 @@ class Solution(Trajectory):
     #: single solve. ``refinement_reason``: the warning's text that said so ("" where met).
     refinement_outcome: str | None = field(default=None, repr=False)
     refinement_reason: str = field(default="", repr=False)
+    #: the tolerance and kind of the solve's :attr:`verdict` (its ``error_threshold``, or a refinement's
+    #: ``mesh_tolerance``; ``solve(verdict=...)``)
+    verdict_tolerance: float = field(default=DEFAULT_TOLERANCE, repr=False)
+    verdict_kind: VerdictKind = field(default="whole", repr=False)
 
     def __post_init__(self) -> None:
         if not self.phases:
             raise ValueError("a solution has at least one phase")
+        for before, phase in zip(self.phases, self.phases[1:]):
+            # a periodic control continues from the phase before, where both declare it periodic
+            end = before._control(np.array([before.tf]))[0]
+            names = before.problem.control_names
+            phase.control_start = {
+                c.name: float(end[names.index(c.name)])
+                for c in phase.problem.controls
+                if c.name in names
+                and declared_turn(c) is not None
+                and declared_turn(before.problem.controls[names.index(c.name)]) is not None
+            }
+            phase.__dict__.pop("control_turns", None)  # computed, if at all, without its start
 
     # -- the program and the statement -----------------------------------------------------------------------------
     @property
@@ -585,9 +647,31 @@ class Solution(Trajectory):
         return np.concatenate([p.interval_errors for p in self.phases])
 
     @property
+    def state_error(self) -> float:
+        """The largest of the phases' estimated relative state errors (:attr:`PhaseSolution.state_error`): the
+        state part of the :attr:`verdict`."""
+        return max(p.state_error for p in self.phases)
+
+    @property
     def error_estimate(self) -> float:
-        """The largest of the phases' estimated relative state errors (:attr:`PhaseSolution.error_estimate`)."""
-        return max(p.error_estimate for p in self.phases)
+        """Deprecated: the state part of the verdict is :attr:`state_error`, every part is in :attr:`verdict`."""
+        renamed("Solution.error_estimate", "Solution.state_error (every part of the error: Solution.verdict)")
+        return self.state_error
+
+    @cached_property
+    def verdict(self) -> Verdict:
+        """The whole verdict of the solve (:class:`ocpkit.verdict.Verdict`): every part of the estimated error
+        (state, objective, each path constraint's violation between points) against the solve's
+        ``error_threshold`` (:data:`~ocpkit.verdict.DEFAULT_TOLERANCE` where it gave none; a refinement's
+        ``mesh_tolerance``), whether it ``passed``, and its notes (a free time or parameter on its bound, a control
+        on a bound over the whole horizon, a state no function reads). ``solve(verdict="fast")``: all but the
+        objective's part, which the verdict says it skipped (:meth:`judge` computes any verdict)."""
+        return self.judge(self.verdict_tolerance, self.verdict_kind)
+
+    def judge(self, tolerance: float | None = None, kind: VerdictKind = "whole") -> Verdict:
+        """A :class:`~ocpkit.verdict.Verdict` of this solution at ``tolerance`` (default the solve's), ``kind``
+        ``"whole"`` (every part) or ``"fast"`` (all but the objective's)."""
+        return Verdict(self, self.verdict_tolerance if tolerance is None else tolerance, kind)
 
     @cached_property
     def accuracy(self) -> Accuracy | MultiPhaseAccuracy:

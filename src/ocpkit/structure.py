@@ -31,6 +31,7 @@ import casadi as ca
 import numpy as np
 
 from .hamiltonian_form import decompose, l1_controls
+from .statement import declared_turn
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -159,7 +160,8 @@ def control_structure(
     l1 = l1_controls(problem)
     arcs = []
     for i, c in enumerate(problem.controls):
-        bounded = np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower
+        # a periodic control's bounds a period apart or more hold no angle back (Control.period): not on them
+        bounded = np.isfinite(c.lower) and np.isfinite(c.upper) and c.upper > c.lower and declared_turn(c) is None
         mine = {name: on for name, (on, controls) in active.items() if i in controls}
         if not bounded and not mine:
             continue  # an unbounded control without an active inequality: regular throughout, no arcs

@@ -24,7 +24,7 @@ def goddard_row(solution, scheme: str, weight: float, mesh: str) -> dict:
         "collocation_points": solution.program.n_collocation_points if isinstance(solution, Solution) else None,
         "final_altitude": float(solution.state(solution.tf)[0]),
         "tf": solution.tf,
-        "error_estimate": solution.error_estimate,
+        "error_estimate": solution.state_error,
         "thrust_variation": total_variation(solution, "T"),
         "mesh_iterations": len(solution.mesh_history) if solution.mesh_history else None,
     }

@@ -44,7 +44,7 @@ def flat_moon_point(thrust_to_weight: float, segments: int = 20) -> dict:
         "tf_s": sol.tf,
         "tf_exact_s": exact.tf,
         "tf_relative_error": abs(sol.tf / exact.tf - 1),
-        "error_estimate": sol.error_estimate,
+        "error_estimate": sol.state_error,
         "iterations": sol.iterations,
         "solve_s": sol.solve_s,
     }
@@ -64,7 +64,7 @@ def entry_landing_point(speed_m_s: float, flight_path_deg: float, intervals: int
     return {
         "fuel_kg": summary["fuel_kg"],
         "final_downrange_m": summary["final_downrange_m"],
-        "error_estimate": sol.error_estimate,
+        "error_estimate": sol.state_error,
         "iterations": sol.iterations,
         "solve_s": sol.solve_s,
     }

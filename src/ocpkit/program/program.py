@@ -22,7 +22,7 @@ import numpy as np
 
 from ..nlp import DEFAULT_IPOPT_OPTIONS, Block, NLPResult, SeparableNLP
 from ..solution import PhaseSolution, Solution
-from ..statement import Guess, OptimalControlProblem
+from ..statement import Guess, OptimalControlProblem, wrap_periodic
 from ..statement.phases import MultiPhaseProblem
 from ..statement.variables import EndValues
 from ..trajectory import Trajectory
@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 
     from ..statement import Constraint
     from ..statement.phases import Link
+    from ..verdict import VerdictKind
 
 
 def _is_scheme(value: Any) -> bool:
@@ -503,6 +504,8 @@ class Program:
         for g in layout.groups:
             source = xs if g.is_state else us
             values = np.asarray(source(start + (tf - start) * np.asarray(g.fractions)), dtype=float)
+            if g.is_control and isinstance(guess, Trajectory):  # a continuous angle into its bounds by whole turns
+                values = wrap_periodic(values, pr.controls)
             values = values[:, [index[v.name] for v in g.variables]] if g.variables else np.zeros((g.points, 0))
             if values.shape != (g.points, len(g.variables)):
                 raise ValueError(f"{g.name} have shape {values.shape}, expected ({g.points}, {len(g.variables)})")
@@ -813,8 +816,9 @@ class Program:
         mesh_tolerance: float | None = None,
         max_mesh_iterations: int = 25,
         parameters: Mapping[str, float] | None = None,
+        verdict: VerdictKind = "whole",
     ) -> Solution:
-        """Solve with IPOPT from ``guess``: a :class:`~ocpkit.Solution`.
+        """Solve with IPOPT from ``guess``: a :class:`~ocpkit.Solution`, with its whole verdict said.
 
         Parameters
         ----------
@@ -832,12 +836,15 @@ class Program:
             status, with the last iterate as ``error.result``. False: the last iterate is
             returned as a :class:`~ocpkit.Solution` with ``converged=False``.
         error_threshold : float or None
-            Warn (:class:`~ocpkit.accuracy.AccuracyWarning`) when a phase's estimated relative
-            state error (:attr:`~ocpkit.solution.PhaseSolution.error_estimate`, :mod:`ocpkit.accuracy`) exceeds it,
-            naming the interval, or when a path constraint is violated between the scheme's points by more
-            than it (in units of the constraint's scale, :func:`~ocpkit.accuracy.path_violations`);
-            None: no estimate at solve time. The objective's part of the error costs an integration
-            of the flown control: it is in :attr:`~ocpkit.Solution.accuracy`, and refinement checks it.
+            The tolerance of the solution's :attr:`~ocpkit.Solution.verdict` (:mod:`ocpkit.verdict`): every part of
+            the estimated error is computed and compared with it, one :class:`~ocpkit.accuracy.AccuracyWarning`
+            per part over it, naming the part, its value and the remedy: the relative state error
+            (:attr:`~ocpkit.Solution.state_error`, naming its interval), the objective's (the NLP's cost against
+            the cost its control achieves when flown), each path constraint's violation between the scheme's points
+            (in units of its scale); and one :class:`~ocpkit.verdict.SolutionNote` per note (a free time or
+            parameter on its bound, a control on a bound over the whole horizon, a state no function reads).
+            None: nothing computed or said at solve time (the verdict is computed when asked for, at
+            :data:`~ocpkit.verdict.DEFAULT_TOLERANCE`).
         mesh_tolerance : float or None
             Refine the mesh (each phase's scheme's ``refine``, :meth:`refine`) until every part of the error
             estimate (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
@@ -859,6 +866,9 @@ class Program:
             <ocpkit.statement.problem.OptimalControlProblem.parameters>`) for this solve. They are NLP variables
             pinned by their bounds, so the NLP and the IPOPT instance are built once and reused for any values: a
             study of many values builds once. The solution's problem carries the values solved with.
+        verdict : {"whole", "fast"}
+            ``"whole"`` (default): every part of the verdict. ``"fast"``: all but the objective's part, which costs
+            an integration of the flown control (for loops and sliders); the verdict says it skipped it.
         """
         return policy.solve(
             self,
@@ -870,6 +880,7 @@ class Program:
             mesh_tolerance=mesh_tolerance,
             max_mesh_iterations=max_mesh_iterations,
             parameters=parameters,
+            verdict=verdict,
         )
 
     def loop(

@@ -12,7 +12,6 @@ again as it was.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import time
 import warnings
@@ -29,14 +28,12 @@ from ..accuracy import (
     control_switches,
     path_junctions,
     path_violations,
-    periodic_control_hint,
     refinement_hint,
-    warn_if_inaccurate,
-    warn_if_path_violated,
 )
 from ..errors import SolverError
 from ..nlp import WARM_START, NLPResult, failure_hint, linear_solver, solve_nlp
 from ..solution import Solution, SolveOptions
+from ..verdict import SolutionNote, VerdictKind, check_kind
 
 if TYPE_CHECKING:
     from .program import Program
@@ -101,9 +98,11 @@ def solve(
     mesh_tolerance: float | None,
     max_mesh_iterations: int,
     parameters: Mapping[str, float] | None,
+    verdict: VerdictKind = "whole",
 ) -> Solution:
     """The solve policy (the module docstring; the options are :meth:`Program.solve
     <ocpkit.program.Program.solve>`'s)."""
+    check_kind(verdict)
     if parameters is not None:
         program.check_parameters(parameters)  # names checked before anything is built
     if mesh_tolerance is not None:
@@ -111,10 +110,18 @@ def solve(
         solution = solve_refined(
             program, guess, mesh_tolerance, max_mesh_iterations, options, raise_on_failure, parameters
         )
+        solution.verdict_tolerance, solution.verdict_kind = mesh_tolerance, verdict
+        if solution.converged:
+            # the refinement's own warning says which parts it did not meet: the notes are what is left to say
+            for note in (n for n in solution.verdict.notes if not n.quiet):
+                warnings.warn(str(note), SolutionNote, stacklevel=user_stacklevel())
     else:
         solution = solve_once(program, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
-        if error_threshold is not None and solution.converged:
-            warn_inaccurate(solution, error_threshold)
+        solution.verdict_kind = verdict
+        if error_threshold is not None:
+            solution.verdict_tolerance = error_threshold
+            if solution.converged:
+                solution.verdict.warn(stacklevel=user_stacklevel())
     record_solve(solution, ipopt_options, allow_acceptable)
     return solution
 
@@ -204,22 +211,6 @@ def hint(solution: Solution) -> str:
         return refinement_hint(solution.phases[0])
     hints = [(p.name, refinement_hint(p)) for p in solution.phases]
     return "; ".join(f"phase {name}: {h}" for name, h in hints if h)
-
-
-def warn_inaccurate(solution: Solution, threshold: float) -> None:
-    """The single solve's warnings, phase by phase: the state estimate over ``threshold``, path constraints violated
-    between points by more than it; each names its phase and scheme, and points at the caller of ``solve()``."""
-    for p, phase in zip(solution.phases, solution.program.phases):
-        label = phase.scheme.label if solution.single else f"phase {p.name!r}, {phase.scheme.label}"
-        warn_if_inaccurate(
-            label,
-            p.interval_errors,
-            p.estimate_intervals,
-            threshold,
-            functools.partial(periodic_control_hint, p),
-            stacklevel=user_stacklevel() + 1,
-        )
-        warn_if_path_violated(label, p, threshold, stacklevel=user_stacklevel() + 1)
 
 
 def _split(values: np.ndarray | Sequence[Any], counts: Sequence[int]) -> list[Any]:
@@ -570,5 +561,4 @@ __all__ = [
     "solve",
     "solve_once",
     "solve_refined",
-    "warn_inaccurate",
 ]

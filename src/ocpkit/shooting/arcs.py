@@ -52,7 +52,7 @@ from ..outcome import Outcome
 from ..statement import FreeFinalTime
 from ..structure import Structure, inequalities
 from ..trajectory import Trajectory
-from .result import IndirectResult, settled
+from .result import IndirectResult, noise_floor, settled, stall_advice
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -753,6 +753,10 @@ class ArcShooting:
         if norm <= tol:
             message = "converged"
         converged, status = settled(norm, tol, claimed)
+        noise, advice = None, ""
+        if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
+            noise = noise_floor(residual, z)
+            advice = stall_advice(norm, tol, noise)
         times = np.asarray(self.times(z, P)).ravel()
         try:
             objective = np.asarray(self.objective(z, P)).ravel()
@@ -773,6 +777,7 @@ class ArcShooting:
             times=times,
             multipliers=self._part(z, "nu"),
             arcs=list(self.kinds),
+            noise=noise,
         )
         if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
             problem = self.problem
@@ -784,7 +789,7 @@ class ArcShooting:
                 "arc shooting",
                 message,
                 n_J,
-                f"|S| = {norm:.3e} > {tol:g}",
+                f"|S| = {norm:.3e} > {tol:g}" + (f"; {advice}" if advice else ""),
                 unit="Newton iterations",
                 result=result,
                 outcome=status,

@@ -13,6 +13,7 @@ convergence above ``tol`` is :attr:`~ocpkit.Outcome.STALLED`). ``detail`` is the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -54,6 +55,17 @@ class IndirectResult:
     #: the solved free parameters by name (states of the shooting's problem,
     #: :meth:`~ocpkit.OptimalControlProblem.parameters_as_states`)
     free_parameters: dict[str, float] = field(default_factory=dict)
+    #: where the run stalled above ``tol``: the noise floor of S measured at the last iterate (:func:`noise_floor`),
+    #: which :attr:`remedy` compares with ``tol`` (:func:`stall_advice`); None where it was not measured
+    noise: float | None = None
+
+    @property
+    def remedy(self) -> str:
+        """What to try next: the ``status``'s remedy, after the measured noise and the ``tol`` that would pass where
+        the run stalled (:func:`stall_advice`)."""
+        if self.noise is None:
+            return self.status.remedy
+        return f"{stall_advice(self.norm, self.tol, self.noise)}; {self.status.remedy}"
 
     @property
     def trajectory(self) -> Trajectory:
@@ -91,4 +103,64 @@ def settled(norm: float, tol: float, claimed: Outcome | None) -> tuple[bool, Out
     return False, Outcome.STALLED if claimed is Outcome.CONVERGED else claimed
 
 
-__all__ = ["IndirectResult", "settled"]
+def noise_floor(
+    residual: Callable[[np.ndarray], np.ndarray],
+    z: np.ndarray,
+    *,
+    relative: float = 1e-9,
+    points: int = 9,
+    directions: int = 3,
+    seed: int = 0,
+) -> float:
+    """The noise floor of a shooting function at ``z``: how far ``S`` scatters about a straight line through ``z``.
+
+    Along each of ``directions`` random directions ``dz`` (entry ``j`` of size ``relative max(|z_j|, 1)``), S at
+    ``z + s dz`` for ``points`` values of ``s`` in [-1, 1]; a straight line fitted per component by least squares;
+    the norm over the components of the scatter about it (root mean square), the median over the directions. Over
+    such small changes S is linear to rounding, so what is left is what the integrator adds: step-size decisions,
+    switchings crossing step ends. Unlike :func:`~ocpkit.shooting.shooting.residual_noise` it needs no Jacobian (an
+    integrated Jacobian's own error would count as noise). On the Goddard rocket stated in feet, 2.5e-8 for relative
+    sizes from 1e-12 to 1e-7 alike; a root-finder cannot push ``|S|`` below it but by chance. An evaluation that
+    fails counts as no scatter of that direction (it is skipped)."""
+    z = np.asarray(z, dtype=float)
+    rng = np.random.default_rng(seed)
+    s = np.linspace(-1.0, 1.0, points)
+    line = np.column_stack([np.ones(points), s])
+    spreads = []
+    for _ in range(directions):
+        dz = relative * np.maximum(np.abs(z), 1.0) * rng.standard_normal(z.size)
+        try:
+            Y = np.array([np.asarray(residual(z + si * dz), dtype=float).ravel() for si in s])
+        except (RuntimeError, ValueError, ArithmeticError):
+            continue
+        if not np.all(np.isfinite(Y)):
+            continue
+        scatter = Y - line @ np.linalg.lstsq(line, Y, rcond=None)[0]
+        spreads.append(float(np.linalg.norm(np.sqrt(np.mean(scatter**2, axis=0)))))
+    return float(np.median(spreads)) if spreads else float("nan")
+
+
+def stall_advice(norm: float, tol: float, noise: float) -> str:
+    """What a run that stalled at ``|S| = norm`` above ``tol`` tells its user, given S's ``noise`` floor
+    (:func:`noise_floor`). Where ``|S|`` is within ten times the noise, the stall is the integrator's: the sentence
+    names the noise and the ``tol`` that would pass (the power of ten at or above both ``|S|`` and the noise; a tol
+    below the noise is met only by chance), and how to lower the noise. Otherwise it says the stall is not the
+    noise's."""
+    if not np.isfinite(noise):
+        return f"the noise of S could not be measured here (S fails near the last iterate); |S| = {norm:.2g}"
+    if norm <= 10.0 * noise:
+        passing = 10.0 ** np.ceil(np.log10(max(norm, noise, 1e-300)))
+        return (
+            f"|S| = {norm:.2g} stalled at the integrator's noise: S scatters by {noise:.2g} about its linear part "
+            f"under relative changes of 1e-9 of the unknowns, above tol = {tol:g}; tol={passing:.0e} would pass "
+            "(a tol below the noise is met only by chance), or lower the noise: state the problem in units where "
+            "the states and costates are of order one (a condition of size 1e4 carries 1e4 times the rounding of "
+            "one of size 1), or tighten the integrator's rtol/atol"
+        )
+    return (
+        f"|S| = {norm:.2g} is {norm / max(noise, 1e-300):.2g} times S's noise ({noise:.2g}): not the integrator's "
+        "noise; far from a solution, or another switching structure"
+    )
+
+
+__all__ = ["IndirectResult", "noise_floor", "settled", "stall_advice"]

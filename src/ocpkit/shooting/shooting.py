@@ -49,7 +49,7 @@ from ..outcome import Outcome
 from ..statement import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
-from .result import IndirectResult, settled
+from .result import IndirectResult, noise_floor, settled, stall_advice
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, run_solver, solver_strategy
 from .trajectory import ShootingTrajectory
 
@@ -563,6 +563,10 @@ class Shooting:
             claimed = Outcome.INTEGRATION_FAILED
         norm = float(np.linalg.norm(S))
         ok, status = settled(norm, tol, claimed)
+        noise, advice = None, ""
+        if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
+            noise = noise_floor(lambda y: self.residual(y, P), z)
+            advice = stall_advice(norm, tol, noise)
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
             unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))
         else:
@@ -589,6 +593,7 @@ class Shooting:
             integration=final,
             system=self.compiled.system,
             free_parameters=self.solved_free_parameters(x0),
+            noise=noise,
         )
         if not ok and raise_on_failure:
             name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(
@@ -599,8 +604,8 @@ class Shooting:
                 message,
                 counts["S"],
                 f"|S| = {norm:.3e} > tol = {tol:g} after {counts['S']} shooting-function and "
-                f"{counts['jac']} Jacobian evaluations; the last iterate is the error's .result, "
-                "solve(raise_on_failure=False) returns it",
+                f"{counts['jac']} Jacobian evaluations{'; ' + advice if advice else ''}; the last iterate is the "
+                "error's .result, solve(raise_on_failure=False) returns it",
                 unit="shooting-function evaluations",
                 result=result,
                 outcome=status,

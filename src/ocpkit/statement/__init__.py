@@ -15,7 +15,16 @@ from .functions import Hamiltonian, ProblemFunctions
 from .guess import Guess
 from .problem import OptimalControlProblem
 from .times import Duration, FreeFinalTime, FreeInitialTime
-from .variables import AffineScaling, Control, FreeParameter, State, Variable, unwrap_periodic
+from .variables import (
+    AffineScaling,
+    Control,
+    FreeParameter,
+    State,
+    Variable,
+    declared_turn,
+    unwrap_periodic,
+    wrap_periodic,
+)
 
 __all__ = [
     "AffineScaling",
@@ -34,7 +43,9 @@ __all__ = [
     "ProblemFunctions",
     "State",
     "Variable",
+    "declared_turn",
     "fixed_value",
     "guess_function",
     "unwrap_periodic",
+    "wrap_periodic",
 ]

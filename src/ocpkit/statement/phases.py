@@ -535,7 +535,7 @@ class MultiPhaseProblem:
         functions = problem.functions
 
         def total_cost(ends: PhasesEnds, p: NamedParameters) -> Any:
-            out = 0.0 if cost is None else call(cost, [ends], p, has_parameters=bool(p.names), what="the cost")
+            out = 0.0 if cost is None else call(cost, [ends], p, has_parameters=bool(p.names), what="split(cost=...)")
             if functions.phi is not None:
                 first, last = ends[0], ends[-1]
                 out = out + functions.phi(first.x0, last.xf, first.t0, last.tf, first.p.column)

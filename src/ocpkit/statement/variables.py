@@ -167,7 +167,17 @@ class Control(EndValues):
         polynomial through such values sweeps whole turns between the nodes. A solution's control interpolant
         unwraps each interval's node values first (:func:`unwrap_periodic`): between nodes it takes the short way
         round, which is the control the dynamics saw. Give such a control no bounds, or bounds at least a period
-        apart.
+        apart (bounds closer than that hold it within them, and it is reported as any bounded control).
+
+        A solution reports such a control as a continuous angle (``control``, ``sample``, ``to_dataframe``, and
+        what is drawn of them): unwrapped along the trajectory, so that it never jumps by a whole period (where
+        the control does jump, at a breakpoint, by the short way round, at most half a period), and shifted by
+        whole periods so that its value at the first phase's t0 lies in the declared turn ``[a, a + period)``
+        (:func:`declared_turn`: ``a`` the lower bound when finite, else the upper bound less a period when
+        finite, else ``-period / 2``); a later phase continues the one before. The dynamics see the control only
+        through periodic functions, so re-integration and the flown cost are the same as for the wrapped
+        values; the control may then leave ``[lower, upper]`` by whole periods, as an angle unwrapped does. The
+        NLP's node values (``control_values``) are the NLP's own.
     """
 
     period: float | None = None
@@ -176,6 +186,34 @@ class Control(EndValues):
         super().__post_init__()
         if self.period is not None and not (math.isfinite(self.period) and self.period > 0):
             raise ValueError(f"period of {self.name!r} must be positive and finite, got {self.period!r}")
+
+
+def declared_turn(control: Control) -> float | None:
+    """The start ``a`` of the turn ``[a, a + period)`` a periodic control (:attr:`Control.period`) is reported in at
+    the start of a solution: its lower bound when finite, else its upper bound less a period when finite, else
+    ``-period / 2``. None for a control that is not periodic or whose bounds are less than a period apart (they
+    hold it, not its period)."""
+    period = control.period
+    if period is None or not control.upper - control.lower >= period:
+        return None
+    if math.isfinite(control.lower):
+        return float(control.lower)
+    if math.isfinite(control.upper):
+        return float(control.upper) - period
+    return -period / 2
+
+
+def wrap_periodic(values: ArrayLike, controls: Sequence[Control]) -> np.ndarray:
+    """``values`` (controls on the last axis) with every periodic control that has a finite bound and bounds at least
+    a period apart moved by whole periods into its declared turn (:func:`declared_turn`), which lies within its
+    bounds; the others as given. The same angles, as an NLP's bounds admit them."""
+    values = np.array(values, dtype=float, copy=True)
+    for j, c in enumerate(controls):
+        a = declared_turn(c)
+        if a is not None and (math.isfinite(c.lower) or math.isfinite(c.upper)):
+            period = cast(float, c.period)  # (a declared turn is a periodic control's)
+            values[..., j] -= period * np.floor((values[..., j] - a) / period)
+    return values
 
 
 def unwrap_periodic(values: ArrayLike, controls: Sequence[Control], axis: int = 0) -> np.ndarray:

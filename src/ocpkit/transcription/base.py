@@ -134,7 +134,7 @@ class Transcription(ABC):
 
     def solve(self, guess: Any = None, **options: Any) -> Solution:
         """Solve the problem this scheme is bound to: its one-phase program's :meth:`~ocpkit.program.Program.solve`
-        (``ipopt_options``, ``allow_acceptable``, ``raise_on_failure``, ``error_threshold``, ``mesh_tolerance``,
+        (``ipopt_options``, ``allow_acceptable``, ``raise_on_failure``, ``error_threshold``, ``verdict``, ``mesh_tolerance``,
         ``max_mesh_iterations``, ``parameters``)."""
         return self.program.solve(guess, **options)
 
