@@ -25,7 +25,7 @@ from ocpkit.nlp import dense_columns, least_squares_multipliers
 from ocpkit.program import solve as policy
 
 from compendium.paper import paper_table
-from compendium.problems import catalyst_mixing, entry_landing, hang_glider, tumour
+from compendium.problems import bryson_denham, catalyst_mixing, entry_landing, hang_glider, tumour
 
 
 def free_time_with_parameters() -> OptimalControlProblem:
@@ -152,6 +152,30 @@ def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(mo
     calls = {"n": 0}
     original = policy.solve_once
 
+    def starve_after_first(program, guess, ipopt_options, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] >= 2:  # the second mesh and both recoveries
+            ipopt_options = {**(ipopt_options or {}), "max_iter": 1}
+            kwargs["estimate_multipliers"] = False
+        return original(program, guess, ipopt_options, *args, **kwargs)
+
+    monkeypatch.setattr(policy, "solve_once", starve_after_first)
+    with pytest.raises(SolverError) as info:
+        tr.solve(mesh_tolerance=1e-7)
+    err = info.value
+    assert err.status == "Maximum_Iterations_Exceeded" and "mesh iteration 1" in str(err)
+    assert "recovery tried in vain: cold start on" in str(err) and "uniform mesh on Radau(nodes=3" in str(err)
+    assert err.result is not None and not err.result.converged
+    assert err.best is not None and err.best.converged
+
+
+def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_said(monkeypatch):
+    """The recovery (solve.RECOVERIES): the second mesh's warm start fails, its cold start from the guess is
+    taken, recorded on the mesh history and said in the outcome's reason."""
+    tr = Radau(entry_landing(), 4, 10)
+    calls = {"n": 0}
+    original = policy.solve_once
+
     def starve_second(program, guess, ipopt_options, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 2:
@@ -160,12 +184,11 @@ def test_an_ipopt_failure_inside_refinement_keeps_its_status_and_last_iterate(mo
         return original(program, guess, ipopt_options, *args, **kwargs)
 
     monkeypatch.setattr(policy, "solve_once", starve_second)
-    with pytest.raises(SolverError) as info:
-        tr.solve(mesh_tolerance=1e-7)
-    err = info.value
-    assert err.status == "Maximum_Iterations_Exceeded" and "mesh iteration 1" in str(err)
-    assert err.result is not None and not err.result.converged
-    assert err.best is not None and err.best.converged
+    sol = tr.solve(mesh_tolerance=1e-7)
+    assert sol.refinement_outcome == "met"
+    assert [h.recovery for h in sol.mesh_history][:3] == ["", "cold start", ""]
+    assert "met after a recovery: mesh iteration 1" in sol.refinement_reason
+    assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
 
 
 def test_a_cut_at_a_switch_never_coarsens_global_collocation():
@@ -432,3 +455,68 @@ def test_the_values_of_another_meshs_vector_are_refused_not_misread():
     values = sol.program.global_values(sol.nlp_result.w)
     assert values["tf"] == pytest.approx(sol.tf)
     assert values["parameters"]["a"] == pytest.approx(sol.problem.parameters["a"])
+
+
+def test_a_stalled_refinement_restarts_on_the_uniform_mesh_and_says_so(monkeypatch):
+    """A stall (forced on mesh iteration 1) is a recovery's other trigger: the cold start on the same mesh reaches
+    the same estimate (not below STALL_FALL times it), so the scheme's uniform mesh of as many points is taken."""
+    original = policy._stalled
+
+    def forced(history):
+        return "forced" if len(history) == 2 and history[-1].iteration == 1 else original(history)
+
+    monkeypatch.setattr(policy, "_stalled", forced)
+    sol = Radau(bryson_denham(), 4, 5).solve(mesh_tolerance=1e-6)
+    assert sol.refinement_outcome == "met"
+    taken = [h for h in sol.mesh_history if h.recovery]
+    assert [(h.iteration, h.transcription, h.recovery) for h in taken] == [
+        (2, "Radau(nodes=3, intervals=10)", "uniform mesh")
+    ]
+    assert "refinement stalled on mesh iteration 1" in sol.refinement_reason
+    assert "restarted cold from the guess on a uniform mesh of as many points" in sol.refinement_reason
+
+
+def test_each_scheme_has_a_uniform_mesh_of_at_least_as_many_points():
+    problem = hang_glider()
+    radau = Radau(problem, 60).uniform(61)
+    assert radau.intervals == 21 and set(radau.counts.tolist()) == {Radau.N_MIN} and radau.problem is problem
+    hlgl = HLGL(problem, 10).uniform(41)
+    assert hlgl.intervals == 21 and np.allclose(hlgl.mesh.fractions, 1 / 21)
+    program = Radau(problem, 60).program.uniform()
+    assert program.n_collocation_points == 60 and program.label == "Radau(nodes=3, intervals=20)"
+
+
+def test_the_hanging_chain_as_cops_states_it_and_its_catenary():
+    """The catenary's closed form agrees with COPS's published 5.06848 to its printed digits; the statement's
+    COPS start is consistent in x1 and u (x1' = u), its length state starts at u, as COPS's does."""
+    from compendium.problems import catenary, hanging_chain
+
+    table = paper_table("beyond_the_seeds").set_index(["problem", "quantity"]).value
+    exact = catenary()
+    assert abs(exact["J"] - table["hanging_chain", "objective"]) < 5e-6
+    problem = hanging_chain()
+    t = np.linspace(0.0, 1.0, 5)
+    x1, u = problem.states[0].guess_function()(t, t), problem.controls[0].guess_function()(t, t)
+    assert x1[0] == 1.0 and x1[-1] == 3.0 and np.allclose(np.gradient(x1, t, edge_order=2), u)
+    assert problem.controls[0].lower == -np.inf and problem.controls[0].upper == np.inf
+
+
+def test_the_cops_hang_glider_is_copss_statement():
+    problem = hang_glider(cops=True)
+    assert problem.name == "hang_glider_cops" and problem.tf.guess == 1.0
+    assert [s.upper for s in problem.states] == [np.inf] * 4 and problem.states[2].initial == 13.23
+    table = paper_table("beyond_the_seeds").set_index(["problem", "quantity"]).value
+    assert table["hang_glider_cops", "final_range_m"] == 1247.98
+
+
+def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
+    """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
+    solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the
+    stall did, returning the stalled solution with its own history, and its reason says what the recovery met."""
+    from compendium.problems import catalyst_mixing
+
+    with pytest.warns(AccuracyWarning, match=r"stalled short of 1e-06.*a recovery from the stall failed on mesh"):
+        sol = Radau(catalyst_mixing(), 4, 10).solve(mesh_tolerance=1e-6)
+    assert sol.converged and sol.refinement_outcome == "stalled"
+    assert sol.mesh_history[-1].collocation_points == sol.program.n_collocation_points
+    assert sol.objective == pytest.approx(-0.0481623, abs=1e-6)

@@ -18,6 +18,7 @@ from .entry_landing import entry_landing, entry_landing_constants, minimum_downr
 from .flat_moon import flat_moon_ascent, linear_tangent_solution
 from .goddard import goddard_constants, goddard_rocket
 from .hang_glider import hang_glider
+from .hanging_chain import catenary, hanging_chain
 from .hyper_sensitive import hyper_sensitive
 from .lunar_ascent import lunar_ascent, lunar_ascent_constants
 from .minimum_fuel import (
@@ -47,6 +48,8 @@ __all__ = [
     "shuttle_reentry",
     "shuttle_reentry_constants",
     "hang_glider",
+    "hanging_chain",
+    "catenary",
     "tumour",
     "bryson_denham",
     "gasoil",

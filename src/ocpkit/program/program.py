@@ -922,6 +922,12 @@ class Program:
             return self
         return Program(self.statement, dict(zip(self.names, schemes)), compile=self.compile)
 
+    def uniform(self) -> Program:
+        """The same statement with each phase on its scheme's uniform mesh (rule 10 of
+        :class:`~ocpkit.program.scheme.Scheme`) of at least as many collocation points as it has here."""
+        schemes = [s.uniform(p.n_defects // max(p.problem.nx, 1)) for s, p in zip(self.schemes, self.phases)]
+        return Program(self.statement, dict(zip(self.names, schemes)), compile=self.compile)
+
     def __repr__(self) -> str:
         return f"Program({self.label}, {self.n_variables} variables, {self.n_constraints} constraints)"
 

@@ -36,6 +36,9 @@ the members of :class:`Scheme`, one entry in :data:`~ocpkit.transcription.regist
    intervals, a :class:`PhaseFields`' ``estimate_breakpoints``) exceed ``tolerance``, cut at ``cuts`` (per interval,
    fractions in (0, 1) where the control switches or a path constraint's arc begins); this very object where
    nothing needs refining (the refinement then stops: the next mesh would be this one).
+10. ``uniform(points)``: the scheme on equal intervals at the lowest degree its refinement uses, with at least
+    ``points`` collocation points: the mesh a refinement restarts on when the meshes it refined from lead nowhere
+    (:func:`ocpkit.program.solve.solve_refined`).
 
 The program never asks a scheme anything else (but for a ``problem`` it may carry, the problem it is bound to, which
 must be its phase's), so everything a scheme does not provide works the same on every scheme and on any number of
@@ -170,6 +173,8 @@ class Scheme(Protocol):
     ) -> tuple[np.ndarray, np.ndarray] | None: ...
 
     def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> Scheme: ...
+
+    def uniform(self, points: int) -> Scheme: ...
 
 
 __all__ = ["IpoptOption", "PathPoints", "PhaseFields", "Scheme", "VariableGroup"]

@@ -12,6 +12,7 @@ again as it was.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -75,6 +76,9 @@ class MeshIteration:
     #: what drives the refinement on this mesh, which the stall rule follows (the state part while it is over the
     #: tolerance, else the largest of the others: path violations between points, the objective)
     worst: float = float("nan")
+    #: how this mesh was started where it was not warm-started from the previous one: ``""`` (the first mesh from
+    #: the guess, or a warm start), ``"cold start"`` or ``"uniform mesh"`` (a recovery, :data:`RECOVERIES`)
+    recovery: str = ""
 
     @property
     def nlp_parameters(self) -> int:
@@ -235,21 +239,62 @@ def solve_refined(
     solution: Solution | None = None
     best: Solution | None = None
     outcome, reason = "met", ""
+    recoveries: list[str] = []  # what each recovery was taken for, and how
+    tried = ""  # the recoveries tried in vain, for the outcome's reason
+    pending: tuple[Solution, str, float] | None = None  # a stall's recovery, the next mesh iteration's solution
+    since = 0  # the stall rule counts the meshes since the last recovery
+    # the solution a stall's recovery set out from, and the stall's reason: where the recovery ends in a failure, the
+    # refinement ends as that stall did (a recovery never makes an outcome worse)
+    stall: tuple[Solution, str, int] | None = None
     for iteration in range(max_iterations):
         start = time.perf_counter()
+        recovery = ""
+        if pending is not None:
+            solution, recovery, start = pending
+            mesh, pending = solution.program, None
+        else:
+            failure: SolverError | None = None
+            try:
+                solution = solve_once(
+                    mesh,
+                    guess if solution is None else solution,
+                    options["ipopt_options"],
+                    options["allow_acceptable"],
+                    raise_on_failure,
+                    parameters,
+                    estimate_multipliers=True,
+                )
+            except SolverError as exc:
+                failure = exc
+            except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
+                if not history:  # the first mesh: the solve's own error (bad input)
+                    raise
+                raise _refinement_failure(exc, iteration, mesh, best, history) from exc
+            failed = failure is not None or solution is None or not solution.converged
+            if history and failed and len(recoveries) < MAX_RECOVERIES:
+                status = failure.status if failure is not None else getattr(solution, "status", "")
+                rescued, tried = _recover(mesh, guess, options, parameters, math.inf)
+                if rescued is not None:
+                    solution, recovery = rescued
+                    recoveries.append(
+                        f"mesh iteration {iteration} ({mesh.label}) failed from the previous mesh's solution "
+                        f"({status}): {_RECOVERED[recovery]} ({solution.program.label})"
+                    )
+                    mesh, failure, since = solution.program, None, len(history)
+            if failure is not None:
+                if not history:  # the first mesh: the solve's own error (IPOPT's status)
+                    raise failure
+                if stall is not None:
+                    solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failure)
+                    del history[stall[2] :]  # the stalled solution's own history; the reason says what followed
+                    warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+                    break
+                raise _refinement_failure(failure, iteration, mesh, best, history, tried=tried) from failure
+        assert solution is not None  # (solved, recovered, or raised above)
         try:
-            solution = solve_once(
-                mesh,
-                guess if solution is None else solution,
-                options["ipopt_options"],
-                options["allow_acceptable"],
-                raise_on_failure,
-                parameters,
-                estimate_multipliers=True,
-            )
             estimate = solution.interval_errors
-        except Exception as exc:  # noqa: BLE001 - any failure inside refinement is reported with what it had
-            if not history:  # the first mesh: the solve's own error (bad input, or IPOPT's status)
+        except Exception as exc:  # noqa: BLE001
+            if not history:
                 raise
             raise _refinement_failure(exc, iteration, mesh, best, history) from exc
         history.append(
@@ -264,6 +309,7 @@ def solve_refined(
                 mesh.build_s,
                 solution.solve_s,
                 time.perf_counter() - start,
+                recovery=recovery,
             )
         )
         # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
@@ -272,7 +318,15 @@ def solve_refined(
             best = solution
             best.mesh_history = list(history)
         if not solution.converged:
+            if stall is not None:
+                failed_on = solution.status
+                solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failed_on)
+                del history[stall[2] :]
+                warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
+                break
             outcome, reason = "failed", f"IPOPT's status {solution.status} on {mesh.label}"
+            if tried:
+                reason = f"{reason}; recovery tried in vain: {tried}"
             break
         target = path_target = tolerance
         try:
@@ -307,15 +361,20 @@ def solve_refined(
         # ends, path_junctions cuts the interval there instead
         violated = where[:, 1] > path_target
         errors = np.where(violated, np.maximum(errors, where[:, 1] * target / path_target), errors)
-        stalled = _stalled(history)
+        stalled = _stalled(history[since:])
+        if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
+            recovering = time.perf_counter()
+            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst)
+            if rescued is not None:
+                recoveries.append(
+                    f"refinement stalled on mesh iteration {iteration} ({mesh.label}, estimate {worst:.1e}): "
+                    f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
+                )
+                pending, since = (*rescued, recovering), len(history)
+                stall = (solution, _stall_reason(program, tolerance, history, stalled, solution, ""), len(history))
+                continue
         if stalled:
-            why = hint(solution)
-            parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
-            outcome = "stalled"
-            reason = (
-                f"{program.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
-                f"{history[-1].transcription}" + (f"; {why}" if why else "")
-            )
+            outcome, reason = "stalled", _stall_reason(program, tolerance, history, stalled, solution, tried)
             warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
             break
         if iteration + 1 < max_iterations:
@@ -347,9 +406,78 @@ def solve_refined(
         )
         warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
     assert solution is not None  # (at least one iteration ran)
+    if recoveries:
+        said = "; ".join(recoveries)
+        if outcome == "met":
+            reason = f"{program.label}: mesh tolerance {tolerance:g} met after a recovery: {said}"
+        else:
+            reason = f"{reason}; after a recovery: {said}"
     solution.mesh_history = history
     solution.refinement_outcome, solution.refinement_reason = outcome, reason
     return solution
+
+
+def _stall_reason(
+    program: Program, tolerance: float, history: Sequence[MeshIteration], stalled: str, solution: Solution, tried: str
+) -> str:
+    """The reason of a stalled refinement: the tolerance, the failing parts, the stall rule's words, the last mesh,
+    what may keep the estimate from falling (:func:`hint`) and the recoveries tried in vain."""
+    why = hint(solution)
+    parts = f" (failing: {', '.join(history[-1].failing)})" if history[-1].failing else ""
+    return (
+        f"{program.label}: mesh refinement stalled short of {tolerance:g}{parts}: {stalled}; stopped on "
+        f"{history[-1].transcription}"
+        + (f"; {why}" if why else "")
+        + (f"; recovery tried in vain: {tried}" if tried else "")
+    )
+
+
+def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverError | str) -> str:
+    """A stall's reason, where the recovery from it ended in a failure on mesh ``iteration``: the refinement returns
+    the stalled solution (a recovery never makes an outcome worse)."""
+    status = failure.status if isinstance(failure, SolverError) else failure
+    return (
+        f"{reason}; a recovery from the stall failed on mesh iteration {iteration} ({mesh.label}: IPOPT's status "
+        f"{status}), so the stalled solution is returned"
+    )
+
+
+#: The recoveries of a refinement whose warm start leads nowhere (a refined mesh's solve fails from the previous
+#: mesh's solution, or the refinement stalls), in the order tried: the same mesh cold-started from the refinement's
+#: own guess, then the scheme's uniform mesh (:meth:`Program.uniform <ocpkit.program.Program.uniform>`) of as many
+#: points, cold-started likewise. A coarse mesh can hold a spurious optimum the dynamics do not fly (an estimate of
+#: order one), and every mesh refined from it inherits it: its warm start, and its mesh, adapted to that artefact.
+RECOVERIES = ("cold start", "uniform mesh")
+#: At most this many recoveries in one refinement
+MAX_RECOVERIES = 2
+_RECOVERED = {
+    "cold start": "restarted cold from the guess on the same mesh",
+    "uniform mesh": "restarted cold from the guess on a uniform mesh of as many points",
+}
+
+
+def _recover(
+    mesh: Program, guess: Any, options: dict[str, Any], parameters: Mapping[str, float] | None, bar: float
+) -> tuple[tuple[Solution, str] | None, str]:
+    """The first of :data:`RECOVERIES` whose solve converges with a state estimate below ``bar``, with its name,
+    and what the ones tried before it gave (None and all of them where none does)."""
+    tried = []
+    for how in RECOVERIES:
+        try:
+            candidate = mesh if how == "cold start" else mesh.uniform()
+            solution = solve_once(
+                candidate, guess, options["ipopt_options"], options["allow_acceptable"], False, parameters
+            )
+            estimate = solution.interval_errors
+        except Exception as exc:  # noqa: BLE001 - a recovery that fails is reported, the next one tried
+            tried.append(f"{how}: {type(exc).__name__}: {exc}")
+            continue
+        worst = float(np.max(np.where(np.isfinite(estimate), estimate, 1e3)))
+        if solution.converged and worst < bar:
+            return (solution, how), "; ".join(tried)
+        what = solution.status if not solution.converged else f"estimate {worst:.1e}, not below {bar:.1e}"
+        tried.append(f"{how} on {candidate.label}: {what}")
+    return None, "; ".join(tried)
 
 
 def _history_of(solution: Solution) -> list[MeshIteration]:
@@ -386,10 +514,12 @@ def _refinement_failure(
     best: Solution | None,
     history: Sequence[MeshIteration],
     doing: str = "on",
+    tried: str = "",
 ) -> SolverError:
     """The :class:`~ocpkit.SolverError` of a failure on mesh ``iteration``: IPOPT's own status for a failed
     solve, the exception's type and message for anything else; the failed solve's last iterate as ``result``
-    and the best converged solution before it as ``best`` (with its ``mesh_history``)."""
+    and the best converged solution before it as ``best`` (with its ``mesh_history``); ``tried``: the recoveries
+    that failed before it (:func:`_recover`)."""
     where = (
         f"on mesh iteration {iteration} ({mesh.label})"
         if doing == "on"
@@ -403,6 +533,8 @@ def _refinement_failure(
     why = hint(best) if best is not None else ""
     if why:
         kept = f"{kept}; {why}"
+    if tried:
+        kept = f"{kept}; recovery tried in vain: {tried}"
     if isinstance(exc, SolverError):
         detail = f"{where}: {exc.detail}; {kept}" if exc.detail else f"{where}; {kept}"
         error = SolverError(exc.solver, exc.status, exc.iterations, detail, result=exc.result, best=best)
@@ -416,6 +548,8 @@ __all__ = [
     "STALL_FALL",
     "STALL_GROWTH",
     "STALL_MESHES",
+    "MAX_RECOVERIES",
+    "RECOVERIES",
     "MeshIteration",
     "cuts",
     "exact_start",

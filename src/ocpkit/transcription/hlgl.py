@@ -241,6 +241,10 @@ class HLGL(Transcription):
         weights = nodes.lagrange_matrix(nodes.HLGL_CONTROL_NODES, np.array([local]))[0]
         return 4 * k + np.arange(5), weights
 
+    def uniform(self, points: int) -> HLGL:
+        """Equal segments, two collocation points each, at least ``points`` in all (rule 10)."""
+        return HLGL(self.problem, max(1, -(-int(points) // 2)))
+
     def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> HLGL:
         """h-refinement: a segment whose error estimate exceeds ``tolerance`` splits into
         ``ceil((error / tolerance)^(1/6))`` equal segments (2 to 6; HLGL's states converge at about h^6), or,

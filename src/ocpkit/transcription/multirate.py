@@ -614,6 +614,20 @@ class MultiRateHLGL(Transcription):
 
         return PhaseFields(t_f, states(t_f), t_u, U, breaks, states, controls, estimate_breakpoints=fine_breaks)
 
+    def uniform(self, points: int) -> MultiRateHLGL:
+        """Equal coarse segments, two slow collocation points each, at least ``points`` in all, with this scheme's
+        ratio, partition and coupling (rule 10)."""
+        slow, fast = self._partition_names
+        return MultiRateHLGL(
+            self.problem,
+            max(1, -(-int(points) // 2)),
+            ratio=self.ratio,
+            slow=slow,
+            fast=fast,
+            coupling=self.coupling,
+            control_mesh=self.control_mesh,
+        )
+
     def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> MultiRateHLGL:
         """h-refinement of the coarse mesh: ``errors`` (and ``cuts``) are per fine segment (the solution's
         estimate intervals); a coarse segment whose worst fine segment exceeds ``tolerance`` refines as

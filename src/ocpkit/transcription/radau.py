@@ -300,6 +300,10 @@ class Radau(Transcription):
     #: STALL_FACTOR is split instead (below, a raise can change the solution nearby more than its own error)
     STALL_FACTOR, STALL_NODES = 0.5, 6
 
+    def uniform(self, points: int) -> Radau:
+        """Equal intervals of :attr:`N_MIN` nodes, at least ``points`` collocation points in all (rule 10)."""
+        return Radau(self.problem, self.N_MIN, max(1, -(-int(points) // self.N_MIN)))
+
     def refine(self, errors: np.ndarray, tolerance: float, cuts: Sequence[np.ndarray] | None = None) -> Radau:
         """ph-refinement (Patterson, Hager & Rao, OCAM 36 (2015), Sec. 4), with three safeguards.
 
