@@ -38,7 +38,8 @@ the members of :class:`Scheme`, one entry in :data:`~ocpkit.transcription.regist
    nothing needs refining (the refinement then stops: the next mesh would be this one).
 10. ``uniform(points)``: the scheme on equal intervals at the lowest degree its refinement uses, with at least
     ``points`` collocation points: the mesh a refinement restarts on when the meshes it refined from lead nowhere
-    (:func:`ocpkit.program.solve.solve_refined`).
+    (:func:`ocpkit.program.solve.solve_refined`). Optional: a scheme that raises ``NotImplementedError`` (the
+    default of :class:`~ocpkit.transcription.base.Transcription`) is refined without that recovery.
 
 The program never asks a scheme anything else (but for a ``problem`` it may carry, the problem it is bound to, which
 must be its phase's), so everything a scheme does not provide works the same on every scheme and on any number of

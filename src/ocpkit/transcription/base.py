@@ -102,10 +102,11 @@ class Transcription(ABC):
         """The scheme on a refined grid, this very object where nothing needs refining (rule 9); a scheme bound to a
         problem stays bound to it."""
 
-    @abstractmethod
     def uniform(self, points: int) -> Transcription:
         """The scheme on equal intervals at the lowest degree its refinement uses, with at least ``points``
-        collocation points (rule 10); a scheme bound to a problem stays bound to it."""
+        collocation points (rule 10, optional); a scheme bound to a problem stays bound to it. This default has
+        none: a refinement of the scheme skips its uniform-mesh recovery."""
+        raise NotImplementedError(f"{self.label} has no uniform mesh (scheme rule 10)")
 
     # -- a scheme bound to a problem: the shorthand of its one-phase program ----------------------------------------------
     @property
