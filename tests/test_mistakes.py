@@ -163,8 +163,16 @@ def test_a_name_read_as_an_attribute_is_named_with_the_fix():
         double_integrator(path_constraints=[Constraint("c", lambda x, u, t: u.u, upper=1.0)])
     with pytest.raises(AttributeError, match=r"lagrange: u has no attribute 'thrust': the controls are \['u'\]"):
         double_integrator(lagrange=lambda x, u, t: u.thrust**2)
-    # CasADi's own attributes stay CasADi's
+    with pytest.raises(AttributeError, match=r"dynamics: p\.k reads the parameter 'k' as an attribute: write p\['k'\]"):
+        double_integrator(dynamics=lambda x, u, t, p: [x["v"], p.k * u["u"]], parameters={"k": 2.0})
+    phase = double_integrator()
+    with pytest.raises(
+        AttributeError, match=r"linkage constraint 'c': xf\.v reads the state 'v' as an attribute: write xf\['v'\]"
+    ):
+        MultiPhaseProblem([phase], constraints=[Constraint("c", lambda e: e[0].xf.v, upper=1.0)])
+    # CasADi's own attributes stay CasADi's, and a dict's the parameters'
     double_integrator(dynamics=lambda x, u, t: [x.T[1], u.T[0]])
+    double_integrator(dynamics=lambda x, u, t, p: [x["v"], u["u"] * p.get("k", 1.0)])
 
 
 # -- value and sample -------------------------------------------------------------------------------------------------

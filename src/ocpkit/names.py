@@ -114,6 +114,16 @@ class NamedParameters(dict[str, Any]):
         """All of them as one CasADi column, in order."""
         return self._column
 
+    def __getattr__(self, name: str) -> Any:
+        # reached only where a dict has no such attribute: p.items stays the dict's
+        if name.startswith("_"):
+            raise AttributeError(name)
+        if name in self:
+            raise NameAsAttribute(
+                f"p.{name} reads the {self._kind} {name!r} as an attribute: write p[{name!r}] (p is a dict by name)"
+            )
+        raise NameAsAttribute(f"p has no attribute {name!r}: the {self._kind}s are {list(self)}, read as p[name]")
+
     def __getitem__(self, key: Any) -> Any:
         if isinstance(key, (int, np.integer, slice)) and not isinstance(key, bool):
             return self._column[key]  # type: ignore[index]  # NumPy integers index too (the stub lists int)

@@ -396,8 +396,8 @@ class MultiPhaseProblem:
             ends.append(
                 PhaseEnds(
                     self.names[k],
-                    Named(x0, states, "state"),
-                    Named(xf, states, "state"),
+                    Named(x0, states, "state", "x0"),
+                    Named(xf, states, "state", "xf"),
                     t0,
                     tf,
                     NamedParameters(P, pr.parameter_names),
