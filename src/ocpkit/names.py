@@ -9,7 +9,8 @@ problem declared::
 
 ``x["v"]`` is the state named ``"v"``; positions (``x[1]``, ``ca.vertsplit(x)``) still
 work, and arithmetic gives ordinary CasADi expressions. Attribute access (``x.v``) is not
-offered: a state named ``T`` would silently be the transpose.
+offered: a state named ``T`` would silently be the transpose. ``x.v`` for a declared name that is not one of CasADi's
+attributes is an AttributeError naming the state, the callable and the fix ``x["v"]`` (:class:`NameAsAttribute`).
 
 **One signature, whatever the parameters.** A callable receives the parameters ``p`` (fixed
 and free, by name) when it needs one more argument than its inputs, ``(x, u, t, p)``, even
@@ -36,18 +37,41 @@ class UnknownName(KeyError):
         return str(self.args[0]) if self.args else ""
 
 
+class NameAsAttribute(AttributeError):
+    """A name asked of a :class:`Named` view as an attribute, ``x.v`` (it says to write ``x["v"]``)."""
+
+
 class Named(ca.SX):
-    """A CasADi column vector whose entries also answer to names: ``x["h"]`` (see the module docstring)."""
+    """A CasADi column vector whose entries also answer to names: ``x["h"]`` (see the module docstring).
+
+    ``label``: the argument it is given as (``"x"``, ``"xf"``), for the messages.
+    """
 
     _names: tuple[str, ...]
     _kind: str
+    _label: str
 
-    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "variable") -> None:
+    def __init__(self, column: ca.SX, names: Sequence[str], kind: str = "variable", label: str = "x") -> None:
         super().__init__(column)
         if len(names) != column.numel():
             raise ValueError(f"{len(names)} names for {column.numel()} {kind} entries")
         object.__setattr__(self, "_names", tuple(names))
         object.__setattr__(self, "_kind", kind)
+        object.__setattr__(self, "_label", label)
+
+    def __getattr__(self, name: str) -> Any:
+        # reached only where CasADi has no such attribute: x.T stays the transpose
+        if name.startswith("_"):
+            raise AttributeError(name)
+        label, kind = self._label, self._kind
+        if name in self._names:
+            raise NameAsAttribute(
+                f"{label}.{name} reads the {kind} {name!r} as an attribute: write {label}[{name!r}] "
+                f"(attribute access is not offered: a {kind} named T would be the transpose)"
+            )
+        raise NameAsAttribute(
+            f"{label} has no attribute {name!r}: the {kind}s are {list(self._names)}, read as {label}[name]"
+        )
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -90,6 +114,16 @@ class NamedParameters(dict[str, Any]):
         """All of them as one CasADi column, in order."""
         return self._column
 
+    def __getattr__(self, name: str) -> Any:
+        # reached only where a dict has no such attribute: p.items stays the dict's
+        if name.startswith("_"):
+            raise AttributeError(name)
+        if name in self:
+            raise NameAsAttribute(
+                f"p.{name} reads the {self._kind} {name!r} as an attribute: write p[{name!r}] (p is a dict by name)"
+            )
+        raise NameAsAttribute(f"p has no attribute {name!r}: the {self._kind}s are {list(self)}, read as p[name]")
+
     def __getitem__(self, key: Any) -> Any:
         if isinstance(key, (int, np.integer, slice)) and not isinstance(key, bool):
             return self._column[key]  # type: ignore[index]  # NumPy integers index too (the stub lists int)
@@ -100,52 +134,99 @@ class NamedParameters(dict[str, Any]):
 
 @contextmanager
 def naming(what: str) -> Iterator[None]:
-    """Say ``what`` asked for an unknown name (an :class:`UnknownName` from a view), chaining the original; any other
-    error of the user's code goes through untouched."""
+    """Say ``what`` asked for an unknown name (an :class:`UnknownName` from a view) or a name as an attribute (a
+    :class:`NameAsAttribute`), chaining the original; any other error of the user's code goes through untouched."""
     try:
         yield
     except UnknownName as exc:
         raise UnknownName(f"{what}: {exc}") from exc
+    except NameAsAttribute as exc:
+        raise NameAsAttribute(f"{what}: {exc}") from exc
 
 
-def takes_parameters(fn: Callable[..., Any], inputs: int, what: str = "the callable") -> bool | None:
+def argument_names(fn: Callable[..., Any]) -> list[str] | None:
+    """The names of ``fn``'s positional arguments, or None where its signature cannot be read."""
+    try:
+        parameters = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return None
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return [q.name for q in parameters if q.kind in kinds]
+
+
+def takes_parameters(
+    fn: Callable[..., Any],
+    inputs: int,
+    what: str = "the callable",
+    signature: Sequence[str] | None = None,
+    hint: str = "",
+) -> bool | None:
     """Whether ``fn`` takes the parameters after its ``inputs`` arguments: True when it needs them, False when it
     takes no more than its inputs, None when it may take them (a default value, ``*args``) or its signature cannot be
     read.
 
-    A callable needing more than ``inputs + 1`` positional arguments is a TypeError naming ``what``.
+    A callable needing more than ``inputs + 1`` positional arguments, or taking fewer than ``inputs``, is a TypeError
+    naming ``what``, the arguments it is called with (``signature``: their names) and ``hint`` (the fix).
     """
     try:
-        signature = inspect.signature(fn)
+        parameters = inspect.signature(fn).parameters
     except (TypeError, ValueError):
         return None
-    params = list(signature.parameters.values())
+    params = list(parameters.values())
     positional = [
         q for q in params if q.kind in (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
     ]
     required = [q for q in positional if q.default is inspect.Parameter.empty]
+    given = f"{inputs} ({', '.join(signature)})" if signature is not None else str(inputs)
     if len(required) > inputs + 1:
         raise TypeError(
-            f"{what} needs {len(required)} arguments; it is given {inputs}, or {inputs + 1} with the parameters p last"
+            f"{what} needs {len(required)} arguments; it is given {given}, or {inputs + 1} with the parameters p "
+            f"last{f': {hint}' if hint else ''}"
         )
     if len(required) > inputs:
         return True
-    if len(positional) > inputs or any(q.kind is inspect.Parameter.VAR_POSITIONAL for q in params):
+    varargs = any(q.kind is inspect.Parameter.VAR_POSITIONAL for q in params)
+    if len(positional) < inputs and not varargs:
+        takes = ", ".join(q.name for q in positional)
+        raise TypeError(
+            f"{what} takes {len(positional)} argument{'s' if len(positional) != 1 else ''} ({takes}); it is called "
+            f"with {given}, or {inputs + 1} with the parameters p last: {hint or 'write it with those arguments'}"
+        )
+    if len(positional) > inputs or varargs:
         return None
     return False
 
 
-def call(fn: Callable[..., Any], inputs: Sequence[Any], p: Any, *, has_parameters: bool, what: str) -> Any:
-    """``fn(*inputs)``, or ``fn(*inputs, p)`` when it takes the parameters (:func:`takes_parameters`).
+def call(
+    fn: Callable[..., Any],
+    inputs: Sequence[Any],
+    p: Any,
+    *,
+    has_parameters: bool,
+    what: str,
+    signature: Sequence[str] | None = None,
+    hint: str = "",
+) -> Any:
+    """``fn(*inputs)``, or ``fn(*inputs, p)`` when it takes the parameters (:func:`takes_parameters`; ``signature``:
+    the inputs' names, and ``hint`` a fix, for its messages).
 
     One that may take them (``P=None``, ``*args``, an unreadable signature) gets them when the problem has parameters.
     An unknown name asked of a view is an :class:`UnknownName` that says ``what`` asked.
     """
-    wants = takes_parameters(fn, len(inputs), what)
+    wants = takes_parameters(fn, len(inputs), what, signature, hint)
     if wants is None:
         wants = has_parameters
     with naming(what):
         return fn(*inputs, p) if wants else fn(*inputs)
 
 
-__all__ = ["Named", "NamedParameters", "UnknownName", "call", "naming", "takes_parameters"]
+__all__ = [
+    "NameAsAttribute",
+    "argument_names",
+    "Named",
+    "NamedParameters",
+    "UnknownName",
+    "call",
+    "naming",
+    "takes_parameters",
+]

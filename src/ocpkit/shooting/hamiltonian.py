@@ -240,7 +240,7 @@ def _user_law(problem: OptimalControlProblem, u_star: Callable[..., Any], sample
     ham = problem.functions.hamiltonian
     _require_autonomous(ham)
     names = problem.state_names
-    inputs = [Named(ham.x, names, "state"), Named(ham.p, names, "costate")]
+    inputs = [Named(ham.x, names, "state", "x"), Named(ham.p, names, "costate", "p")]
     params = NamedParameters(ham.P, problem.parameter_names)
     u = column(call(u_star, inputs, params, has_parameters=problem.takes_parameters, what=what), what)
     if u.shape != (nu, 1):

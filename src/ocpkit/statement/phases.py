@@ -31,7 +31,7 @@ import numpy as np
 from ..names import Named, NamedParameters, UnknownName, call
 from .constraints import Constraint, ConstraintSet, checked_constraints
 from .problem import OptimalControlProblem
-from .symbols import column, constraint_set
+from .symbols import column, constraint_set, read_inputs
 from .variables import FreeParameter
 
 if TYPE_CHECKING:
@@ -205,6 +205,7 @@ class MultiPhaseProblem:
         self._symbols = self._ends_symbols()
         self.cost = self._trajectory_cost(cost)
         self.linkage = self._linkage_constraints(self.constraints)
+        self._check_parameters_read()
         #: the times a problem was cut at (:meth:`split`), else None
         self.cut_times: np.ndarray | None = None
         #: the problem the phases are, cut at times (:meth:`split` without a cost, constraints or local parameters of
@@ -395,8 +396,8 @@ class MultiPhaseProblem:
             ends.append(
                 PhaseEnds(
                     self.names[k],
-                    Named(x0, states, "state"),
-                    Named(xf, states, "state"),
+                    Named(x0, states, "state", "x0"),
+                    Named(xf, states, "state", "xf"),
                     t0,
                     tf,
                     NamedParameters(P, pr.parameter_names),
@@ -453,6 +454,47 @@ class MultiPhaseProblem:
         """The linkage constraints compiled into one function ``e -> g`` with bounds (None without)."""
         e = self._symbols[0]
         return constraint_set("linkage", constraints, [e], ["e"], ca.SX(0, 1), self._call_on_ends)
+
+    def _check_parameters_read(self) -> None:
+        """A ValueError naming each free parameter that no function reads: neither a function of a phase that names
+        it (one of the trajectory's: of any phase naming it) nor the trajectory's cost or linkage constraints. The
+        solver would return an arbitrary value for it (IPOPT: the middle of its bounds). Checked here, where every
+        function that may read it is known: a phase's problem alone cannot tell (a parameter that only the
+        trajectory's cost reads is declared by a phase)."""
+        if not any(pr.free_parameters for pr in self.problems):
+            return
+        e, parts = self._symbols[0], self._symbols[1]
+        outputs = [] if self.cost is None else [self.cost(e)]
+        if self.linkage is not None:
+            outputs.append(self.linkage.function(e, ca.SX(0, 1)))
+        trajectory = ca.vertcat(*outputs) if outputs else ca.SX(0, 1)
+        read: dict[str, bool] = {}
+        where: dict[str, list[str]] = {}
+        for k, pr in enumerate(self.problems):
+            if not pr.free_parameters:
+                continue
+            _, by_phase = read_inputs(pr.functions)
+            offset = 2 * pr.nx + 2
+            for j, v in enumerate(pr.free_parameters):
+                i = len(pr.parameters) + j
+                key = v.name if v.name in self.shared else f"{v.name}@{k}"
+                seen = i in by_phase or bool(ca.depends_on(trajectory, parts[k][offset + i]))
+                read[key] = read.get(key, False) or seen
+                where.setdefault(key, []).append(self.names[k])
+        unread = [key for key, seen in read.items() if not seen]
+        if unread:
+            key = unread[0]
+            name = key.split("@")[0]
+            phases = ", ".join(map(repr, where[key]))
+            trajectory_functions = (
+                ", nor the trajectory's cost or linkage constraints" if len(self) > 1 or outputs else ""
+            )
+            raise ValueError(
+                f"free parameter {name!r} of {phases} is read by no function (neither the dynamics, the costs nor "
+                f"the constraints{trajectory_functions}), so the solver would return an arbitrary value for it (the "
+                f"middle of its bounds): use it (p[{name!r}]) in one of them, or give it a value "
+                f"(parameters={{{name!r}: ...}}), or remove it from free_parameters="
+            )
 
     def trajectory_cost(self, values: ArrayLike) -> float:
         """The trajectory-level cost at the phases' boundary values ``values`` (the ends column, :meth:`ends_layout`;

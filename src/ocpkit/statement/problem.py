@@ -35,12 +35,21 @@ import numpy as np
 from ..names import NamedParameters
 from .constraints import Constraint, checked_constraints
 from .functions import ProblemFunctions
-from .symbols import StatementSymbols, build_functions, column
+from .symbols import StatementSymbols, build_functions, column, read_inputs
 from .times import Duration, FreeFinalTime, FreeInitialTime
 from .variables import AffineScaling, Control, FreeParameter, State, Variable
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+
+# what an expression of a solution is, by kind (OptimalControlProblem.expression), for the messages
+EXPRESSION_KINDS = {
+    "running": "sample takes a function of time, (x, u, t) or (x, u, t, p); "
+    "a number of the ends is value(lambda x0, xf, t0, tf: ...)",
+    "boundary": "value takes a function of the ends, (x0, xf, t0, tf) or (x0, xf, t0, tf, p); "
+    "a function of time is sample(lambda x, u, t: ...)",
+}
 
 
 class OptimalControlProblem:
@@ -232,7 +241,21 @@ class OptimalControlProblem:
                 path_constraints=self.path_constraints,
                 boundary_constraints=self.boundary_constraints,
             )
+            self._check_controls_read(_functions)
         set_(self, "functions", _functions)
+
+    def _check_controls_read(self, functions: ProblemFunctions) -> None:
+        """A ValueError naming each declared control that no function reads: the NLP would return any value for it
+        (the phase's own functions are the only ones that see a control, so this is known here)."""
+        read, _ = read_inputs(functions)
+        unread = [c.name for j, c in enumerate(self.controls) if j not in read]
+        if unread:
+            names, uses = ", ".join(map(repr, unread)), ", ".join(f"u[{n!r}]" for n in unread)
+            raise ValueError(
+                f"control {names} of {self.name!r} is read by no function (neither the dynamics, the running cost "
+                f"nor a path constraint), so the solver would return an arbitrary value for it: use it ({uses}) in "
+                "one of them, or remove it from controls="
+            )
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"an OptimalControlProblem is immutable; use replace({name}=...)")
@@ -417,15 +440,17 @@ class OptimalControlProblem:
         ``kind="running"``: ``fn(x, u, t[, p])``, the Function ``(x, u, t, P) -> column``; ``"boundary"``:
         ``fn(x0, xf, t0, tf[, p])``, the Function ``(x0, xf, t0, tf, P) -> column``. Names as in
         :mod:`ocpkit.names`; ``P`` as in :meth:`dynamics`, then ``extra_parameters`` (names ``p`` has besides the
-        problem's: a trajectory's parameters that another phase declares).
+        problem's: a trajectory's parameters that another phase declares). A callable of the other kind's arguments,
+        or of too few or too many, is a TypeError naming ``what`` and both kinds (``sample``'s and ``value``'s).
         """
         if kind not in ("running", "boundary"):
             raise ValueError(f"kind must be 'running' or 'boundary', got {kind!r}")
+        fix = EXPRESSION_KINDS[kind]
         if not callable(fn):
-            raise TypeError(f"{what} must be a callable of the problem's variables, got {fn!r}")
+            raise TypeError(f"{what} must be a callable of the problem's variables, got {fn!r}: {fix}")
         names = [*self.parameter_names, *extra_parameters]
         sym = StatementSymbols.of(self.state_names, self.control_names, names)
-        expr = column(sym.call(fn, kind, what, has_parameters=bool(names)), what)
+        expr = column(sym.call(fn, kind, what, has_parameters=bool(names), fix=fix), what)
         try:
             return ca.Function("expression", sym.inputs(kind), [expr])
         except RuntimeError:

@@ -10,9 +10,32 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..names import Named, NamedParameters, call
+from ..names import Named, NamedParameters, argument_names, call
 from .constraints import Constraint, ConstraintSet
 from .functions import ProblemFunctions
+
+# the inputs of a running callable (a function of time) and of a boundary one (a function of the ends), before p
+SIGNATURES = {"running": ("x", "u", "t"), "boundary": ("x0", "xf", "t0", "tf")}
+# argument names that say a callable was written for the other signature (an end or its time along the path, a
+# control at the ends); both signatures take four arguments with p, so the count cannot tell them apart
+FOREIGN_NAMES = {"running": frozenset(SIGNATURES["boundary"]), "boundary": frozenset({"u"})}
+# what a running or a boundary callable is, for the messages
+READS = {"running": "a function of time", "boundary": "a function of the ends"}
+
+
+def check_signature(fn: Callable[..., Any], kind: str, what: str, fix: str = "") -> None:
+    """A TypeError naming ``what``, the signature it is read with and ``fix`` where ``fn``'s argument names are those
+    of the other signature (``FOREIGN_NAMES``): ``lambda x0, xf, t0, tf: xf[0]`` as a path constraint would be
+    read as ``(x, u, t, p)``."""
+    names = argument_names(fn)
+    if not names or not FOREIGN_NAMES[kind] & set(names):
+        return
+    other = "boundary" if kind == "running" else "running"
+    fix = fix or f"write it as ({', '.join(SIGNATURES[kind])})"
+    raise TypeError(
+        f"{what} takes ({', '.join(names)}), {READS[other]}, but is called as {READS[kind]}, "
+        f"({', '.join(SIGNATURES[kind])}) and p last where it takes one: {fix}"
+    )
 
 
 @dataclass(frozen=True)
@@ -43,8 +66,8 @@ class StatementSymbols:
         x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
         P = ca.SX.sym("P", len(parameter_names))
         views = {
-            "running": [Named(x, state_names, "state"), Named(u, control_names, "control"), t],
-            "boundary": [Named(x0, state_names, "state"), Named(xf, state_names, "state"), t0, tf],
+            "running": [Named(x, state_names, "state", "x"), Named(u, control_names, "control", "u"), t],
+            "boundary": [Named(x0, state_names, "state", "x0"), Named(xf, state_names, "state", "xf"), t0, tf],
         }
         return cls(x, u, t, x0, xf, t0, tf, P, views, NamedParameters(P, parameter_names))
 
@@ -53,9 +76,13 @@ class StatementSymbols:
         plain = [self.x, self.u, self.t] if kind == "running" else [self.x0, self.xf, self.t0, self.tf]
         return [*plain, self.P]
 
-    def call(self, fn: Callable[..., Any], kind: str, what: str, *, has_parameters: bool) -> Any:
-        """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`)."""
-        return call(fn, self.views[kind], self.p, has_parameters=has_parameters, what=what)
+    def call(self, fn: Callable[..., Any], kind: str, what: str, *, has_parameters: bool, fix: str = "") -> Any:
+        """``fn`` on the named views of ``kind`` (and ``p`` if it takes it: :func:`ocpkit.names.call`); one written
+        for the other signature (``check_signature``) or with too few or too many arguments is a TypeError
+        naming ``what``, the signature and ``fix``."""
+        check_signature(fn, kind, what, fix)
+        views = self.views[kind]
+        return call(fn, views, self.p, has_parameters=has_parameters, what=what, signature=SIGNATURES[kind], hint=fix)
 
 
 def build_functions(
@@ -79,27 +106,31 @@ def build_functions(
     x, u, t, P = sym.x, sym.u, sym.t, sym.P
     x0, xf, s0, sf = sym.x0, sym.xf, sym.t0, sym.tf
 
-    def user(fn: Callable[..., Any], kind: str, what: str) -> Any:
-        return sym.call(fn, kind, what, has_parameters=with_parameters)
+    def user(fn: Callable[..., Any], kind: str, what: str, fix: str = "") -> Any:
+        return sym.call(fn, kind, what, has_parameters=with_parameters, fix=fix)
 
-    xdot = column(user(dynamics, "running", "dynamics"), "dynamics")
+    xdot = column(user(dynamics, "running", "dynamics", "write the dynamics as f(x, u, t)"), "dynamics")
     if xdot.shape != (nx, 1):
         raise ValueError(f"dynamics returned shape {xdot.shape}, expected ({nx}, 1) for states {list(state_names)}")
     f = ca.Function("f_p", [x, u, t, P], [xdot], ["x", "u", "t", "P"], ["xdot"])
     L: ca.Function | None = None
     phi: ca.Function | None = None
     if lagrange is not None:
-        expr = column(user(lagrange, "running", "lagrange"), "lagrange")
+        fix = "the running cost is lagrange=L(x, u, t); a cost of the ends is mayer=phi(x0, xf, t0, tf)"
+        expr = column(user(lagrange, "running", "lagrange", fix), "lagrange")
         if expr.shape != (1, 1):
             raise ValueError(f"lagrange must return a scalar, got shape {expr.shape}")
         L = ca.Function("L_p", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["L"])
     if mayer is not None:
-        expr = column(user(mayer, "boundary", "mayer"), "mayer")
+        fix = "the cost of the ends is mayer=phi(x0, xf, t0, tf); a running cost is lagrange=L(x, u, t)"
+        expr = column(user(mayer, "boundary", "mayer", fix), "mayer")
         if expr.shape != (1, 1):
             raise ValueError(f"mayer must return a scalar, got shape {expr.shape}")
         phi = ca.Function("phi_p", [x0, xf, s0, sf, P], [expr], ["x0", "xf", "t0", "tf", "P"], ["phi"])
+    on_path = "write it as (x, u, t) for a constraint along the path, or move it to boundary_constraints="
+    on_ends = "write it as (x0, xf, t0, tf) for a constraint on the ends, or move it to path_constraints="
     path = constraint_set(
-        "path", path_constraints, [x, u, t], ["x", "u", "t"], P, lambda fn, what: user(fn, "running", what)
+        "path", path_constraints, [x, u, t], ["x", "u", "t"], P, lambda fn, what: user(fn, "running", what, on_path)
     )
     boundary = constraint_set(
         "boundary",
@@ -107,9 +138,31 @@ def build_functions(
         [x0, xf, s0, sf],
         ["x0", "xf", "t0", "tf"],
         P,
-        lambda fn, what: user(fn, "boundary", what),
+        lambda fn, what: user(fn, "boundary", what, on_ends),
     )
     return ProblemFunctions(f, L, phi, path, boundary)
+
+
+def read_inputs(functions: ProblemFunctions) -> tuple[set[int], set[int]]:
+    """``(controls, parameters)``: the indices of the controls and of the parameter vector ``P`` that some function of
+    ``functions`` depends on (the dynamics, the costs, the path and the boundary constraints)."""
+    f = functions.f
+    x, u, t, P = (ca.SX.sym(name, f.size1_in(i)) for i, name in enumerate(("x", "u", "t", "P")))
+    x0, xf, t0, tf = ca.SX.sym("x0", x.numel()), ca.SX.sym("xf", x.numel()), ca.SX.sym("t0"), ca.SX.sym("tf")
+    running = [f(x, u, t, P)]
+    boundary = []
+    if functions.L is not None:
+        running.append(functions.L(x, u, t, P))
+    if functions.path is not None:
+        running.append(functions.path.function(x, u, t, P))
+    if functions.phi is not None:
+        boundary.append(functions.phi(x0, xf, t0, tf, P))
+    if functions.boundary is not None:
+        boundary.append(functions.boundary.function(x0, xf, t0, tf, P))
+    along, ends = ca.vertcat(*running), ca.vertcat(*boundary)
+    controls = {j for j in range(u.numel()) if ca.depends_on(along, u[j])}
+    parameters = {j for j in range(P.numel()) if ca.depends_on(along, P[j]) or ca.depends_on(ends, P[j])}
+    return controls, parameters
 
 
 def constraint_set(
