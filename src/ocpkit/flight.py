@@ -93,7 +93,7 @@ def fly(trajectory: Trajectory, tol: float = TOLERANCE, x0: ArrayLike | None = N
     p = np.vstack([a, h, coefficients.transpose(0, 2, 1).reshape(K, nu * n).T, np.tile(fixed[:, None], (1, K))])
     integrator = _integrator(problem.functions, nx, nu, n, P.size, tol)
     try:
-        out = integrator.mapaccum(K)(x0=np.append(x0 / x_scale, 0.0), p=p)
+        out = _mapped(integrator, problem.functions, K)(x0=np.append(x0 / x_scale, 0.0), p=p)
     except RuntimeError as exc:
         first = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
         raise RuntimeError(f"flying the control failed (CVODES): {first}") from None
@@ -157,6 +157,16 @@ def _control_series(trajectory: Trajectory, stops: np.ndarray) -> np.ndarray:
     t = a[:, None] + (b - a)[:, None] * (xi[None, :] + 1.0) / 2.0
     U = np.asarray(raw(t), dtype=float).reshape(K, n, problem.nu)
     return np.einsum("ij,kjl->kil", np.linalg.inv(chebyshev.chebvander(xi, n - 1)), U)
+
+
+def _mapped(integrator: ca.Function, functions: ProblemFunctions, K: int) -> ca.Function:
+    """``integrator`` mapped over ``K`` intervals (``mapaccum``), built once per integrator and ``K`` (a verdict's
+    flight of the same mesh again, or of a loop's solutions, reuses it)."""
+    key = ("flight map", integrator.name(), id(integrator), K)
+    cache = functions.derived
+    if key not in cache:
+        cache[key] = integrator.mapaccum(K)
+    return cache[key]
 
 
 def _integrator(functions: ProblemFunctions, nx: int, nu: int, n: int, nP: int, tol: float) -> ca.Function:
