@@ -171,7 +171,7 @@ class Extremal:
 
     @property
     def remedy(self) -> str:
-        """What to try next: the failed certificate's remedy, else the shooting's (with its measured noise)."""
+        """What to try next, the failed certificate's remedy, else the shooting's (with its measured noise)."""
         return self.shooting.remedy if self.certificate.passed else Outcome.CERTIFICATE_FAILED.remedy
 
     @property

@@ -181,7 +181,7 @@ class PhaseSolution(Trajectory):
         """Control values (last axis: the controls) as the dynamics admit them: a periodic control
         (:attr:`~ocpkit.Control.period`) with a finite bound and bounds at least a period apart moved by whole
         periods into its declared turn (:func:`~ocpkit.statement.wrap_periodic`), then every control clipped to its
-        bounds. (:meth:`control` reports a periodic control as a continuous angle instead, the same angle.)"""
+        bounds. (:meth:`~ocpkit.trajectory.Trajectory.control` reports a periodic control as a continuous angle instead, the same angle.)"""
         lo, hi = self._control_bounds
         return np.clip(wrap_periodic(values, self.problem.controls), lo, hi)
 
@@ -654,7 +654,7 @@ class Solution(Trajectory):
 
     @property
     def error_estimate(self) -> float:
-        """Deprecated: the state part of the verdict is :attr:`state_error`, every part is in :attr:`verdict`."""
+        """Deprecated; the state part of the verdict is :attr:`state_error`, every part is in :attr:`verdict`."""
         renamed("Solution.error_estimate", "Solution.state_error (every part of the error: Solution.verdict)")
         return self.state_error
 

@@ -45,8 +45,9 @@ if TYPE_CHECKING:
 
 #: The tolerance of a verdict when the solve gave none (``solve()``'s default ``error_threshold``)
 DEFAULT_TOLERANCE = 1e-3
-#: What a verdict computes: ``"whole"`` every part; ``"fast"`` all but the objective's (no flight of the control)
+#: The kinds of verdict, ``"whole"`` (every part) or ``"fast"`` (all but the objective's, with no flight of the control)
 VerdictKind = Literal["whole", "fast"]
+#: The names of the kinds, as a solve takes them (``solve(verdict=...)``)
 KINDS: tuple[str, ...] = ("whole", "fast")
 #: How close to a bound (a fraction of the bounds' range, or of the bound's size where larger) counts as on it
 ON_BOUND = 1e-6
@@ -65,8 +66,8 @@ class Note:
 
     subject: str
     text: str
-    #: recorded in the verdict, not warned: a state no function reads is often an output by design (the downrange of
-    #: a minimum-time ascent), and to_extremal, which it concerns, eliminates it
+    #: whether it is recorded in the verdict but not warned (a state no function reads is often an output by design,
+    #: the downrange of a minimum-time ascent)
     quiet: bool = False
 
     def __str__(self) -> str:
@@ -121,7 +122,7 @@ class Verdict:
 
     @property
     def parts(self) -> dict[str, float]:
-        """Every computed part by name: ``state``, ``objective``, ``path <label>``."""
+        """Every computed part by name (``state``, ``objective``, ``path <label>``)."""
         out = {"state": self.state}
         if self.objective is not None:
             out["objective"] = self.objective

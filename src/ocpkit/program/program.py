@@ -866,7 +866,7 @@ class Program:
             <ocpkit.statement.problem.OptimalControlProblem.parameters>`) for this solve. They are NLP variables
             pinned by their bounds, so the NLP and the IPOPT instance are built once and reused for any values: a
             study of many values builds once. The solution's problem carries the values solved with.
-        verdict : {"whole", "fast"}
+        verdict : str
             ``"whole"`` (default): every part of the verdict. ``"fast"``: all but the objective's part, which costs
             an integration of the flown control (for loops and sliders); the verdict says it skipped it.
         """

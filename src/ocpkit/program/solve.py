@@ -76,7 +76,7 @@ class MeshIteration:
     #: what drives the refinement on this mesh, which the stall rule follows (the state part while it is over the
     #: tolerance, else the largest of the others: path violations between points, the objective)
     worst: float = float("nan")
-    #: how this mesh was started where it was not warm-started from the previous one: ``""`` (the first mesh from
+    #: how this mesh was started where it was not warm-started from the previous one, ``""`` (the first mesh from
     #: the guess, or a warm start), ``"cold start"`` or ``"uniform mesh"`` (a recovery, :data:`RECOVERIES`)
     recovery: str = ""
 

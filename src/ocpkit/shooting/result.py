@@ -61,7 +61,7 @@ class IndirectResult:
 
     @property
     def remedy(self) -> str:
-        """What to try next: the ``status``'s remedy, after the measured noise and the ``tol`` that would pass where
+        """What to try next, the ``status``'s remedy, after the measured noise and the ``tol`` that would pass where
         the run stalled (:func:`stall_advice`)."""
         if self.noise is None:
             return self.status.remedy
