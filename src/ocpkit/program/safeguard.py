@@ -71,9 +71,12 @@ class ControlSafeguard:
         return lb, ub
 
     def on_box(self, w: np.ndarray, rtol: float = 1e-6) -> dict[str, float]:
-        """The controls that ``w`` holds at their box (within ``rtol`` of its width), name -> limit."""
+        """The controls that ``w`` holds at their box (within ``rtol`` of its width), name -> limit; none where ``w``
+        lies beyond the box (an unbounded solve's solution, kept)."""
         values = np.asarray(w, dtype=float)[self.indices]
         margin = rtol * (self.upper - self.lower)
+        if np.any((values < self.lower - margin) | (values > self.upper + margin)):
+            return {}
         hit = (values <= self.lower + margin) | (values >= self.upper - margin)
         return {self.names[k]: self.limits[k] for k in np.flatnonzero(hit)}
 

@@ -180,7 +180,14 @@ def solve_once(
         if guard is None or not guard.exceeded(result.w):
             return result
         boxed = run(w0, ipopt_options, bounds=guard.bounds(lbw, ubw))
-        return boxed if boxed.success or not result.success else result
+        if not result.success or (boxed.success and not guard.on_box(boxed.w)):
+            return boxed if boxed.success or not result.success else result
+        if not boxed.success:
+            return result
+        # both converged, the box binding: the one the mesh resolves better (a legitimate large control's
+        # unbounded solution, or the box's where the unbounded one exploits the scheme)
+        errors = [_largest_estimate(program.solution(r)) for r in (result, boxed)]
+        return boxed if errors[1] < errors[0] else result
 
     warm_options = {**WARM_START, **(ipopt_options or {})}
     previous = exact_start(program, guess)
@@ -196,6 +203,11 @@ def solve_once(
         if result.success:
             return settle(result if boxed else held(result, w0), program.solution, raise_on_failure)
     return settle(held(run(w0, ipopt_options), w0), program.solution, raise_on_failure)
+
+
+def _largest_estimate(solution: Solution) -> float:
+    estimate = np.asarray(solution.interval_errors, dtype=float)
+    return float(np.max(np.where(np.isfinite(estimate), estimate, np.inf))) if estimate.size else 0.0
 
 
 # -- what refinement asks of a solution, phase by phase ------------------------------------------------------------------
