@@ -95,7 +95,9 @@ def control_safeguard(program: Program, factor: float = SAFEGUARD_FACTOR) -> Con
         guessed = controls(np.linspace(problem.t0, problem.tf_guess, 21))
         for group, table in zip(phase.layout.groups, phase.layout.tables):
             for j, v in enumerate(group.variables):
-                if not isinstance(v, Control) or v.guess is None or np.isfinite(v.lower) or np.isfinite(v.upper):
+                if not isinstance(v, Control) or v.guess is None or v.period is not None:
+                    continue  # an angle runs by whole turns
+                if np.isfinite(v.lower) or np.isfinite(v.upper):
                     continue
                 column = problem.control_names.index(v.name)
                 size = float(np.max(np.abs(guessed[:, column])))
