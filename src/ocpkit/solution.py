@@ -359,6 +359,9 @@ class Solution(Trajectory):
     #: ``mesh_tolerance``; ``solve(verdict=...)``)
     verdict_tolerance: float = field(default=DEFAULT_TOLERANCE, repr=False)
     verdict_kind: VerdictKind = field(default="whole", repr=False)
+    #: the unbounded controls the solve held on the box of a runaway (:mod:`ocpkit.program.safeguard`), name -> the
+    #: box's limit: the solution is the bounded problem's there, which its verdict notes
+    held_controls: dict[str, float] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         if not self.phases:

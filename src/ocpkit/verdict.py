@@ -10,7 +10,9 @@ A :class:`Verdict` judges a :class:`~ocpkit.Solution` (its :attr:`~ocpkit.Soluti
   between the scheme's points, in units of its scale (:func:`~ocpkit.accuracy.path_violations`).
 * **notes** (:class:`Note`), what no error estimate shows and a user should know: a free time or a free parameter
   that ends on its bound (the optimum may lie beyond it), a control on one of its bounds over the whole horizon (the
-  bound decides the solution), a state that no function reads (an output: it changes nothing).
+  bound decides the solution), an unbounded control held on the box its runaway solve was given
+  (:mod:`ocpkit.program.safeguard`: the solution is the bounded problem's), a state that no function reads (an
+  output: it changes nothing).
 
 ``solve()`` computes the whole verdict of every direct solve with its ``error_threshold`` as the tolerance and warns
 once per failing part (:class:`~ocpkit.accuracy.AccuracyWarning`, naming the part, its value, the tolerance and the
@@ -242,6 +244,15 @@ def notes(solution: Solution) -> list[Note]:
         prefix = "" if solution.single else f"phase {p.name}: "
         found = _time_notes(p) + _control_notes(p) + (_unread_state_notes(p.statement) if solution.single else [])
         out += [Note(prefix + n.subject, n.text, n.quiet) for n in found]
+    for name, limit in solution.held_controls.items():
+        out.append(
+            Note(
+                f"control {name}",
+                f"the unbounded control ran away in its solve and was held in the box +/-{limit:.4g} (a multiple of "
+                "its guess); the solution ends on it, so it solves the bounded problem: refine the mesh "
+                "(solve(mesh_tolerance=...)), or declare the control's bounds (Control(..., lower=..., upper=...))",
+            )
+        )
     statement = solution.statement
     for v in getattr(statement, "free_parameters", ()):
         value = solution.parameters.get(v.name)

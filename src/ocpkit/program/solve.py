@@ -34,6 +34,7 @@ from ..errors import SolverError
 from ..nlp import WARM_START, NLPResult, failure_hint, linear_solver, solve_nlp
 from ..solution import Solution, SolveOptions
 from ..verdict import SolutionNote, VerdictKind, check_kind
+from .safeguard import control_safeguard, held_controls
 
 if TYPE_CHECKING:
     from .program import Program
@@ -110,6 +111,7 @@ def solve(
         solution = solve_refined(
             program, guess, mesh_tolerance, max_mesh_iterations, options, raise_on_failure, parameters
         )
+        solution.held_controls = held_controls(solution)
         solution.verdict_tolerance, solution.verdict_kind = mesh_tolerance, verdict
         if solution.converged:
             # the refinement's own warning says which parts it did not meet: the notes are what is left to say
@@ -117,6 +119,7 @@ def solve(
                 warnings.warn(str(note), SolutionNote, stacklevel=user_stacklevel())
     else:
         solution = solve_once(program, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
+        solution.held_controls = held_controls(solution)
         solution.verdict_kind = verdict
         if error_threshold is not None:
             solution.verdict_tolerance = error_threshold
@@ -158,13 +161,41 @@ def solve_once(
     lbg, ubg = program.constraint_bounds()
 
     def run(
-        w0: np.ndarray, options: dict[str, Any] | None, multipliers: tuple[np.ndarray, np.ndarray] | None = None
+        w0: np.ndarray,
+        options: dict[str, Any] | None,
+        multipliers: tuple[np.ndarray, np.ndarray] | None = None,
+        bounds: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> NLPResult:
         lam_g0, lam_w0 = multipliers if multipliers is not None else (None, None)
+        lb, ub = bounds if bounds is not None else (lbw, ubw)
         solver = program.solver(options)
         return solve_nlp(
-            solver, w0, lbw, ubw, lbg, ubg, allow_acceptable=allow_acceptable, lam_w0=lam_w0, lam_g0=lam_g0
+            solver,
+            np.clip(w0, lb, ub),
+            lb,
+            ub,
+            lbg,
+            ubg,
+            allow_acceptable=allow_acceptable,
+            lam_w0=lam_w0,
+            lam_g0=lam_g0,
         )
+
+    guard = control_safeguard(program)
+
+    def held(result: NLPResult, w0: np.ndarray) -> NLPResult:
+        # an unbounded control that ran away is solved again from the same start in its box (.safeguard)
+        if guard is None or not guard.exceeded(result.w):
+            return result
+        boxed = run(w0, ipopt_options, bounds=guard.bounds(lbw, ubw))
+        if not result.success or (boxed.success and not guard.on_box(boxed.w)):
+            return boxed if boxed.success or not result.success else result
+        if not boxed.success:
+            return result
+        # both converged, the box binding: the one the mesh resolves better (a legitimate large control's
+        # unbounded solution, or the box's where the unbounded one exploits the scheme)
+        errors = [_largest_estimate(program.solution(r)) for r in (result, boxed)]
+        return boxed if errors[1] < errors[0] else result
 
     warm_options = {**WARM_START, **(ipopt_options or {})}
     previous = exact_start(program, guess)
@@ -173,10 +204,18 @@ def solve_once(
         return settle(result, program.solution, raise_on_failure)
     w0 = np.clip(program.initial_point(guess), lbw, ubw)
     if estimate_multipliers and isinstance(guess, Solution):
-        result = run(w0, warm_options, program.nlp.multiplier_estimate(w0, lbw, ubw))
+        # a solution that reaches the box (a previous mesh held there) starts in it, not from a runaway
+        boxed = guard is not None and guard.reaches(w0)
+        lb, ub = guard.bounds(lbw, ubw) if guard is not None and boxed else (lbw, ubw)
+        result = run(w0, warm_options, program.nlp.multiplier_estimate(np.clip(w0, lb, ub), lb, ub), (lb, ub))
         if result.success:
-            return settle(result, program.solution, raise_on_failure)
-    return settle(run(w0, ipopt_options), program.solution, raise_on_failure)
+            return settle(result if boxed else held(result, w0), program.solution, raise_on_failure)
+    return settle(held(run(w0, ipopt_options), w0), program.solution, raise_on_failure)
+
+
+def _largest_estimate(solution: Solution) -> float:
+    estimate = np.asarray(solution.interval_errors, dtype=float)
+    return float(np.max(np.where(np.isfinite(estimate), estimate, np.inf))) if estimate.size else 0.0
 
 
 # -- what refinement asks of a solution, phase by phase ------------------------------------------------------------------
