@@ -49,7 +49,11 @@ def said_by(code: str, namespace: dict) -> list[str]:
 
 
 def test_the_page_has_its_rows():
-    assert len(rows()) >= 7
+    """Every line of the page's tables is a header or a row the test reads (a cell with a ``|`` or a backtick in
+    its code would otherwise drop out of the check unseen)."""
+    lines = [line for line in PAGE.read_text().splitlines() if line.startswith("|")]
+    unread = [line for line in lines if not (ROW.match(line) or line.startswith(("| What you did", "|---")))]
+    assert unread == [] and len(rows()) >= 100
 
 
 @pytest.mark.parametrize(("code", "said"), rows(), ids=[f"row{k}" for k in range(len(rows()))])

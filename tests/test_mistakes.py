@@ -211,3 +211,22 @@ def test_value_and_sample_of_the_right_signature(solution):
     t, v = solution.sample(lambda x, u, t: x["v"], grid=np.linspace(0, 1, 5))
     assert np.allclose(v, 6 * t - 6 * t**2, atol=1e-9)
     assert solution.value(lambda x0, xf, t0, tf: xf["x"] - x0["x"]) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_an_argument_with_a_default_value_is_not_read_as_a_signature():
+    """``lambda x, u, t, tf=tf: ...`` binds a loop's value (a common idiom): its ``tf`` is not the end's."""
+    import casadi as ca
+
+    from ocpkit import HLGL, Control, OptimalControlProblem, State
+
+    tf = 2.0
+    problem = OptimalControlProblem(
+        "bound",
+        states=[State("x", initial=0.0, final=1.0), State("v", initial=0.0, final=0.0)],
+        controls=[Control("u", -10.0, 10.0)],
+        dynamics=lambda x, u, t: ca.vertcat(x[1], u[0]),
+        tf=1.0,
+        lagrange=lambda x, u, t, tf=tf: u[0] ** 2 / tf,
+        mayer=lambda x0, xf, t0, tf, u=3.0: 0.0 * xf[0],
+    )
+    assert HLGL(problem, 4).solve(error_threshold=None).objective == pytest.approx(6.0, rel=1e-6)

@@ -135,3 +135,39 @@ def test_error_estimate_is_deprecated_in_favour_of_the_verdict():
     with pytest.warns(DeprecationWarning, match=r"PhaseSolution.error_estimate is deprecated; use"):
         assert sol.phases[0].error_estimate == sol.state_error
     assert np.isfinite(sol.state_error)
+
+
+def _decay() -> OptimalControlProblem:
+    """x' = -k x (+ u, which the cost keeps at 0) from 1, as close to 0.01 at t = 2 as k in [0.1, 1.5] allows: k ends
+    on its upper bound."""
+    return OptimalControlProblem(
+        "decay",
+        states=[State("x", initial=1.0)],
+        controls=[Control("u", -1.0, 1.0)],
+        dynamics=lambda x, u, t, p: -p["k"] * x[0] + u[0],
+        tf=2.0,
+        free_parameters=[FreeParameter("k", 0.1, 1.5, guess=0.5)],
+        lagrange=lambda x, u, t: u[0] ** 2,
+        mayer=lambda x0, xf, t0, tf: 100.0 * (xf[0] - 0.01) ** 2,
+    )
+
+
+def test_a_free_parameter_on_its_bound_is_noted_in_one_phase_and_in_several():
+    from ocpkit.program import Program
+
+    one = HLGL(_decay(), 10).solve(error_threshold=None)
+    several = Program.split(_decay(), [1.0], HLGL(intervals=5)).solve(error_threshold=None)
+    for sol in (one, several):
+        assert sol.parameters["k"] == pytest.approx(1.5, abs=1e-6)
+        assert [n.subject for n in sol.verdict.notes] == ["parameter k"], sol.verdict.notes
+
+
+def test_a_part_that_is_not_a_number_fails_the_verdict():
+    """A NaN estimate in any phase, or of any path constraint, is a failing part (Python's max would drop it)."""
+    from ocpkit.verdict import worst_of
+
+    assert np.isnan(worst_of([1e-9, float("nan")])) and np.isnan(worst_of([float("nan"), 1e-9]))
+    sol = HLGL(flat_moon_ascent(), 10).solve(error_threshold=None)
+    v = sol.judge()
+    v.state = worst_of([v.state, float("nan")])
+    assert not v.passed and v.failing == ["state"] and v.worst[0] == "state"

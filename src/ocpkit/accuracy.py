@@ -427,7 +427,7 @@ class MultiPhaseAccuracy(Accuracy):
     def __init__(self, solution: Solution) -> None:  # (not Accuracy's: the phases' parts combined)
         self.solution = solution
         self.phases = [p.accuracy for p in solution.phases]
-        self.state = max(a.state for a in self.phases)
+        self.state = float(np.max([a.state for a in self.phases]))  # (NaN in any phase is NaN)
         self.objective_nlp = float(solution.objective)
         self.objective_failure = "; ".join(
             f"phase {name}: {a.objective_failure}"
@@ -444,7 +444,7 @@ class MultiPhaseAccuracy(Accuracy):
         self.path = {}
         for a in self.phases:
             for label, value in a.path.items():
-                self.path[label] = max(self.path.get(label, 0.0), value)
+                self.path[label] = float(np.max([self.path.get(label, 0.0), value]))
 
 
 def path_violation_message(label: str, worst: Mapping[str, float], threshold: float | None) -> str:

@@ -277,7 +277,6 @@ def to_extremal(
     budgets: list[str] = []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
         statement, structure, budgets = as_terminal(statement, structure, solution)
-    problem = statement
     # an output with a zero weight (the entry landing's downrange) has a zero costate, which the shooting finds
     outputs = {name: c for name, c in output_states(statement).items() if c != 0}
     try:
@@ -300,7 +299,7 @@ def to_extremal(
     except ValueError as exc:
         if not outputs:
             raise
-        raise ValueError(f"{_named_outputs(statement, outputs)} (the chain stopped: {exc})") from exc
+        raise ValueError(f"{exc}; and {_named_outputs(statement, outputs)}") from exc
     except SolverError as exc:
         if not outputs or exc.outcome is Outcome.CERTIFICATE_FAILED:
             raise

@@ -144,14 +144,15 @@ def naming(what: str) -> Iterator[None]:
         raise NameAsAttribute(f"{what}: {exc}") from exc
 
 
-def argument_names(fn: Callable[..., Any]) -> list[str] | None:
-    """The names of ``fn``'s positional arguments, or None where its signature cannot be read."""
+def argument_names(fn: Callable[..., Any], required: bool = False) -> list[str] | None:
+    """The names of ``fn``'s positional arguments (``required``: only those without a default value, the ones a
+    call must fill), or None where its signature cannot be read."""
     try:
         parameters = inspect.signature(fn).parameters.values()
     except (TypeError, ValueError):
         return None
     kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
-    return [q.name for q in parameters if q.kind in kinds]
+    return [q.name for q in parameters if q.kind in kinds and not (required and q.default is not q.empty)]
 
 
 def takes_parameters(

@@ -366,7 +366,8 @@ class Solution(Trajectory):
     def __post_init__(self) -> None:
         if not self.phases:
             raise ValueError("a solution has at least one phase")
-        for before, phase in zip(self.phases, self.phases[1:]):
+        periodic = any(declared_turn(c) is not None for p in self.phases for c in p.problem.controls)
+        for before, phase in zip(self.phases, self.phases[1:]) if periodic else ():
             # a periodic control continues from the phase before, where both declare it periodic
             end = before._control(np.array([before.tf]))[0]
             names = before.problem.control_names
@@ -653,7 +654,7 @@ class Solution(Trajectory):
     def state_error(self) -> float:
         """The largest of the phases' estimated relative state errors (:attr:`PhaseSolution.state_error`): the
         state part of the :attr:`verdict`."""
-        return max(p.state_error for p in self.phases)
+        return float(np.max([p.state_error for p in self.phases]))  # (NaN in any phase is NaN)
 
     @property
     def error_estimate(self) -> float:

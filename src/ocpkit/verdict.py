@@ -16,9 +16,13 @@ A :class:`Verdict` judges a :class:`~ocpkit.Solution` (its :attr:`~ocpkit.Soluti
 
 ``solve()`` computes the whole verdict of every direct solve with its ``error_threshold`` as the tolerance and warns
 once per failing part (:class:`~ocpkit.accuracy.AccuracyWarning`, naming the part, its value, the tolerance and the
-remedy) and once per note (:class:`SolutionNote`; a state no function reads is noted quietly: it is often an output
-by design). ``solve(verdict="fast")`` skips the one costly part, the
-objective's (it integrates the flown control), for loops and sliders; the verdict then says that it was skipped.
+remedy; the state's per phase, a phase's path constraints in one warning) and once per note (:class:`SolutionNote`;
+a state no function reads is noted quietly: it is often an output by design). ``solve(verdict="fast")`` skips the
+one costly part, the objective's (it integrates the flown control), for loops and sliders; the verdict then records
+that it was skipped (:attr:`Verdict.skipped`, :meth:`Verdict.describe`), and no warning says it.
+``Verdict.accuracy`` flies the control at :func:`flight_tolerance` of the verdict's tolerance;
+:attr:`~ocpkit.Solution.accuracy` (what refinement reads) at the flight's own, tighter one: their objective parts
+agree to far below the tolerance.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from __future__ import annotations
 import functools
 import math
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, cast
 
@@ -39,6 +44,7 @@ from .accuracy import (
     singular_arc_hint,
     state_error_message,
 )
+from .statement import declared_turn
 
 if TYPE_CHECKING:
     from .accuracy import Accuracy
@@ -76,6 +82,12 @@ class Note:
         return f"{self.subject}: {self.text}"
 
 
+def worst_of(values: Iterable[float]) -> float:
+    """The largest of ``values``, NaN where any is NaN (an estimate that is not a number fails; Python's ``max``
+    would drop it)."""
+    return float(np.max(np.fromiter(values, dtype=float)))
+
+
 def check_kind(verdict: str) -> None:
     """Raise a ValueError naming ``verdict`` unless it is one of :data:`KINDS`."""
     if verdict not in KINDS:
@@ -101,7 +113,7 @@ class Verdict:
         self.solution = solution
         self.tolerance = float(tolerance)
         self.kind = kind
-        self.state = float(max(p.state_error for p in solution.phases))
+        self.state = worst_of(p.state_error for p in solution.phases)
         self.accuracy: Accuracy | None = None
         if kind == "whole":
             self.accuracy = _accuracy(solution, flight_tolerance(self.tolerance))
@@ -118,7 +130,7 @@ class Verdict:
         self.path: dict[str, float] = {}
         for part in self.phase_path:
             for label, value in part.items():
-                self.path[label] = max(self.path.get(label, 0.0), value)
+                self.path[label] = worst_of((self.path.get(label, 0.0), value))
         self.skipped: tuple[str, ...] = () if kind == "whole" else ("objective",)
         self.notes: list[Note] = notes(solution)
 
@@ -253,17 +265,24 @@ def notes(solution: Solution) -> list[Note]:
                 "(solve(mesh_tolerance=...)), or declare the control's bounds (Control(..., lower=..., upper=...))",
             )
         )
-    statement = solution.statement
-    for v in getattr(statement, "free_parameters", ()):
-        value = solution.parameters.get(v.name)
-        if value is not None and (side := _on_bound(value, v.lower, v.upper)):
-            out.append(
-                Note(
-                    f"parameter {v.name}",
-                    f"the free parameter ends on its {side} bound ({value:.10g} in [{v.lower:g}, {v.upper:g}]): the "
-                    "optimum may lie beyond it; widen the bound if it is not a physical limit",
+    # each free parameter once (a shared one is every phase's), with the trajectory's declaration where it has one
+    trajectory = getattr(solution.statement, "declared", {})
+    seen: set[str] = set()
+    for p in solution.phases:
+        for v in p.statement.free_parameters:
+            value = p.parameters.get(v.name, solution.parameters.get(v.name))
+            if v.name in seen or value is None:
+                continue
+            seen.add(v.name)
+            v = trajectory.get(v.name) or v
+            if side := _on_bound(value, v.lower, v.upper):
+                out.append(
+                    Note(
+                        f"parameter {v.name}",
+                        f"the free parameter ends on its {side} bound ({value:.10g} in [{v.lower:g}, {v.upper:g}]): "
+                        "the optimum may lie beyond it; widen the bound if it is not a physical limit",
+                    )
                 )
-            )
     return out
 
 
@@ -312,8 +331,8 @@ def _control_notes(phase: PhaseSolution) -> list[Note]:
     inner = ~np.isin(np.arange(times.size), [int(np.argmin(times)), int(np.argmax(times))])
     out = []
     for j, c in enumerate(phase.problem.controls):
-        if not c.upper > c.lower:
-            continue
+        if not c.upper > c.lower or declared_turn(c) is not None:
+            continue  # (an angle's bounds a turn apart are where it wraps, not a limit)
         for side, bound in (("lower", c.lower), ("upper", c.upper)):
             if not math.isfinite(bound):
                 continue

@@ -842,9 +842,11 @@ class Program:
             (:attr:`~ocpkit.Solution.state_error`, naming its interval), the objective's (the NLP's cost against
             the cost its control achieves when flown), each path constraint's violation between the scheme's points
             (in units of its scale); and one :class:`~ocpkit.verdict.SolutionNote` per note (a free time or
-            parameter on its bound, a control on a bound over the whole horizon, a state no function reads).
-            None: nothing computed or said at solve time (the verdict is computed when asked for, at
-            :data:`~ocpkit.verdict.DEFAULT_TOLERANCE`).
+            parameter on its bound, a control on a bound over the whole horizon, an unbounded control held on its
+            safeguard box; a state no function reads is noted in the verdict without a warning). The state's part
+            is warned per phase, a phase's path constraints in one warning. None: a single solve computes and says
+            nothing (the verdict is computed when asked for, at :data:`~ocpkit.verdict.DEFAULT_TOLERANCE`); a
+            refinement (``mesh_tolerance``) says its own outcome and the notes.
         mesh_tolerance : float or None
             Refine the mesh (each phase's scheme's ``refine``, :meth:`refine`) until every part of the error
             estimate (:class:`~ocpkit.accuracy.Accuracy`: the state's, the objective's, each path constraint's
@@ -868,7 +870,8 @@ class Program:
             study of many values builds once. The solution's problem carries the values solved with.
         verdict : str
             ``"whole"`` (default): every part of the verdict. ``"fast"``: all but the objective's part, which costs
-            an integration of the flown control (for loops and sliders); the verdict says it skipped it.
+            an integration of the flown control (for loops and sliders); the verdict records that it skipped it
+            (``verdict.skipped``, ``verdict.complete``, ``describe()``), and nothing is warned for it.
         """
         return policy.solve(
             self,

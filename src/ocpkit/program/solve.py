@@ -324,8 +324,8 @@ def solve_refined(
                 if not history:  # the first mesh: the solve's own error (IPOPT's status)
                     raise failure
                 if stall is not None:
-                    solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failure)
-                    del history[stall[2] :]  # the stalled solution's own history; the reason says what followed
+                    solution, history = _fall_back(stall, best, history)
+                    outcome, reason = "stalled", _after_stall(stall[1], iteration, mesh, failure)
                     warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
                     break
                 raise _refinement_failure(failure, iteration, mesh, best, history, tried=tried) from failure
@@ -359,8 +359,8 @@ def solve_refined(
         if not solution.converged:
             if stall is not None:
                 failed_on = solution.status
-                solution, outcome, reason = stall[0], "stalled", _after_stall(stall[1], iteration, mesh, failed_on)
-                del history[stall[2] :]
+                solution, history = _fall_back(stall, best, history)
+                outcome, reason = "stalled", _after_stall(stall[1], iteration, mesh, failed_on)
                 warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
                 break
             outcome, reason = "failed", f"IPOPT's status {solution.status} on {mesh.label}"
@@ -471,13 +471,24 @@ def _stall_reason(
     )
 
 
+def _fall_back(
+    stall: tuple[Solution, str, int], best: Solution | None, history: list[MeshIteration]
+) -> tuple[Solution, list[MeshIteration]]:
+    """Where the recovery from a stall ends in a failure: the better of the stalled solution and the best one since
+    (by what drove each mesh, :func:`_worst`), with its own history (the reason says what followed)."""
+    stalled, _, at = stall
+    if best is not None and best is not stalled and _worst(_history_of(best)[-1]) < _worst(history[at - 1]):
+        return best, _history_of(best)
+    return stalled, history[:at]
+
+
 def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverError | str) -> str:
     """A stall's reason, where the recovery from it ended in a failure on mesh ``iteration``: the refinement returns
-    the stalled solution (a recovery never makes an outcome worse)."""
+    the stalled solution, or a better one found since (a recovery never makes an outcome worse)."""
     status = failure.status if isinstance(failure, SolverError) else failure
     return (
         f"{reason}; a recovery from the stall failed on mesh iteration {iteration} ({mesh.label}: IPOPT's status "
-        f"{status}), so the stalled solution is returned"
+        f"{status}), so the best solution before it is returned"
     )
 
 

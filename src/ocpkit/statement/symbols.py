@@ -26,8 +26,9 @@ READS = {"running": "a function of time", "boundary": "a function of the ends"}
 def check_signature(fn: Callable[..., Any], kind: str, what: str, fix: str = "") -> None:
     """A TypeError naming ``what``, the signature it is read with and ``fix`` where ``fn``'s argument names are those
     of the other signature (``FOREIGN_NAMES``): ``lambda x0, xf, t0, tf: xf[0]`` as a path constraint would be
-    read as ``(x, u, t, p)``."""
-    names = argument_names(fn)
+    read as ``(x, u, t, p)``. Only the arguments a call fills are read: one with a default value
+    (``lambda x, u, t, tf=tf: ...``, a loop's value bound) is the user's own."""
+    names = argument_names(fn, required=True)
     if not names or not FOREIGN_NAMES[kind] & set(names):
         return
     other = "boundary" if kind == "running" else "running"
