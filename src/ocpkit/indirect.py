@@ -32,6 +32,7 @@ An :class:`Extremal` has the fields of every indirect result (:class:`~ocpkit.sh
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -46,6 +47,7 @@ from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
 from .outcome import Outcome
 from .shooting.continuation import ContinuationPath
+from .statement.symbols import readers
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
@@ -577,21 +579,17 @@ def output_states(problem: OptimalControlProblem) -> dict[str, float]:
     ``p(t_f) = c``), which the shooting does not know: it is an unknown whose estimate enters the control law (as
     the quadratic coefficient of ``H`` for an energy integral). Stated as the running cost ``c J'`` instead, the
     state is gone and the law's coefficient is the number ``c``."""
-    ham = problem.functions.hamiltonian
-    x, u, t, P = ham.x, ham.u, ham.t, ham.P
-    read = [ham.f, ham.L]
-    if problem.functions.path is not None:
-        read.append(problem.functions.path.function(x, u, t, P))
+    read = readers(problem.functions)
     X0, XF, T0, TF = ca.SX.sym("x0", problem.nx), ca.SX.sym("xf", problem.nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-    boundary = problem.functions.boundary
-    ends = boundary.function(X0, XF, T0, TF, P) if boundary is not None else ca.SX(0, 1)
+    P = ca.SX.sym("P", problem.functions.f.size1_in(3))
     phi = problem.phi(X0, XF, T0, TF, P) if problem.phi is not None else ca.SX(0)
-    read_by_dynamics = ca.vertcat(*read)
     out = {}
     for i, state in enumerate(problem.states):
         if state.fixed_initial is None or state.final is not None:
             continue
-        if ca.depends_on(read_by_dynamics, x[i]) or ca.depends_on(ends, ca.vertcat(X0[i], XF[i])):
+        if math.isfinite(state.lower) or math.isfinite(state.upper):
+            continue  # a bounded state constrains the solution (a budget): not an output
+        if i in read.states_along or i in read.states_own or i in read.states_boundary:
             continue
         weight = ca.gradient(phi, XF[i])
         if not weight.is_constant() or ca.depends_on(phi, X0[i]):

@@ -45,6 +45,7 @@ from .accuracy import (
     state_error_message,
 )
 from .statement import declared_turn
+from .statement.symbols import readers
 
 if TYPE_CHECKING:
     from .accuracy import Accuracy
@@ -286,13 +287,17 @@ def notes(solution: Solution) -> list[Note]:
     return out
 
 
+def _band(bound: float, lower: float, upper: float) -> float:
+    """How close to ``bound`` counts as on it: :data:`ON_BOUND` of the bounds' range, or of the bound's size where
+    that is larger (or the range infinite)."""
+    span = upper - lower if math.isfinite(upper - lower) and upper > lower else abs(bound)
+    return ON_BOUND * max(span, abs(bound), 1e-12)
+
+
 def _on_bound(value: float, lower: float, upper: float) -> str:
-    """``"lower"`` or ``"upper"`` when ``value`` is within :data:`ON_BOUND` of that finite bound, else ``""``."""
+    """``"lower"`` or ``"upper"`` when ``value`` is within :func:`_band` of that finite bound, else ``""``."""
     for side, bound in (("lower", lower), ("upper", upper)):
-        if not math.isfinite(bound):
-            continue
-        span = upper - lower if math.isfinite(upper - lower) and upper > lower else abs(bound)
-        if abs(value - bound) <= ON_BOUND * max(span, abs(bound), 1e-12):
+        if math.isfinite(bound) and abs(value - bound) <= _band(bound, lower, upper):
             return side
     return ""
 
@@ -336,8 +341,7 @@ def _control_notes(phase: PhaseSolution) -> list[Note]:
         for side, bound in (("lower", c.lower), ("upper", c.upper)):
             if not math.isfinite(bound):
                 continue
-            span = c.upper - c.lower if math.isfinite(c.upper - c.lower) else abs(bound)
-            on = np.abs(values[:, j] - bound) <= ON_BOUND * max(span, abs(bound), 1e-12)  # (_on_bound's rule)
+            on = np.abs(values[:, j] - bound) <= _band(bound, c.lower, c.upper)
             if on[inner].all() and np.count_nonzero(~on) <= 1:
                 out.append(
                     Note(
@@ -360,29 +364,12 @@ def _unread_states(problem: OptimalControlProblem) -> tuple[str, ...]:
 
 
 def _find_unread_states(problem: OptimalControlProblem) -> tuple[str, ...]:
-    import casadi as ca
-
-    nx = problem.nx
-    if nx == 0:
-        return ()
-    fn = problem.functions
-    x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", problem.nu), ca.SX.sym("t")
-    P = ca.SX.sym("P", fn.f.size1_in(3))
-    x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
-    f = fn.f(x, u, t, P)
-    running = [fn.L(x, u, t, P)] if fn.L is not None else []
-    running += [fn.path.function(x, u, t, P)] if fn.path is not None else []
-    ends = [fn.phi(x0, xf, t0, tf, P)] if fn.phi is not None else []
-    ends += [fn.boundary.function(x0, xf, t0, tf, P)] if fn.boundary is not None else []
+    read = readers(problem.functions)
+    used = read.states_along | read.states_mayer | read.states_boundary
     out = []
     for i, s in enumerate(problem.states):
         bounded = math.isfinite(s.lower) or math.isfinite(s.upper) or s.final is not None
-        if bounded or (s.initial is not None and s.fixed_initial is None):
-            continue
-        others = [f[j] for j in range(nx) if j != i]
-        if any(ca.depends_on(e, x[i]) for e in others + running):
-            continue
-        if any(ca.depends_on(e, ca.vertcat(x0[i], xf[i])) for e in ends):
+        if i in used or bounded or (s.initial is not None and s.fixed_initial is None):
             continue
         out.append(s.name)
     return tuple(out)

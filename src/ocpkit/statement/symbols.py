@@ -144,26 +144,57 @@ def build_functions(
     return ProblemFunctions(f, L, phi, path, boundary)
 
 
-def read_inputs(functions: ProblemFunctions) -> tuple[set[int], set[int]]:
-    """``(controls, parameters)``: the indices of the controls and of the parameter vector ``P`` that some function of
-    ``functions`` depends on (the dynamics, the costs, the path and the boundary constraints)."""
+@dataclass(frozen=True)
+class Readers:
+    """What a problem's functions read (:func:`readers`), by index: ``controls`` and ``parameters`` (of ``P``) that any
+    function depends on; ``states_along``, the states that another state's dynamics, the running cost or a path
+    constraint depends on (a state's own rate is not counted: an output integral reads only itself), and
+    ``states_own``, those whose own rate does; ``states_mayer`` and ``states_boundary``, the states whose value at
+    either end the Mayer term or the boundary constraints depend on."""
+
+    controls: frozenset[int]
+    parameters: frozenset[int]
+    states_along: frozenset[int]
+    states_own: frozenset[int]
+    states_mayer: frozenset[int]
+    states_boundary: frozenset[int]
+
+
+def readers(functions: ProblemFunctions) -> Readers:
+    """What the functions of a problem read (:class:`Readers`): one walk of its dynamics, costs and constraints, the
+    one definition that the statement's checks (an unread control or parameter), a verdict's notes (an unread
+    state) and the indirect chain (an output integral) share."""
     f = functions.f
     x, u, t, P = (ca.SX.sym(name, f.size1_in(i)) for i, name in enumerate(("x", "u", "t", "P")))
-    x0, xf, t0, tf = ca.SX.sym("x0", x.numel()), ca.SX.sym("xf", x.numel()), ca.SX.sym("t0"), ca.SX.sym("tf")
-    running = [f(x, u, t, P)]
-    boundary = []
-    if functions.L is not None:
-        running.append(functions.L(x, u, t, P))
+    nx = x.numel()
+    x0, xf, t0, tf = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf")
+    rates = f(x, u, t, P)
+    running = [functions.L(x, u, t, P)] if functions.L is not None else []
     if functions.path is not None:
         running.append(functions.path.function(x, u, t, P))
-    if functions.phi is not None:
-        boundary.append(functions.phi(x0, xf, t0, tf, P))
-    if functions.boundary is not None:
-        boundary.append(functions.boundary.function(x0, xf, t0, tf, P))
-    along, ends = ca.vertcat(*running), ca.vertcat(*boundary)
-    controls = {j for j in range(u.numel()) if ca.depends_on(along, u[j])}
-    parameters = {j for j in range(P.numel()) if ca.depends_on(along, P[j]) or ca.depends_on(ends, P[j])}
-    return controls, parameters
+    mayer = functions.phi(x0, xf, t0, tf, P) if functions.phi is not None else ca.SX(0, 1)
+    boundary = functions.boundary.function(x0, xf, t0, tf, P) if functions.boundary is not None else ca.SX(0, 1)
+    along, ends = ca.vertcat(rates, *running), ca.vertcat(mayer, boundary)
+    others = ca.vertcat(*running) if running else ca.SX(0, 1)
+
+    def read_along(i: int) -> bool:
+        return any(ca.depends_on(rates[j], x[i]) for j in range(nx) if j != i) or ca.depends_on(others, x[i])
+
+    return Readers(
+        controls=frozenset(j for j in range(u.numel()) if ca.depends_on(along, u[j])),
+        parameters=frozenset(j for j in range(P.numel()) if ca.depends_on(along, P[j]) or ca.depends_on(ends, P[j])),
+        states_along=frozenset(i for i in range(nx) if read_along(i)),
+        states_own=frozenset(i for i in range(nx) if ca.depends_on(rates[i], x[i])),
+        states_mayer=frozenset(i for i in range(nx) if ca.depends_on(mayer, ca.vertcat(x0[i], xf[i]))),
+        states_boundary=frozenset(i for i in range(nx) if ca.depends_on(boundary, ca.vertcat(x0[i], xf[i]))),
+    )
+
+
+def read_inputs(functions: ProblemFunctions) -> tuple[set[int], set[int]]:
+    """``(controls, parameters)``: the indices of the controls and of the parameter vector ``P`` that some function of
+    ``functions`` depends on (the dynamics, the costs, the path and the boundary constraints; :func:`readers`)."""
+    read = readers(functions)
+    return set(read.controls), set(read.parameters)
 
 
 def constraint_set(
