@@ -512,11 +512,13 @@ def test_the_cops_hang_glider_is_copss_statement():
 def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
     """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
     solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the
-    stall did, returning the stalled solution with its own history, and its reason says what the recovery met."""
+    stall did, returning the better of the stalled solution and the best one since, with its own history, and its
+    reason says what the recovery met."""
     from compendium.problems import catalyst_mixing
 
     with pytest.warns(AccuracyWarning, match=r"stalled short of 1e-06.*a recovery from the stall failed on mesh"):
         sol = Radau(catalyst_mixing(), 4, 10).solve(mesh_tolerance=1e-6)
     assert sol.converged and sol.refinement_outcome == "stalled"
     assert sol.mesh_history[-1].collocation_points == sol.program.n_collocation_points
-    assert sol.objective == pytest.approx(-0.0481623, abs=1e-6)
+    # better than the stall's -0.0481623 (its singular arc's chattering claims too good a cost): nearer COPS's optimum
+    assert abs(sol.objective - (-0.0480556)) < abs(-0.0481623 - (-0.0480556))

@@ -19,7 +19,7 @@ once per failing part (:class:`~ocpkit.accuracy.AccuracyWarning`, naming the par
 remedy; the state's per phase, a phase's path constraints in one warning) and once per note (:class:`SolutionNote`;
 a state no function reads is noted quietly: it is often an output by design). ``solve(verdict="fast")`` skips the
 one costly part, the objective's (it integrates the flown control), for loops and sliders; the verdict then records
-that it was skipped (:attr:`Verdict.skipped`, :meth:`Verdict.describe`), and no warning says it.
+that it was skipped (``Verdict.skipped``, :meth:`Verdict.describe`), and no warning says it.
 ``Verdict.accuracy`` flies the control at :func:`flight_tolerance` of the verdict's tolerance;
 :attr:`~ocpkit.Solution.accuracy` (what refinement reads) at the flight's own, tighter one: their objective parts
 agree to far below the tolerance.
