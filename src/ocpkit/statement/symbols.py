@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import casadi as ca
 import numpy as np
@@ -163,7 +163,14 @@ class Readers:
 def readers(functions: ProblemFunctions) -> Readers:
     """What the functions of a problem read (:class:`Readers`): one walk of its dynamics, costs and constraints, the
     one definition that the statement's checks (an unread control or parameter), a verdict's notes (an unread
-    state) and the indirect chain (an output integral) share."""
+    state) and the indirect chain (an output integral) share; walked once per problem's functions."""
+    cached = functions.derived.get("readers")
+    if cached is None:
+        cached = functions.derived["readers"] = _walk_readers(functions)
+    return cast(Readers, cached)
+
+
+def _walk_readers(functions: ProblemFunctions) -> Readers:
     f = functions.f
     x, u, t, P = (ca.SX.sym(name, f.size1_in(i)) for i, name in enumerate(("x", "u", "t", "P")))
     nx = x.numel()
