@@ -55,3 +55,12 @@ class SolverError(RuntimeError):
         if outcome is not None and outcome.remedy:
             msg += f"; {outcome}: {outcome.remedy}"
         super().__init__(msg)
+
+    def with_detail(self, detail: str) -> SolverError:
+        """The same failure (solver, status, effort, iterate, best solution, outcome) with ``detail`` for its
+        detail: what a caller adds to a failure it passes on."""
+        error = SolverError(
+            self.solver, self.status, self.iterations, detail, self.unit, self.result, self.best, outcome=self.outcome
+        )
+        error.mesh_history = list(self.mesh_history)
+        return error

@@ -305,15 +305,7 @@ def to_extremal(
     except SolverError as exc:
         if not outputs or exc.outcome is Outcome.CERTIFICATE_FAILED:
             raise
-        raise SolverError(
-            exc.solver,
-            exc.status,
-            exc.iterations,
-            f"{exc.detail}; {_named_outputs(statement, outputs)}",
-            unit=exc.unit,
-            result=exc.result,
-            outcome=exc.outcome,
-        ) from exc
+        raise exc.with_detail(f"{exc.detail}; {_named_outputs(statement, outputs)}") from exc
 
 
 def _extremal(
@@ -857,14 +849,8 @@ def _shoot(
             ), f"multiple shooting ({segments} segments), then single shooting"
         except SolverError:
             return found, f"multiple shooting ({segments} segments)"
-    raise SolverError(
-        failure.solver,
-        failure.status,
-        failure.iterations,
-        f"{failure.detail}; multiple shooting from the direct solution's nodes failed too ({'; '.join(tried)})",
-        unit=failure.unit,
-        result=failure.result,
-        outcome=failure.outcome,
+    raise failure.with_detail(
+        f"{failure.detail}; multiple shooting from the direct solution's nodes failed too ({'; '.join(tried)})"
     ) from failure
 
 
