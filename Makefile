@@ -6,6 +6,7 @@
 #   make docs        the documentation site (build/docs/index.html)
 #   make bench       timing benchmarks (tables in build/bench/)
 #   make store       re-execute the notebooks in place (refresh the outputs nbval compares against)
+#   make dist        the library's sdist and wheel (dist/), their metadata checked
 
 PYTHON ?= python3
 VENV   := .venv
@@ -18,7 +19,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
-.PHONY: setup reproduce notebooks report test lint unit nbval guard docs lab bench store clean
+.PHONY: setup reproduce notebooks report test lint unit nbval guard docs lab bench store dist clean
 
 # -- setup ---------------------------------------------------------------------------------------------------------
 # environment.txt is resolved for Python 3.11. PYTHON_MIN is the oldest 3.11 it is installed and tested on: Debian
@@ -96,7 +97,7 @@ notebooks: setup
 report: setup mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-test: lint unit nbval guard docs
+test: lint dist unit nbval guard docs
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
 # into build/docs/index.html; every warning is an error, and -n (nitpicky) makes every cross-reference one that must
@@ -214,5 +215,13 @@ bench: setup
 store: setup
 	$(PY) -m compendium.notebooks store $(NOTEBOOKS) --kernel $(KERNEL)
 
+# the library alone (pyproject.toml; MANIFEST.in keeps the compendium out of the sdist): its sdist, then its wheel
+# built from that sdist, so a missing file fails here; twine checks their metadata and that the description renders.
+# Without build isolation: the build backend is the one pinned in environment.txt, and nothing is downloaded.
+dist: setup
+	rm -rf dist
+	$(PY) -m build --quiet --no-isolation --outdir dist .
+	$(PY) -m twine check --strict dist/*
+
 clean:
-	rm -rf build
+	rm -rf build dist
