@@ -78,16 +78,19 @@ sys.stdout.write(json.dumps(printed))
 """
 
 
-def run_session(blocks: list[str], folder: Path) -> tuple[list[str] | None, str]:
-    """A page's examples run in order in one namespace (a later example may use an earlier one's names), by this
-    Python in ``folder`` (outside the repository), as a reader would paste them: what each printed (None if one
-    failed) and the process's stderr."""
+def run_session(
+    blocks: list[str], folder: Path, python: Path | str = sys.executable, env: dict[str, str] | None = None
+) -> tuple[list[str] | None, str]:
+    """A page's examples run in order in one namespace (a later example may use an earlier one's names), by
+    ``python`` (this one unless given; in ``env``, this process's unless given) in ``folder`` (outside the
+    repository), as a reader would paste them: what each printed (None if one failed) and the process's stderr."""
     import json
 
     proc = subprocess.run(
-        [sys.executable, "-c", _SESSION],
+        [str(python), "-c", _SESSION],
         input=json.dumps(blocks),
         cwd=folder,
+        env=env,
         capture_output=True,
         text=True,
         timeout=600,

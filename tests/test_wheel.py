@@ -1,15 +1,23 @@
-"""ocpkit stands alone: its wheel, installed in a fresh environment with no repository around it, solves
-an HLGL problem, a Radau problem and a shooting problem with switching correction from a temporary folder."""
+"""ocpkit stands alone: its sdist and wheel, built as `make dist` builds them, hold the library and nothing of the
+compendium, with metadata twine accepts; the wheel, installed with its [plot] extra in one fresh environment with no
+repository around it, runs the Getting-started page's examples and draws their results, and solves an HLGL problem,
+a Radau problem and a shooting problem with switching correction, each from an empty folder."""
 
+import email
+import re
 import subprocess
 import sys
 import sysconfig
+import tarfile
 import textwrap
+import zipfile
 from pathlib import Path
 
 import pytest
+from _examples import DOCS, examples, run_session, same_print
 
 REPO = Path(__file__).resolve().parents[1]
+LIBRARY = sorted(p.relative_to(REPO / "src").as_posix() for p in (REPO / "src" / "ocpkit").rglob("*.py"))
 
 SCRIPT = textwrap.dedent(
     """
@@ -59,57 +67,146 @@ SCRIPT = textwrap.dedent(
 )
 
 
+#: run after the Getting-started page's examples, in their namespace: every result they made, drawn and saved
+PLOT = textwrap.dedent(
+    """
+    import matplotlib
+    import matplotlib.figure
+
+    import ocpkit
+
+    for name, value in list(globals().items()):
+        if isinstance(value, ocpkit.Trajectory):
+            figure = value.plot()
+            assert isinstance(figure, matplotlib.figure.Figure), f"{name}.plot() returned {type(figure)}"
+            assert any(axes.lines for axes in figure.axes), f"{name}.plot() drew no curve"
+            figure.savefig(f"{name}.png")
+            print(name)
+    print("backend", matplotlib.get_backend().lower())
+    """
+)
+
+
+def _bare_env(home: Path) -> dict[str, str]:
+    """A user's environment, none of the repository's: no PYTHONPATH (src/ would shadow the installed ocpkit), a
+    home and a cache of its own, no display."""
+    return {"PATH": "/usr/bin:/bin", "HOME": str(home), "XDG_CACHE_HOME": str(home / ".cache")}
+
+
 @pytest.fixture(scope="module")
-def wheel(tmp_path_factory) -> Path:
+def dist(tmp_path_factory) -> Path:
+    """What `make dist` builds: the sdist, then the wheel built from it (python -m build unpacks the sdist and builds
+    from that alone, so a file the sdist lacks fails the build)."""
     out = tmp_path_factory.mktemp("dist")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(out), str(REPO)],
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    (whl,) = out.glob("ocpkit-*.whl")
+    cmd = [sys.executable, "-m", "build", "--quiet", "--no-isolation", "--outdir", str(out), str(REPO)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, (proc.stdout + proc.stderr)[-4000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def wheel(dist) -> Path:
+    (whl,) = dist.glob("ocpkit-*.whl")
     return whl
 
 
-def test_wheel_holds_the_library_alone(wheel):
-    import zipfile
+@pytest.fixture(scope="module")
+def sdist(dist) -> Path:
+    (archive,) = dist.glob("ocpkit-*.tar.gz")
+    return archive
 
+
+@pytest.fixture(scope="module")
+def fresh_python(wheel, tmp_path_factory) -> Path:
+    """The Python of a fresh virtual environment with `pip install "<wheel>[plot]"` done in it, offline: the
+    dependencies (casadi, numpy, scipy, pandas, and matplotlib for the extra) are this environment's, seen through a
+    folder of links to its site-packages without ocpkit, the compendium or any .pth file (this repository's src/,
+    the editable install), so pip finds them installed and installs the wheel alone."""
+    root = tmp_path_factory.mktemp("fresh")
+    env_dir = root / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True)
+    python = env_dir / "bin" / "python"
+    view = root / "dependencies"
+    view.mkdir()
+    for entry in Path(sysconfig.get_paths()["purelib"]).iterdir():
+        if entry.suffix != ".pth" and not entry.name.startswith(("ocpkit", "compendium", "__editable__")):
+            (view / entry.name).symlink_to(entry)
+    purelib = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    (Path(purelib) / "dependencies.pth").write_text(f"{view}\n")
+    home = root / "home"
+    home.mkdir()
+    pip = [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-index", "--disable-pip-version-check"]
+    proc = subprocess.run([*pip, f"{wheel}[plot]"], env=_bare_env(home), capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert re.search(r"Requirement already satisfied: matplotlib .*\(from ocpkit", proc.stdout), proc.stdout
+    assert "Successfully installed ocpkit-" in proc.stdout, proc.stdout
+    return python
+
+
+def test_twine_accepts_the_metadata(dist):
+    files = sorted(str(p) for p in dist.iterdir())
+    proc = subprocess.run([sys.executable, "-m", "twine", "check", "--strict", *files], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.count("PASSED") == 2, proc.stdout
+
+
+def test_sdist_holds_what_a_build_needs_and_not_the_compendium(sdist):
+    with tarfile.open(sdist) as archive:
+        top = sdist.name.removesuffix(".tar.gz")
+        names = {m.name.removeprefix(top + "/") for m in archive.getmembers() if m.isfile()}
+    needed = {"pyproject.toml", "LICENSE", "docs/ocpkit.md", "src/ocpkit/py.typed", "src/ocpkit/shooting/dopri5.c"}
+    assert needed - names == set(), "the build reads these"
+    assert {f"src/{module}" for module in LIBRARY} - names == set(), "every module of the library"
+    compendium = [n for n in names if n.startswith(("src/compendium/", "tests/", "notebooks/", "data/", "figures/"))]
+    assert compendium == [] and "README.md" not in names, "the compendium is not part of the library"
+
+
+def test_wheel_holds_the_library_alone(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     assert "ocpkit/shooting/dopri5.c" in names, "the integrator's C source ships with the package"
+    assert set(LIBRARY) - set(names) == set(), "every module of the library"
     assert not [n for n in names if n.startswith("compendium/")], "the compendium is not part of the library"
+    # pure Python: dopri5.c is compiled on the user's machine at run time, so one wheel serves every platform
+    assert wheel.name.endswith("-py3-none-any.whl"), wheel.name
 
 
-def test_wheel_solves_from_a_fresh_environment(wheel, tmp_path):
-    env_dir = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(env_dir)], check=True)
-    python = env_dir / "bin" / "python"
-    subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)], check=True)
-    # the dependencies (casadi, numpy, scipy, pandas) come from this environment's site-packages, added as a
-    # plain path: its .pth files (this repository's src/, the editable install) are not processed
-    purelib = Path(
-        subprocess.run(
-            [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-            check=True,
-            capture_output=True,
-            text=True,
-        ).stdout.strip()
-    )
-    (purelib / "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+def test_wheel_solves_from_a_fresh_environment(fresh_python, tmp_path):
     work = tmp_path / "elsewhere"
     work.mkdir()
-    env = {"PATH": "/usr/bin:/bin", "HOME": str(work), "XDG_CACHE_HOME": str(work / ".cache")}
-    proc = subprocess.run([str(python), "-c", SCRIPT], cwd=work, env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [str(fresh_python), "-c", SCRIPT], cwd=work, env=_bare_env(work), capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.strip().endswith("ok")
 
 
-def test_wheel_metadata_describes_the_library(wheel):
-    """The wheel's metadata: a licence expression, authors, classifiers, the typed marker, and a long description
-    of the library alone (not the compendium's make targets and notebooks)."""
-    import email
-    import zipfile
+def test_wheel_runs_the_getting_started_page_and_plots_from_an_empty_folder(fresh_python, tmp_path):
+    """The page's examples, in order, as a reader pastes them after the page's pip install line: what they print is
+    what the page shows, and every result they make draws a figure with its plot() (headless: no display), saved."""
+    page = DOCS / "getting-started.md"
+    cases = examples(page.read_text())
+    assert cases, f"{page.name} has no Python example"
+    work = tmp_path / "empty"
+    work.mkdir()
+    printed, stderr = run_session([code for code, _ in cases] + [PLOT], work, python=fresh_python, env=_bare_env(work))
+    assert printed is not None, stderr[-4000:]
+    for k, ((_, shown), out) in enumerate(zip(cases, printed)):
+        if shown is not None:
+            assert same_print(out, shown) == [], f"example {k} of {page.name} printed\n{out}"
+    *plotted, backend = printed[-1].splitlines()
+    assert plotted and backend == "backend agg", printed[-1]
+    for name in plotted:
+        assert (work / f"{name}.png").read_bytes().startswith(b"\x89PNG"), name
 
+
+def test_wheel_metadata_describes_the_library(wheel):
+    """The wheel's metadata: a licence expression, authors, classifiers, the Python it needs, the [plot] extra, the
+    typed marker, and a long description of the library alone (not the compendium's make targets and notebooks)."""
     archive = zipfile.ZipFile(wheel)
     names = archive.namelist()
     assert "ocpkit/py.typed" in names
@@ -117,8 +214,12 @@ def test_wheel_metadata_describes_the_library(wheel):
     meta = email.message_from_string(archive.read(meta_name).decode())
     assert meta["License-Expression"] == "BSD-3-Clause"
     assert meta["Author"] == "the ocpkit compendium authors"
+    assert meta["Requires-Python"] == ">=3.11"
+    assert meta.get_all("Provides-Extra") == ["plot"]
+    assert 'matplotlib; extra == "plot"' in meta.get_all("Requires-Dist")
     classifiers = meta.get_all("Classifier")
     assert "Typing :: Typed" in classifiers and "Programming Language :: Python :: 3.11" in classifiers
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    assert meta["Description-Content-Type"] == "text/markdown"
     description = meta.get_payload()
     assert description.startswith("# ocpkit") and "make " not in description and "notebooks/" not in description
