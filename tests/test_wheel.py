@@ -14,7 +14,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from _examples import DOCS, examples, run_session, same_print
+from _examples import DOCS, examples, run_session, same_print, section
 
 REPO = Path(__file__).resolve().parents[1]
 LIBRARY = sorted(p.relative_to(REPO / "src").as_posix() for p in (REPO / "src" / "ocpkit").rglob("*.py"))
@@ -202,6 +202,13 @@ def test_wheel_runs_the_getting_started_page_and_plots_from_an_empty_folder(fres
     assert plotted and backend == "backend agg", printed[-1]
     for name in plotted:
         assert (work / f"{name}.png").read_bytes().startswith(b"\x89PNG"), name
+
+
+def test_getting_started_installs_the_wheel_make_dist_builds(wheel):
+    """The page's pip install line names the file make dist writes (its version, its tags), with the extra."""
+    commands = re.findall(r"```sh\n(.*?)```", section(DOCS / "getting-started.md", "Install the library alone"), re.S)
+    lines = [line.split("#")[0].strip() for block in commands for line in block.splitlines()]
+    assert "make dist" in lines and f'pip install "dist/{wheel.name}[plot]"' in lines, lines
 
 
 def test_wheel_metadata_describes_the_library(wheel):
