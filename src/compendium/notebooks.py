@@ -9,7 +9,7 @@ Command line::
     python -m compendium.notebooks report build/notebooks --output build/report
 
 A run writes the executed notebook, its figures and tables and its record into its own folder
-(:mod:`compendium.outputs`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
+(:mod:`compendium.outputs`), and the executed notebook keeps a copy of that record (:func:`keep_run_record`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
 and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
 Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
 private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
