@@ -1,5 +1,6 @@
 """Notebook structure, parameter handling and folder independence (compendium.notebooks, compendium.notebook_source)."""
 
+import base64
 import json
 import re
 from pathlib import Path
@@ -10,9 +11,10 @@ import pytest
 from compendium import paths
 from compendium.notebook_source import check_parameters, notebook_parameters, published_overrides, published_parameters
 from compendium.notebooks import KERNEL_NAME, execute
-from compendium.provenance import read_run_record
+from compendium.provenance import RUN_RECORD_KEY, read_run_record
 
 NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
+NOTEBOOK_01 = paths.notebooks_dir() / "01_lunar_ascent.ipynb"
 
 
 def test_there_are_notebooks():
@@ -60,7 +62,9 @@ def _kernel_available():
 
 @pytest.mark.skipif(not _kernel_available(), reason="the 'ocpkit' kernel is registered by `make setup`")
 def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypatch):
-    """papermill in a foreign working directory, outputs redirected: the notebook finds data/ itself."""
+    """papermill in a foreign working directory, outputs redirected: the notebook finds data/ itself. With another
+    thrust, it prints the thrust it solved with, its figures (saved and inline) carry the note of a run that is not
+    the published one, and the executed notebook keeps its run's record."""
     out_root = tmp_path / "outputs"
     monkeypatch.setenv("OCPKIT_OUTPUT_DIR", str(out_root))
     elsewhere = tmp_path / "elsewhere"
@@ -69,9 +73,21 @@ def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypat
     out = execute(
         paths.notebooks_dir() / "01_lunar_ascent.ipynb",
         tmp_path / "run.ipynb",
-        {"segments": 6, "smoothing_study": [1e-8], "plot_points": 11},
+        {"segments": 6, "smoothing_study": [1e-8], "plot_points": 11, "thrust_to_weight": 2.5},
         cwd=elsewhere,
     )
+    executed, stored = nbformat.read(str(out), as_version=4), nbformat.read(str(NOTEBOOK_01), as_version=4)
+    printed = "".join(o.get("text", "") for c in executed.cells if c.get("id") == "3c3812c5" for o in c.outputs)
+    assert printed.startswith("a = 2.5 (the paper's 3.0), g = 1.0")
+
+    def heights(nb):  # of the figure cell's inline PNGs, from their IHDR
+        cell = next(c for c in nb.cells if c.get("id") == "caf6e89e")
+        pngs = [base64.b64decode(o["data"]["image/png"]) for o in cell.outputs if "image/png" in o.get("data", {})]
+        return [int.from_bytes(png[20:24], "big") for png in pngs]
+
+    assert len(heights(executed)) == 3
+    assert all(h > s for h, s in zip(heights(executed), heights(stored)))  # the note's line above each figure
+    assert executed.metadata[RUN_RECORD_KEY]["parameters"]["thrust_to_weight"] == 2.5
     summary = json.loads((out_root / "data" / "derived" / "lunar_ascent_summary.json").read_text())
     assert summary["segments"] == 6 and summary["nlp_parameters"] == 4 * 13 + 25 + 1
     assert summary["status"] == "Solve_Succeeded"

@@ -14,6 +14,7 @@ from compendium import paths
 from compendium.notebook_source import notebook_code, published_parameters
 from compendium.notebooks import PublishError, publish_run
 from compendium.outputs import STAGING, ContractWarning, Outputs, executed_code
+from compendium.plotting import NOTE_GID, note_figures, save_figure
 from compendium.provenance import read_run_record, run_key
 
 NOTEBOOK = "01_lunar_ascent"
@@ -99,6 +100,52 @@ def test_runs_with_other_parameters_get_their_own_folders(repo):
         out.publish()
     assert read_run_record(a.root, NOTEBOOK)["parameters"]["segments"] == 30
     assert read_run_record(b.root, NOTEBOOK)["parameters"]["segments"] == 50
+
+
+def _drawn():
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [1, 0])
+    ax.set_title("Figure 4")
+    return fig
+
+
+def test_a_figure_of_a_run_with_other_parameters_says_so_and_the_published_runs_are_as_before(repo, capsys):
+    """Saved and inline: the published run's figure is the bytes save_figure writes of it alone; another run's
+    carries a note naming the parameters that differ, which figures/data leaves out (the guard compares the same
+    arrays and texts); Outputs.start of such a run notes every figure pyplot draws after it, and of the published
+    run none."""
+    params = published_parameters(NOTEBOOK)
+    alone = _drawn()
+    save_figure(alone, "a_figure", repo / "alone")
+    published, other = Outputs(NOTEBOOK, params), Outputs(NOTEBOOK, params | {"thrust_to_weight": 2.5})
+    assert published.note is None
+    assert other.note == "Not the published run: thrust_to_weight = 2.5 (published: None)"
+    for out in (published, other):
+        fig = _drawn()
+        out.figure(fig, "a_figure")
+        out.figure(fig, "a_figure")  # once on a figure, however often it is saved
+        assert [t.get_text() for t in fig.texts if t.get_gid() == NOTE_GID] == ([out.note] if out.note else [])
+        plt.close(fig)
+        out.publish()
+    for ext in ("png", "pdf"):
+        assert (published.root / "figures" / f"a_figure.{ext}").read_bytes() == (
+            repo / "alone" / f"a_figure.{ext}"
+        ).read_bytes()
+        assert (other.root / "figures" / f"a_figure.{ext}").read_bytes() != (
+            repo / "alone" / f"a_figure.{ext}"
+        ).read_bytes()
+    data = [(out.root / "figures" / "data" / "a_figure.json").read_text() for out in (published, other)]
+    assert data[0] == data[1]
+    try:
+        Outputs.start(NOTEBOOK, params | {"thrust_to_weight": 2.5})
+        inline = plt.figure()
+        assert [t.get_text() for t in inline.texts] == [other.note]
+        Outputs.start(NOTEBOOK, params)
+        assert plt.figure().texts == []
+    finally:
+        note_figures(None)
+        plt.close("all")
+    assert "compendium.plotting:_note_new_figure" not in plt.rcParams["figure.hooks"]
 
 
 def test_a_later_run_replaces_the_earlier_one_with_the_same_parameters_whole(repo):

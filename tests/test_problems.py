@@ -112,3 +112,28 @@ def test_problem_data_parsed_once_and_copied(monkeypatch, tmp_path):
     (tmp_path / "p.toml").write_text("a = 2.0\n")
     assert load_problem_data("p") == {"a": 2.0}
     assert len(calls) == 2
+
+
+def test_notebook_01_prints_the_constants_it_solves_with():
+    """lunar_ascent_constants with a run's parameters is what lunar_ascent solves with, and describe_constants (the
+    printout of notebook 01) says those values, the paper's beside any that differ; the paper's run prints as
+    before."""
+    from compendium.studies.lunar_ascent import describe_constants
+
+    assert describe_constants(lunar_ascent_constants()) == (
+        "a = 3.0, g = 1.0, speed smoothing eps = 1e-08\n"
+        "length unit 1737.4 km, time unit 1035.60 s, velocity unit 1677.67 m/s\n"
+        "target: Y = 1.106596, U = 0.969795, V = 0.000000"
+    )
+    run = lunar_ascent_constants(1e-6, a=2.5, altitude_km=300.0)
+    printed = describe_constants(run).splitlines()
+    assert printed[0] == "a = 2.5 (the paper's 3.0), g = 1.0, speed smoothing eps = 1e-06 (default 1e-08)"
+    assert printed[2] == "target: Y = 1.172672, U = 0.969795, V = 0.000000 (altitude 300 km; the paper's 185.2 km)"
+    solved = lunar_ascent(1e-6, a=2.5, altitude_km=300.0)
+    assert solved.states[1].final == run["final"]["Y"]
+    x = [0.0, 1.0, 0.0, 0.0]
+    rate = float(solved.dynamics(x, [0.0], 0.0)[2])
+    assert rate == pytest.approx(2.5 - 0.5 * 1e-6)  # a cos(0) - g eps / 2 at rest: the thrust is 2.5
+    assert describe_constants(lunar_ascent_constants(a=3.0)).startswith("a = 3.0, g")
+    with pytest.raises(ValueError, match="a must be positive and finite, got -1"):
+        lunar_ascent_constants(a=-1.0)

@@ -14,6 +14,7 @@ import json
 import re
 import shutil
 import subprocess
+import time
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -24,7 +25,8 @@ from test_lab import REQUIRE_BROWSER, needs_chromium
 
 from compendium import mathjax, paths
 from compendium.checks import check, check_true
-from compendium.provenance import PACKAGES, environment
+from compendium.notebooks import keep_run_record
+from compendium.provenance import PACKAGES, RUN_RECORD_KEY, environment
 from compendium.report import (
     HIDE_CELL,
     REMOVE_CELL,
@@ -368,6 +370,49 @@ def test_where_a_run_wrote_and_whether_it_was_published(tmp_path, monkeypatch):
     assert "(no record of this run there now)" in page
     assert '<code class="changed">n = 2</code>' in page and "(from papermill's parameters and the notebook" in page
     assert "no: <code>n</code> differs from the published run" in page
+
+
+def test_a_page_shows_the_record_of_its_own_run_whatever_ran_since(tmp_path, monkeypatch):
+    """The runner keeps a run's record in the executed notebook (compendium.notebooks.keep_run_record): after a
+    published run, a later run with the same parameters (Lab's Run All, plain papermill) rewrites the run folder's
+    record, and the page built from the executed notebook is the same, still copied into the published record; an
+    executed notebook whose run wrote no record says so rather than showing an earlier run's."""
+    root = tmp_path / "root"
+    _compendium(root)
+    monkeypatch.setenv("OCPKIT_ROOT", str(root))
+    run = tmp_path / "runs" / "demo" / "defaults"
+    runs = run / "data" / "derived" / "runs"
+    runs.mkdir(parents=True)
+    record = {"notebook": "demo", "published_parameters": True, "parameters": {"n": 3}, "files": [], "code": ["a"]}
+    record |= {"timings": {"solve": [{"solve_s": 1.5}]}, "git": None}
+    (runs / "demo.json").write_text(json.dumps(record, indent=2) + "\n")
+    shutil.copy(runs / "demo.json", root / "data" / "derived" / "runs" / "demo.json")  # published (publish_run)
+    executed = _executed_demo(root, tmp_path / "executed", run, fails=False, n=3)
+    assert keep_run_record(executed, since=0.0) == record
+    build_report(executed.parent, tmp_path / "report")
+    page = (tmp_path / "report" / "demo.html").read_text()
+    assert f"<code>{run}/</code>, and copied into the published record" in page
+
+    later = record | {"timings": {"solve": [{"solve_s": 1.7}]}, "code": ["b"]}  # a later run, same parameters
+    (runs / "demo.json").write_text(json.dumps(later, indent=2) + "\n")
+    build_report(executed.parent, tmp_path / "report")
+    assert (tmp_path / "report" / "demo.html").read_text() == page
+    assert "and copied into the published record" in (tmp_path / "report" / "index.html").read_text()
+
+    shutil.copy(executed, tmp_path / "plain.ipynb")  # the same notebook without the kept record reads the folder's
+    (tmp_path / "plain").mkdir()
+    shutil.move(tmp_path / "plain.ipynb", tmp_path / "plain" / "demo.ipynb")
+    plain = _read(tmp_path / "plain" / "demo.ipynb")
+    del plain.metadata[RUN_RECORD_KEY]
+    nbformat.write(plain, str(tmp_path / "plain" / "demo.ipynb"))
+    build_report(tmp_path / "plain", tmp_path / "report-plain")
+    assert f"<code>{run}/</code> only (not copied" in (tmp_path / "report-plain" / "demo.html").read_text()
+
+    stopped = _executed_demo(root, tmp_path / "stopped", run, fails=True, n=3)
+    assert keep_run_record(stopped, since=time.time() + 60) is None  # no record written by this run
+    build_report(stopped.parent, tmp_path / "report-stopped")
+    page = (tmp_path / "report-stopped" / "demo.html").read_text()
+    assert f"<code>{run}/</code> (the run wrote no record there: it did not complete)" in page
 
 
 def test_runs_not_published_or_not_run_are_on_the_report_and_earlier_pages_go(tmp_path, monkeypatch):

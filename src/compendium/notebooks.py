@@ -9,7 +9,7 @@ Command line::
     python -m compendium.notebooks report build/notebooks --output build/report
 
 A run writes the executed notebook, its figures and tables and its record into its own folder
-(:mod:`compendium.outputs`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
+(:mod:`compendium.outputs`), and the executed notebook keeps a copy of that record (:func:`keep_run_record`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
 and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
 Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
 private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
@@ -40,16 +40,16 @@ from .notebook_source import (
     static_views,
     written_to,
 )
-from .provenance import RUNS, run_folder
+from .provenance import RUN_RECORD_KEY, RUNS, run_folder
 from .report import UNFINISHED, Unfinished, build_report
 
 KERNEL_NAME = "ocpkit"
 
 # metadata written by papermill/nbclient that changes on every run
 _VOLATILE_CELL_METADATA = ("papermill", "execution")
-# papermill's record of the run, and the state of live widgets (nbclient and Lab save it; new model ids every run,
-# and their views are not stored: static_views)
-_VOLATILE_NB_METADATA = ("papermill", "widgets")
+# papermill's record of the run, the run's record (its times and commit; kept by execute), and the state of live
+# widgets (nbclient and Lab save it; new model ids every run, and their views are not stored: static_views)
+_VOLATILE_NB_METADATA = ("papermill", RUN_RECORD_KEY, "widgets")
 
 
 def _kernel_manager_class(ipc_dir: str | None = None):
@@ -92,10 +92,14 @@ def execute(
     :mod:`compendium.paths`, whatever folder they run in. ``progress``: a bar over the
     notebook's cells, and the notebook's own bars, in this process's terminal. ``env``:
     environment variables for the kernel (``OCPKIT_RUNS_DIR``, ``OCPKIT_OUTPUT_DIR``).
+
+    The executed notebook keeps the record of its run (:func:`keep_run_record`), so that its report shows that
+    run whatever runs write into the same folder later.
     """
     import os
     import shutil
     import tempfile
+    import time
 
     import papermill as pm
 
@@ -107,6 +111,7 @@ def execute(
     previous = {k: os.environ.get(k) for k in settings}
     os.environ.update(settings)
     ipc_dir = tempfile.mkdtemp(prefix="ocpkit-ipc-")  # short: a Unix socket path has at most ~107 characters
+    started = time.time()
     try:
         pm.execute_notebook(
             str(path),
@@ -118,6 +123,14 @@ def execute(
             progress_bar={"desc": path.stem, "leave": False} if progress else False,
             kernel_manager_class=_kernel_manager_class(ipc_dir),
         )
+    except BaseException:
+        try:  # a run that stopped wrote no record: its executed notebook says so (an earlier run's is not its own)
+            keep_run_record(output, started)
+        except (OSError, ValueError):
+            pass
+        raise
+    else:
+        keep_run_record(output, started)
     finally:
         shutil.rmtree(ipc_dir, ignore_errors=True)
         for k, v in previous.items():
@@ -126,6 +139,30 @@ def execute(
             else:
                 os.environ[k] = v
     return output
+
+
+def keep_run_record(executed: Path, since: float) -> dict | None:
+    """Put the record of the run ``executed`` shows into its metadata (:data:`~compendium.provenance.RUN_RECORD_KEY`)
+    and return it: the record in the folder its first output line names (:func:`~compendium.notebook_source.written_to`) written at or after
+    ``since`` (a :func:`time.time`; one second earlier, for file systems that keep coarse times), ``None`` if that
+    folder holds none so recent (the run did not complete). Nothing is written into a notebook that names no
+    folder, or into none at all."""
+    import json
+
+    import nbformat
+
+    if not executed.is_file():
+        return None
+    folder = written_to(executed)
+    if folder is None:
+        return None
+    fresh = [r for r in sorted((folder / RUNS).glob("*.json")) if r.stat().st_mtime >= since - 1.0]
+    newest = max(fresh, key=lambda r: r.stat().st_mtime, default=None)
+    record = json.loads(newest.read_text()) if newest is not None else None
+    nb = nbformat.read(str(executed), as_version=4)
+    nb.metadata[RUN_RECORD_KEY] = record
+    nbformat.write(nb, str(executed))
+    return record
 
 
 def strip_volatile_metadata(path: str | Path) -> None:

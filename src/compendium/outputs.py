@@ -43,7 +43,7 @@ import pandas as pd
 from . import contract, paths
 from .figure_data import write_figure_data
 from .notebook_source import code_digest, notebook_parameters, parameters_cell, published_parameters
-from .plotting import save_figure
+from .plotting import add_note, note_figures, run_note, save_figure
 from .provenance import RUNS, git_state, run_folder
 
 STAGING = ".staging"
@@ -134,6 +134,8 @@ class Outputs:
         self.parameters = {k: parameters[k] for k in published}
         self.changed = {k: v for k, v in self.parameters.items() if v != published[k]}
         self.is_published_run = not self.changed
+        #: what each figure of a run with other parameters says of it (:func:`compendium.plotting.run_note`)
+        self.note = run_note(self.changed, published) if self.changed else None
         self.explicit = bool(os.environ.get("OCPKIT_OUTPUT_DIR"))
         self.root = run_folder(notebook, self.parameters)
         if self.root == paths.repo_root().resolve():
@@ -157,12 +159,14 @@ class Outputs:
         """Open the outputs of a run whose parameters are variables of ``namespace`` (a notebook's ``globals()``).
 
         Rejects parameters papermill passed that the notebook does not declare (papermill itself only warns, then
-        runs the defaults). Also shows warnings as ``Category: message``, without the file path Python prints by
+        runs the defaults). A run with other parameters than the published run's puts :attr:`note` on every figure
+        pyplot draws from now on (:func:`compendium.plotting.note_figures`), inline ones too. Also shows warnings as ``Category: message``, without the file path Python prints by
         default: a stored notebook must not carry the paths of the machine that ran it.
         """
         warnings.formatwarning = _format_warning
         _reject_unknown_injected(notebook)
         out = cls(notebook, {k: namespace[k] for k in published_parameters(notebook) if k in namespace})
+        note_figures(out.note)
         print(out.describe())
         return out
 
@@ -223,8 +227,12 @@ class Outputs:
 
     def figure(self, fig, name: str) -> None:
         """``figures/<name>.png`` and ``.pdf`` (deterministic bytes), and ``figures/data/<name>.json``, the
-        arrays the figure draws (:mod:`compendium.figure_data`), which the guard compares."""
+        arrays the figure draws (:mod:`compendium.figure_data`), which the guard compares. A run with other
+        parameters than the published run's writes its :attr:`note` on the figure first (the published run's
+        figures carry none)."""
         self._declared("figures", name)
+        if self.note is not None:
+            add_note(fig, self.note)
         for path in save_figure(fig, name, self._staging / "figures"):
             self._path(Path("figures") / path.name)
         write_figure_data(fig, self._path(FIGURE_DATA / f"{name}.json"))

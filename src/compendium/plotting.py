@@ -1,4 +1,5 @@
-"""One house style for every figure, and deterministic PNG/PDF output."""
+"""One house style for every figure, deterministic PNG/PDF output, and the note a figure of a run with other
+parameters than the published run's carries (:func:`run_note`, :func:`note_figures`)."""
 
 from __future__ import annotations
 
@@ -38,15 +39,68 @@ def use_style() -> None:
     mpl.rcParams.update(STYLE)
 
 
+#: the ``gid`` of the note :func:`add_note` writes on a figure (one note per figure)
+NOTE_GID = "compendium-run-note"
+_NOTE_HOOK = "compendium.plotting:_note_new_figure"
+#: the note :func:`note_figures` puts on every figure pyplot creates from now on (``None``: none)
+_run_note: str | None = None
+
+
+def run_note(changed: dict, published: dict, width: int = 110) -> str:
+    """The note of a run whose parameters ``changed`` (name -> value) differ from the published run's
+    (``published``, name -> value): ``Not the published run: thrust_to_weight = 2.5 (published: None)``, long values
+    cut short, wrapped at ``width`` characters."""
+    import reprlib
+    import textwrap
+
+    short = reprlib.Repr()
+    short.maxstring = short.maxother = 40
+    short.maxlist = short.maxtuple = short.maxdict = 6
+    parts = [f"{k} = {short.repr(v)} (published: {short.repr(published.get(k))})" for k, v in changed.items()]
+    return "\n".join(textwrap.wrap("Not the published run: " + "; ".join(parts), width, break_long_words=False))
+
+
+def add_note(fig: plt.Figure, note: str) -> None:
+    """Write ``note`` above the figure's top left corner, small and in orange (once: a figure that carries it is
+    left as it is). A figure-level text: :mod:`compendium.figure_data` does not record it, so the guard compares the
+    figure's data as without it; ``savefig.bbox = "tight"`` and the inline backend keep it in the picture."""
+    if any(t.get_gid() == NOTE_GID for t in fig.texts):
+        return
+    fig.text(0.0, 1.0, note, ha="left", va="bottom", fontsize=8, color="#b35c00", gid=NOTE_GID)
+
+
+def note_figures(note: str | None) -> None:
+    """From now on, every figure pyplot creates in this process carries ``note`` (:func:`add_note`), through
+    matplotlib's ``figure.hooks``: a notebook's inline figures say what its saved ones say. ``None``: no note."""
+    global _run_note
+    _run_note = note
+    hooks = [h for h in mpl.rcParams["figure.hooks"] if h != _NOTE_HOOK]
+    mpl.rcParams["figure.hooks"] = hooks + ([_NOTE_HOOK] if note is not None else [])
+
+
+def noted(fig: plt.Figure) -> plt.Figure:
+    """``fig`` with the note :func:`note_figures` set, if one is (a figure made without pyplot has none else)."""
+    if _run_note is not None:
+        add_note(fig, _run_note)
+    return fig
+
+
+def _note_new_figure(fig: plt.Figure) -> None:
+    noted(fig)
+
+
 def save_figure(fig: plt.Figure, name: str, folder: Path | str, formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
     """Write ``<folder>/<name>.<fmt>`` with metadata that does not change between runs (byte-deterministic).
 
-    Notebooks do not call this directly: :meth:`compendium.outputs.Outputs.figure` decides the folder.
+    Notebooks do not call this directly: :meth:`compendium.outputs.Outputs.figure` decides the folder. A figure
+    that carries a run's note (:func:`add_note`, above the figure) is saved with a tight bounding box, whatever
+    ``savefig.bbox`` says, so that the note is in the picture.
     """
     if not name or "/" in name or "\\" in name:
         raise ValueError(f"figure name must be a plain file stem, got {name!r}")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    tight = {"bbox_inches": "tight"} if any(t.get_gid() == NOTE_GID for t in fig.texts) else {}
     out = []
     for fmt in formats:
         path = folder / f"{name}.{fmt}"
@@ -56,7 +110,7 @@ def save_figure(fig: plt.Figure, name: str, folder: Path | str, formats: Sequenc
             meta = _PDF_METADATA
         else:
             raise ValueError(f"unsupported figure format {fmt!r}")
-        fig.savefig(path, format=fmt, metadata=meta)
+        fig.savefig(path, format=fmt, metadata=meta, **tight)
         out.append(path)
     return out
 

@@ -3,7 +3,7 @@
 What :mod:`compendium.outputs` writes into a run's record and :mod:`compendium.report` shows beside it, and what
 :mod:`compendium.notebooks` and :mod:`compendium.guard` read back: the commit a run was of and what was changed since
 (:func:`git_state`), the machine and the versions of :data:`PACKAGES` (:func:`environment`), the folder of a run's
-records (:data:`RUNS`, :func:`read_run_record`) and the folder a run writes (:func:`run_folder`, named by
+records (:data:`RUNS`, :func:`read_run_record`, :data:`RUN_RECORD_KEY`) and the folder a run writes (:func:`run_folder`, named by
 :func:`run_key` under :func:`runs_root`). Below it only :mod:`compendium.paths` and :mod:`compendium.notebook_source`.
 """
 
@@ -26,6 +26,9 @@ PACKAGES = ("casadi", "numpy", "scipy", "matplotlib", "pandas", "ocpkit")
 RECORD = ("figures/", "data/derived/")
 #: the folder of run records, in a run's folder and in the published record
 RUNS = Path("data") / "derived" / "runs"
+#: the key of an executed notebook's metadata under which the runner keeps the record of the run it shows
+#: (:func:`compendium.notebooks.execute`; ``null``: the run wrote none, it did not complete)
+RUN_RECORD_KEY = "compendium_run_record"
 
 # -- the machine and its software ------------------------------------------------------------------------------------
 

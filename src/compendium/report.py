@@ -32,7 +32,7 @@ from typing import NamedTuple
 from . import paths
 from .mathjax import copy_mathjax
 from .notebook_source import literal_parameters, published_parameters, static_views, written_to
-from .provenance import RUNS, environment, git_state
+from .provenance import RUN_RECORD_KEY, RUNS, environment, git_state
 
 #: tags, as myst-nb reads them: the cell, its code or its outputs left out of the page, or folded away
 REMOVE_CELL, REMOVE_INPUT, REMOVE_OUTPUT = "remove-cell", "remove-input", "remove-output"
@@ -181,8 +181,10 @@ class RunFacts:
     message of the first error; ``parameters`` and ``parameters_from``: the run's parameters and where they were read;
     ``published``: whether they are the notebook's published parameters (``None`` for a notebook the compendium does
     not hold), ``changed`` the names that differ; ``folder``: where the run wrote its figures and tables (the
-    notebook's first output line); ``record``: the run record there; ``in_published_record``: whether that record is
-    the one of the published record (the run was copied into ``figures/`` and ``data/derived/``).
+    notebook's first output line); ``record``: the run's record, the one the runner kept in the executed notebook
+    (``record_kept``; :func:`compendium.notebooks.execute`), else the one in ``folder`` now (a notebook papermill or
+    Lab ran); ``in_published_record``: whether that record is the one of the published record (the run was copied
+    into ``figures/`` and ``data/derived/``).
     """
 
     executed: str | None = None
@@ -195,6 +197,7 @@ class RunFacts:
     changed: list[str] = field(default_factory=list)
     folder: Path | None = None
     record: dict | None = None
+    record_kept: bool = False
     in_published_record: bool = False
 
 
@@ -209,14 +212,17 @@ def run_facts(path: Path, nb) -> RunFacts:
     facts.failure = _failure(nb)
     facts.folder = written_to(path)
     stem = path.stem
-    if facts.folder is not None and (facts.folder / RUNS / f"{stem}.json").is_file():
-        text = (facts.folder / RUNS / f"{stem}.json").read_text()
-        facts.record = json.loads(text)
-        published = paths.repo_root() / RUNS / f"{stem}.json"
+    if RUN_RECORD_KEY in nb.metadata:  # kept by the runner: this run's, whatever ran in its folder since
+        facts.record = nb.metadata[RUN_RECORD_KEY]
+        facts.record_kept = True
+    elif facts.folder is not None and (facts.folder / RUNS / f"{stem}.json").is_file():
+        facts.record = json.loads((facts.folder / RUNS / f"{stem}.json").read_text())
+    if facts.record is not None and facts.folder is not None:
+        published = paths.repo_root() / RUNS / f"{facts.record.get('notebook', stem)}.json"
         facts.in_published_record = (
             facts.folder.resolve() != paths.repo_root().resolve()
             and published.is_file()
-            and published.read_text() == text
+            and json.loads(published.read_text()) == facts.record
         )
     if facts.record is not None:
         facts.parameters, facts.parameters_from = facts.record["parameters"], "the run's record"
@@ -500,6 +506,8 @@ def figures_went(facts: RunFacts) -> str:
     if facts.folder is None:
         return "not said (the notebook printed no <code>This run writes ...</code> line)"
     where = f"<code>{html.escape(_where(facts.folder))}</code>"
+    if facts.record is None and facts.record_kept:
+        return f"{where} (the run wrote no record there: it did not complete)"
     if facts.record is None:
         return f"{where} (no record of this run there now)"
     if facts.in_published_record:

@@ -12,24 +12,40 @@ from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, St
 from ._data import load_problem_data
 
 
-def lunar_ascent_constants() -> dict:
-    """Non-dimensional constants, initial state and target derived from the data file."""
+def lunar_ascent_constants(
+    speed_smoothing: float | None = None, *, a: float | None = None, altitude_km: float | None = None
+) -> dict:
+    """Non-dimensional constants, initial state and target: the data file's (the paper's reading), with the speed
+    smoothing ``speed_smoothing``, thrust acceleration ``a`` and target altitude ``altitude_km`` (km) given in their
+    place, as :func:`lunar_ascent` solves with them. ``paper``: the data file's values of those three, for a
+    printout to set beside them."""
     d = load_problem_data("lunar_ascent")
+    for name, value in (("speed_smoothing", speed_smoothing), ("a", a), ("altitude_km", altitude_km)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be positive and finite, got {value!r}")
     R = d["units"]["length_m"]
     g_moon = d["units"]["g_moon_m_s2"]
     v_unit = math.sqrt(g_moon * R)
+    paper_km = d["target"]["altitude_m"] / 1e3
     return {
         "g": d["constants"]["g"],
-        "a": d["constants"]["a"],
-        "speed_smoothing": d["constants"]["speed_smoothing"],
+        "a": d["constants"]["a"] if a is None else float(a),
+        "speed_smoothing": d["constants"]["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing),
+        "altitude_km": paper_km if altitude_km is None else float(altitude_km),
         "length_unit_m": R,
         "time_unit_s": math.sqrt(R / g_moon),
         "velocity_unit_m_s": v_unit,
         "initial": dict(d["initial"]),
         "final": {
-            "Y": 1.0 + d["target"]["altitude_m"] / R,
+            # the data file's target as it stands, to the last digit, unless another altitude is given
+            "Y": 1.0 + (d["target"]["altitude_m"] if altitude_km is None else float(altitude_km) * 1e3) / R,
             "U": d["target"]["U_m_s"] / v_unit,
             "V": d["target"]["V_m_s"] / v_unit,
+        },
+        "paper": {
+            "a": d["constants"]["a"],
+            "speed_smoothing": d["constants"]["speed_smoothing"],
+            "altitude_km": paper_km,
         },
         "theta_bounds": tuple(d["bounds"]["theta"]),
         "tf_bounds": tuple(d["bounds"]["tf"]),
@@ -84,18 +100,8 @@ def lunar_ascent(
     ``a`` and ``altitude_km``: another thrust-to-weight ratio or target altitude (default: the data file's, the
     paper's), the constant of the statement or, as a parameter, its default value.
     """
-    c = lunar_ascent_constants()
-    eps = c["speed_smoothing"] if speed_smoothing is None else float(speed_smoothing)
-    if not (eps > 0 and math.isfinite(eps)):
-        raise ValueError(f"speed_smoothing must be positive and finite, got {speed_smoothing!r}")
-    for name, value in (("a", a), ("altitude_km", altitude_km)):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be positive and finite, got {value!r}")
-    R = c["length_unit_m"]
-    target_km = load_problem_data("lunar_ascent")["target"]["altitude_m"] / 1e3 if altitude_km is None else altitude_km
-    if altitude_km is not None:  # (else the data file's target as it stands, to the last digit)
-        c["final"]["Y"] = 1.0 + altitude_km * 1e3 / R
-    g, a = c["g"], (c["a"] if a is None else float(a))
+    c = lunar_ascent_constants(speed_smoothing, a=a, altitude_km=altitude_km)
+    eps, g, a, target_km, R = c["speed_smoothing"], c["g"], c["a"], c["altitude_km"], c["length_unit_m"]
 
     def dynamics(x, u, t, P=None):
         X, Y, U, V = ca.vertsplit(x)

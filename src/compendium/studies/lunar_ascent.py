@@ -1,5 +1,5 @@
-"""Lunar ascent studies: the minimum time against the smoothing of the speed (notebook 01); the flown position
-error of a solution (notebook 07)."""
+"""Lunar ascent studies: the constants a run solves with, the minimum time against the smoothing of the speed
+(notebook 01); the flown position error of a solution (notebook 07)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,27 @@ import pandas as pd
 from ocpkit import HLGL
 
 from ..problems.lunar_ascent import lunar_ascent, lunar_ascent_constants
+
+
+def describe_constants(constants: dict) -> str:
+    """The constants of a run (:func:`~compendium.problems.lunar_ascent_constants` with the run's parameters), as
+    notebook 01 prints them: thrust acceleration, gravity and speed smoothing, the units, the target; a value other
+    than the data file's (the paper's reading, ``data/problems/lunar_ascent.toml``) names that one beside it."""
+
+    def given(name: str, text: str, paper: str, whose: str = "the paper's") -> str:
+        return text if constants[name] == constants["paper"][name] else f"{text} ({whose} {paper})"
+
+    paper = constants["paper"]
+    eps = given("speed_smoothing", f"{constants['speed_smoothing']:g}", f"{paper['speed_smoothing']:g}", "default")
+    target = ", ".join(f"{k} = {v:.6f}" for k, v in constants["final"].items())
+    if constants["altitude_km"] != paper["altitude_km"]:
+        target += f" (altitude {constants['altitude_km']:g} km; the paper's {paper['altitude_km']:g} km)"
+    return (
+        f"a = {given('a', str(constants['a']), str(paper['a']))}, g = {constants['g']}, speed smoothing eps = {eps}\n"
+        f"length unit {constants['length_unit_m'] / 1e3:.1f} km, time unit {constants['time_unit_s']:.2f} s, "
+        f"velocity unit {constants['velocity_unit_m_s']:.2f} m/s\n"
+        f"target: {target}"
+    )
 
 
 def smoothing_study(smoothings, segments: int = 20, ipopt_options: dict | None = None, **problem_options):
