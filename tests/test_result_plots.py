@@ -188,3 +188,27 @@ def test_without_matplotlib_the_error_says_how_to_install_it(hlgl, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
     with pytest.raises(ImportError, match="pip install matplotlib"):
         hlgl.plot()
+
+
+def test_the_site_draws_a_pages_figure_with_the_pages_own_example(tmp_path):
+    """docs/_example_figures.py runs a page's python blocks up to the one that assigns ``fig`` and saves that figure
+    (the Getting-started picture is its example's, drawn at build time)."""
+    import importlib.util
+
+    from _examples import DOCS
+
+    spec = importlib.util.spec_from_file_location("_example_figures", DOCS / "_example_figures.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    page = tmp_path / "page.md"
+    page.write_text(
+        "```python\nfrom test_structure import saturated\nfrom ocpkit import HLGL\n"
+        "solution = HLGL(saturated(), intervals=8).solve()\n```\n\n"
+        "```python\nfig = solution.plot(which='controls')\n```\n\n```python\nraise RuntimeError('not reached')\n```\n"
+    )
+    module.draw(page, tmp_path / "out" / "picture.png")
+    assert (tmp_path / "out" / "picture.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    page.write_text("```python\nx = 1\n```\n")
+    with pytest.raises(ValueError, match="no python block that assigns fig"):
+        module.draw(page, tmp_path / "none.png")
+    assert "fig = solution.plot()" in (DOCS / "getting-started.md").read_text()

@@ -212,7 +212,7 @@ class Extremal:
         figsize: tuple[float, float] | None = None,
         fig: Figure | None = None,
     ) -> Figure:
-        """A matplotlib figure of the extremal: its :attr:`trajectory`'s (:meth:`Trajectory.plot
+        """A matplotlib figure of the extremal: its ``trajectory``'s (:meth:`Trajectory.plot
         <ocpkit.trajectory.Trajectory.plot>`, the same arguments; states, controls, costates, the switching times
         and junctions dotted), each bounded control's arcs shaded in the colour of their kind with a legend, at the
         extremal's own junction times; the title names the problem, the route, the objective and ``|S|``."""

@@ -689,7 +689,7 @@ class Solution(Trajectory):
         return MultiPhaseAccuracy(self)
 
     def plot_refinement(self, *, figsize: tuple[float, float] | None = None, fig: Figure | None = None) -> Figure:
-        """A matplotlib figure of the refinement that gave this solution (:attr:`mesh_history`): each mesh's
+        """A matplotlib figure of the refinement that gave this solution (``mesh_history``): each mesh's
         intervals and collocation points, its error estimate against the refinement's tolerance (logarithmic), and
         its interval boundaries over normalised time, one row of ticks per mesh (:mod:`ocpkit.plotting`).
         ``figsize``: inches; ``fig``: an empty figure or subfigure to draw into."""

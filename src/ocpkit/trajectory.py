@@ -155,7 +155,7 @@ class Trajectory(ABC):
     ) -> Figure:
         """A matplotlib figure of this trajectory (matplotlib is needed: ``pip install matplotlib``).
 
-        One axes per state, per control, per costate (where the trajectory has them, :attr:`has_costates`) and per
+        One axes per state, per control, per costate (where the trajectory has them, ``has_costates``) and per
         path constraint's expression, each drawn on ``n`` points per phase; a direct solution's points (its scheme's
         nodes) as dots on it and its mesh breakpoints as ticks along the bottom; finite bounds and path-constraint
         limits dashed (where within the span of the values from them); the phases' boundaries as solid lines
@@ -165,8 +165,8 @@ class Trajectory(ABC):
         ``which``: the groups drawn, some of ``"states"``, ``"controls"``, ``"costates"``, ``"constraints"``
         (default every group the trajectory has); ``names``: only these states, controls and path constraints (a
         state's costate with it); ``figsize``: inches (default from the number of axes); ``fig``: an empty figure
-        or subfigure to draw into. Returns the figure, which pyplot does not keep open: a notebook shows it as a
-        cell's value, a script saves it with ``fig.savefig(...)`` (:mod:`ocpkit.plotting`).
+        or subfigure to draw into. Returns the figure, which pyplot does not keep open: a notebook shows it once as a
+        cell's value (a trailing ``;`` hides it), a script saves it with ``fig.savefig(...)`` (:mod:`ocpkit.plotting`).
         """
         from .plotting import trajectory_figure
 
