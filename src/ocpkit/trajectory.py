@@ -5,7 +5,7 @@ them) costates as functions of time on ``[t0, tf]``, with the times where the
 control may jump (``breakpoints``: segment ends of a transcription, switching
 times of a shooting). Every trajectory can be sampled into a DataFrame, re-integrated
 (the dynamics flown with its control, from its initial state, by an independent
-integrator) and compared with another trajectory of the same problem.
+integrator), compared with another trajectory of the same problem and drawn (:meth:`Trajectory.plot`).
 
 :class:`~ocpkit.solution.Solution` (direct transcriptions) and
 :class:`~ocpkit.shooting.trajectory.ShootingTrajectory` (indirect shooting) implement it.
