@@ -19,7 +19,7 @@ author = "the ocpkit compendium authors"
 copyright = "2026, the ocpkit compendium authors"
 release = version = "0.3.0.dev0"
 
-extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon"]
+extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "_example_figures"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 exclude_patterns = ["_build", "_generated", "ocpkit.md", "**/.ipynb_checkpoints"]
 
@@ -29,6 +29,8 @@ sys.path.insert(0, str(HERE))
 from _tables import values  # noqa: E402
 
 myst_substitutions = values()
+# the pictures that pages' examples draw, drawn by those examples at build time (docs/_example_figures.py)
+example_figures = {"getting-started.md": "getting-started-plot.png"}
 myst_heading_anchors = 3
 nb_execution_mode = "off"  # the notebooks' stored outputs, as nbval checks them
 nb_merge_streams = True
@@ -45,7 +47,7 @@ nitpick_ignore_regex = [
         "py:.*",
         r"(numpy|np|casadi|ca|scipy|pandas|pd|matplotlib|collections|typing|abc|enum|warnings|pathlib|os)(\..*)?",
     ),
-    ("py:.*", r"(ndarray|callable|optional|Path|ArrayLike|NDArray|Callable|Sequence|Mapping|Iterable)"),
+    ("py:.*", r"(ndarray|callable|optional|Path|ArrayLike|NDArray|Callable|Sequence|Mapping|Iterable|Figure)"),
 ]
 
 html_theme = "pydata_sphinx_theme"

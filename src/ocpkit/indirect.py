@@ -51,6 +51,8 @@ from .statement.symbols import readers
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from .program import Program
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
@@ -200,6 +202,60 @@ class Extremal:
     def free_parameters(self) -> dict[str, float]:
         """The solved free parameters by name."""
         return self.shooting.free_parameters
+
+    def plot(
+        self,
+        which: str | Sequence[str] | None = None,
+        *,
+        names: str | Sequence[str] | None = None,
+        n: int = 401,
+        figsize: tuple[float, float] | None = None,
+        fig: Figure | None = None,
+    ) -> Figure:
+        """A matplotlib figure of the extremal: its ``trajectory``'s (:meth:`Trajectory.plot
+        <ocpkit.trajectory.Trajectory.plot>`, the same arguments; states, controls, costates, the switching times
+        and junctions dotted), each bounded control's arcs shaded in the colour of their kind with a legend, at the
+        extremal's own junction times; the title names the problem, the route, the objective and ``|S|``."""
+        from .plotting import trajectory_figure
+
+        tr = self.trajectory
+        title = f"extremal of {tr.problem.name}, {self.route or 'shooting'}: objective {self.objective:.8g}, "
+        title += f"|S| = {self.norm:.1e}"
+        return trajectory_figure(tr, which, names=names, n=n, figsize=figsize, fig=fig, title=title, arcs=self._arcs())
+
+    def _arcs(self) -> dict[str, list[tuple[str, float, float]]]:
+        """Each bounded control's arcs on the extremal, ``(kind, start, end)`` in time order (a boundary arc's kind
+        names its inequality, ``"boundary (v.upper)"``): the arc shooting's own arcs and junction times, or the
+        :attr:`structure`'s arcs with each junction moved to the extremal's switching time nearest it (within 5%
+        of the horizon)."""
+        from .shooting.arcs import ArcResult, arc_sequence
+
+        tr = self.trajectory
+        if isinstance(self.shooting, ArcResult):
+            times = self.shooting.times
+            sequence = list(zip(self.shooting.arcs, times[:-1], times[1:]))
+        else:
+            exact = np.asarray(tr.breakpoints, dtype=float)
+            reach = 0.05 * (tr.tf - tr.t0)
+
+            def snap(t: float) -> float:
+                nearest = float(exact[np.argmin(np.abs(exact - t))])
+                return nearest if abs(nearest - t) <= reach else float(t)
+
+            sequence = [(k, snap(a), snap(b)) for k, a, b in arc_sequence(self.structure, tr.problem, tr.t0, tr.tf)]
+        bounded = {a.control for a in self.structure.arcs}
+        out: dict[str, list[tuple[str, float, float]]] = {}
+        for kind, a, b in sequence:
+            for name, which in zip(tr.control_names, kind.kinds):
+                if name not in bounded:
+                    continue
+                label = which if which != "boundary" else f"boundary ({kind.constraint})"
+                arcs = out.setdefault(name, [])
+                if arcs and arcs[-1][0] == label:
+                    arcs[-1] = (label, arcs[-1][1], float(b))
+                else:
+                    arcs.append((label, float(a), float(b)))
+        return out
 
 
 METHODS = ("auto", "arcs", "switching")

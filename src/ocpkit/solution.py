@@ -27,6 +27,7 @@ from .verdict import DEFAULT_TOLERANCE, Verdict
 
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.figure import Figure
     from numpy.typing import ArrayLike
 
     from .accuracy import Accuracy, MultiPhaseAccuracy
@@ -686,6 +687,22 @@ class Solution(Trajectory):
         from .accuracy import MultiPhaseAccuracy
 
         return MultiPhaseAccuracy(self)
+
+    def plot_refinement(self, *, figsize: tuple[float, float] | None = None, fig: Figure | None = None) -> Figure:
+        """A matplotlib figure of the refinement that gave this solution (``mesh_history``): each mesh's
+        intervals and collocation points, its error estimate against the refinement's tolerance (logarithmic), and
+        its interval boundaries over normalised time, one row of ticks per mesh (:mod:`ocpkit.plotting`).
+        ``figsize``: inches; ``fig``: an empty figure or subfigure to draw into."""
+        from .plotting import refinement_figure
+
+        if not self.mesh_history:
+            raise ValueError(
+                "this solution has no mesh history (it was solved on one mesh): solve with a mesh tolerance, e.g. "
+                "solve(mesh_tolerance=1e-6), to refine the mesh and record each iteration"
+            )
+        name = self.problem.name if self.single else "phases " + ", ".join(self.names)
+        title = f"mesh refinement of {name}, {self.transcription}: {self.refinement_outcome}"
+        return refinement_figure(self.mesh_history, self.verdict_tolerance, title=title, figsize=figsize, fig=fig)
 
     # -- constraints ---------------------------------------------------------------------------------------------------------
     def constraint(self, name: str) -> dict[str, Any]:

@@ -5,7 +5,7 @@ them) costates as functions of time on ``[t0, tf]``, with the times where the
 control may jump (``breakpoints``: segment ends of a transcription, switching
 times of a shooting). Every trajectory can be sampled into a DataFrame, re-integrated
 (the dynamics flown with its control, from its initial state, by an independent
-integrator) and compared with another trajectory of the same problem.
+integrator), compared with another trajectory of the same problem and drawn (:meth:`Trajectory.plot`).
 
 :class:`~ocpkit.solution.Solution` (direct transcriptions) and
 :class:`~ocpkit.shooting.trajectory.ShootingTrajectory` (indirect shooting) implement it.
@@ -21,7 +21,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import pandas as pd
+    from matplotlib.figure import Figure
     from numpy.typing import ArrayLike
 
     from .statement import OptimalControlProblem
@@ -140,6 +143,34 @@ class Trajectory(ABC):
         if costates:
             data.update({f"lambda_{k}": v for k, v in zip(self.state_names, self.costate(t).T)})
         return pd.DataFrame(data)
+
+    def plot(
+        self,
+        which: str | Sequence[str] | None = None,
+        *,
+        names: str | Sequence[str] | None = None,
+        n: int = 401,
+        figsize: tuple[float, float] | None = None,
+        fig: Figure | None = None,
+    ) -> Figure:
+        """A matplotlib figure of this trajectory (matplotlib is needed: ``pip install matplotlib``).
+
+        One axes per state, per control, per costate (where the trajectory has them, ``has_costates``) and per
+        path constraint's expression, each drawn on ``n`` points per phase; a direct solution's points (its scheme's
+        nodes) as dots on it and its mesh breakpoints as ticks along the bottom; finite bounds and path-constraint
+        limits dashed (where within the span of the values from them); the phases' boundaries as solid lines
+        (a solution of several phases, each phase on its own interval, its own bounds), the switching times and
+        junctions of an indirect trajectory dotted; the title names the problem, the method and the objective.
+
+        ``which``: the groups drawn, some of ``"states"``, ``"controls"``, ``"costates"``, ``"constraints"``
+        (default every group the trajectory has); ``names``: only these states, controls and path constraints (a
+        state's costate with it); ``figsize``: inches (default from the number of axes); ``fig``: an empty figure
+        or subfigure to draw into. Returns the figure, which pyplot does not keep open: a notebook shows it once as a
+        cell's value (a trailing ``;`` hides it), a script saves it with ``fig.savefig(...)`` (:mod:`ocpkit.plotting`).
+        """
+        from .plotting import trajectory_figure
+
+        return trajectory_figure(self, which, names=names, n=n, figsize=figsize, fig=fig)
 
     # -- expressions of the solution --------------------------------------------------------
     def sample(

@@ -13,7 +13,7 @@ convergence above ``tol`` is :attr:`~ocpkit.Outcome.STALLED`). ``detail`` is the
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -23,6 +23,8 @@ from .._deprecation import renamed
 from ..outcome import Outcome
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from ..trajectory import Trajectory
 
 
@@ -72,6 +74,25 @@ class IndirectResult:
         """The extremal as functions of time (state, control, costates); a ValueError where the run has none (its
         last iterate could not be integrated)."""
         raise ValueError(f"this run has no trajectory: {self.status}: {self.detail}")
+
+    def plot(
+        self,
+        which: str | Sequence[str] | None = None,
+        *,
+        names: str | Sequence[str] | None = None,
+        n: int = 401,
+        figsize: tuple[float, float] | None = None,
+        fig: Figure | None = None,
+    ) -> Figure:
+        """A matplotlib figure of the run's :attr:`trajectory` (:meth:`Trajectory.plot
+        <ocpkit.trajectory.Trajectory.plot>`, the same arguments: states, controls, costates, the switching times
+        and junctions dotted), titled with the problem, the run's status, its objective and ``|S|``."""
+        from ..plotting import trajectory_figure
+
+        tr = self.trajectory
+        title = f"{tr.problem.name}, {type(self).__name__} ({self.status}): objective {self.objective:.8g}, "
+        title += f"|S| = {self.norm:.1e}"
+        return trajectory_figure(tr, which, names=names, n=n, figsize=figsize, fig=fig, title=title)
 
     @property
     def message(self) -> str:
