@@ -387,6 +387,22 @@ def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> d
     return published
 
 
+def _check_each(notebooks: list[Path], given: dict) -> None:
+    """``given`` checked against every notebook's parameters cell before any kernel starts
+    (:func:`~compendium.notebook_source.check_parameters`): every problem found, in one ``ValueError``."""
+    problems = []
+    for nb in notebooks:
+        if not nb.is_file():
+            problems.append(f"{nb}: no such notebook")
+            continue
+        try:
+            check_parameters(nb, given)
+        except ValueError as exc:
+            problems += str(exc).splitlines()
+    if problems:
+        raise ValueError("nothing was run:\n  " + "\n  ".join(problems))
+
+
 def _executed_by_papermill(path: Path) -> bool:
     """Whether ``path`` is a notebook papermill wrote (its record in the metadata): one :func:`reproduce` may remove."""
     import json
@@ -473,6 +489,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             given = {k: _parse_value(v) for k, v in args.parameter}
+            _check_each(args.notebooks, given)
             for nb in _each(args.notebooks, "run"):
                 folder, outputs = run(nb, given, runs=args.output, kernel=args.kernel, progress=True)
                 if outputs.resolve() == folder.resolve():
