@@ -40,6 +40,7 @@ from .notebook_source import (
     static_views,
     written_to,
 )
+from .progress import NotebookETA, measured_durations, notebook_estimates, prior_durations
 from .provenance import RUNS, run_folder
 from .report import UNFINISHED, Unfinished, build_report
 
@@ -321,13 +322,15 @@ def reproduce(
 
     output = Path(output)
     published = _checked_runs(notebooks, output, None if report is None else Path(report))
+    measured = measured_durations(output, {nb.stem: params for nb, params in published.items()})
+    eta = NotebookETA(notebook_estimates([nb.stem for nb in published], measured, prior_durations()))
     if output.is_dir():
         for path in sorted(output.glob("*.ipynb")):
             if _executed_by_papermill(path):
                 path.unlink()
         (output / UNFINISHED).unlink(missing_ok=True)
     failed: dict[Path, Unfinished] = {}
-    for nb in _each(list(published), "reproduce"):
+    for nb in _each(list(published), "reproduce", eta):
         params, executed = published[nb], output / nb.name
         try:
             execute(nb, executed, params, kernel=kernel, progress=True)
@@ -432,13 +435,21 @@ def _parse_value(text: str):
         return text
 
 
-def _each(notebooks, verb: str):
-    """The notebooks with a bar over them (one line per finished notebook stays)."""
+def _each(notebooks, verb: str, eta: NotebookETA | None = None):
+    """The notebooks with a bar over them (one line per finished notebook stays). With ``eta``, the time each
+    notebook and all those left are expected to take, in a line when each starts and on the bar (tqdm's own
+    estimate, an average over notebooks, is left out)."""
     from tqdm import tqdm
 
-    bar = tqdm(notebooks, desc=verb, unit="notebook", file=sys.stderr)
+    fmt = None if eta is None else "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
+    bar = tqdm(notebooks, desc=verb, unit="notebook", file=sys.stderr, bar_format=fmt, dynamic_ncols=True)
     for nb in bar:
-        bar.set_postfix_str(nb.name)
+        if eta is None:
+            bar.set_postfix_str(nb.name)
+        else:
+            line = eta.line(nb.stem)
+            _say(line)
+            bar.set_postfix_str(line)
         yield nb
 
 
