@@ -7,6 +7,7 @@ it) passes; a deliberately wrong value fails: a fuel changed by 0.01 kg, a switc
 import json
 import math
 import shutil
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -16,7 +17,7 @@ import pytest
 from compendium import plotting
 from compendium.contract import Converged, Error, Exact, Order, SolverPath, load_contract, to_number
 from compendium.figure_data import figure_data
-from compendium.guard import compare_figure_data, guard, read_csv
+from compendium.guard import closing_note, committed_record, compare_figure_data, guard, read_csv, record_changes
 from compendium.paths import repo_root
 from compendium.provenance import RUNS
 
@@ -133,6 +134,64 @@ def test_a_changed_number_a_changed_figure_and_a_new_file_are_differences(record
     assert "figures/data/f.json: axes 0 artist 0 (curve): 1 of 3 y values differ" in diffs
     assert "data/derived/new.csv: written, but not declared in the contract" in diffs
     assert "f.png" not in diffs, "PNG bytes are a note, not a difference"
+
+
+def _git(repo, *args):
+    import subprocess
+
+    return subprocess.run(
+        ["git", "-C", str(repo), "-c", "user.name=t", "-c", "user.email=t@example.org", *args],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+
+
+def test_the_closing_note_counts_what_differs_within_the_contract_and_restores_the_commit(record, tmp_path):
+    """make reproduce on another machine: the record rewritten in the working tree, every file within the contract,
+    some of them byte-wise different; the note counts them and its command brings the committed bytes back."""
+    _, repo = record  # a fresh run's folder, made a git checkout: its record is the commit's
+    (repo / "notebooks").mkdir()
+    (repo / "notebooks" / "contract.toml").write_text(CONTRACT)
+    (repo / ".gitignore").write_text("data/derived/runs/\n")
+    _git(repo, "init", "-q")
+    _git(repo, "add", "-A")
+    _git(repo, "commit", "-qm", "the record")
+    committed = {rel: (repo / rel).read_bytes() for rel in FILES}
+
+    def note():
+        import tempfile
+
+        with tempfile.TemporaryDirectory(dir=tmp_path) as reference:  # what `--reference-commit HEAD` compares with
+            report = guard(repo, committed_record("HEAD", Path(reference), repository=repo))
+        assert report.differences == []
+        return record_changes(report, repo, "HEAD")
+
+    unchanged = note()
+    assert unchanged.within == {} and len(unchanged.identical) == 6 and unchanged.unchecked == []
+    assert closing_note(unchanged) == "the published record has the bytes of HEAD (6 files compared)"
+
+    (repo / "figures" / "f.png").write_bytes(committed["figures/f.png"] + b"another machine's last bits")
+    _edit_csv(repo / "data" / "derived" / "t.csv", {(1, "norm_S"): 4e-9})  # the same magnitude: within its class
+    _git(repo, "add", "data/derived/t.csv")  # staged or not, the commit's bytes are what is restored
+    changes = note()
+    assert changes.within == {"figures": ["figures/f.png"], "tables": ["data/derived/t.csv"]}
+    assert len(changes.identical) == 4 and changes.unchecked == []
+    text = closing_note(changes)
+    assert text.splitlines()[0] == (
+        "2 files of the published record differ byte-wise from HEAD and reproduce it within the contract "
+        "(notebooks/contract.toml); 4 are byte-identical."
+    )
+    assert "  1 PNG and PDF figures redrawn" in text and "  1 CSV tables, each number within" in text
+    assert text.endswith("git checkout HEAD -- figures data/derived")
+    _git(repo, *changes.restore.split()[1:])
+    assert _git(repo, "status", "--porcelain") == ""
+    assert {rel: (repo / rel).read_bytes() for rel in FILES} == committed
+    assert (repo / RUNS / "nb.json").is_file(), "the run records (git-ignored) stay"
+
+    (repo / "figures" / "sketch.txt").write_text("a file of one's own")  # not the guard's: restoring must not hide it
+    (repo / "figures" / "f.png").write_bytes(b"redrawn")
+    changes = note()
+    assert changes.within == {"figures": ["figures/f.png"]} and changes.unchecked == ["figures/sketch.txt"]
+    assert "1 other changed file(s) there were not compared (figures/sketch.txt)" in closing_note(changes)
 
 
 def test_a_status_change_is_a_difference(record):

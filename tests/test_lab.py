@@ -79,6 +79,19 @@ def test_extra_arguments_follow_and_replace_defaults_of_the_same_name(monkeypatc
     assert _option(aliased, "--ServerApp.root_dir") == [] and aliased[-1] == "--notebook-dir=/somewhere"
 
 
+def test_lab_starts_with_the_news_off():
+    """The "official Jupyter news" question is off (fetchNews "false"): a setting the installed JupyterLab has."""
+    assert _option(lab.lab_command(), "--LabApp.app_settings_dir") == [str(lab.SETTINGS)]
+    overrides = json.loads((lab.SETTINGS / "overrides.json").read_text())
+    assert overrides == {
+        "@jupyterlab/apputils-extension:notification": {"fetchNews": "false", "checkForUpdates": False}
+    }
+    schema = Path(sys.prefix, "share", "jupyter", "lab", "schemas", "@jupyterlab", "apputils-extension")
+    properties = json.loads((schema / "notification.json").read_text())["properties"]
+    assert "false" in [choice["const"] for choice in properties["fetchNews"]["oneOf"]]
+    assert properties["checkForUpdates"]["type"] == "boolean"
+
+
 class _Execd(Exception):
     pass
 
@@ -221,6 +234,13 @@ def test_server_serves_the_repository_root(lab_server):
 
 
 @needs_lab
+def test_the_server_gives_lab_the_news_off(lab_server):
+    settings = lab_server.api("/lab/api/settings/@jupyterlab/apputils-extension:notification")
+    defaults = {name: p["default"] for name, p in settings["schema"]["properties"].items()}
+    assert defaults["fetchNews"] == "false" and defaults["checkForUpdates"] is False
+
+
+@needs_lab
 @needs_kernel
 def test_default_kernel_is_the_compendium_kernel(lab_server):
     specs = lab_server.api("/api/kernelspecs")
@@ -328,6 +348,9 @@ def needs_chromium(test):
     return fails
 
 
+#: the toast JupyterLab shows when its setting fetchNews is "none" (its default)
+NEWS_QUESTION = "Would you like to get notified about official Jupyter news?"
+
 #: virtual (not wall-clock) milliseconds Chromium lets the page run before dumping it; Lab renders in ~5 s of real time
 VIRTUAL_TIME_BUDGET = 30000
 
@@ -337,6 +360,7 @@ class _Dom(HTMLParser):
 
     def __init__(self, html: str):
         super().__init__()
+        self.html = html
         self.classes: Counter[str] = Counter()
         self.output_images: list[str] = []
         self.h1: list[str] = []
@@ -436,6 +460,7 @@ def test_lab_opens_a_notebook_in_a_browser(lab_server, tmp_path):
     assert len(dom.output_images) == _png_outputs(nb)  # its stored figures, if it has any yet
     assert dom.title.startswith(name[:10]) and dom.title.endswith("JupyterLab"), dom.title
     assert dom.classes["jp-DirListing-item"] >= len(list(notebooks_dir().glob("*.ipynb")))  # the notebooks folder
+    assert NEWS_QUESTION not in dom.html, "JupyterLab asks about its news feed (a toast over the notebook)"
 
 
 @needs_lab

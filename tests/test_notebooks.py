@@ -9,7 +9,13 @@ import nbformat
 import pytest
 
 from compendium import paths
-from compendium.notebook_source import check_parameters, notebook_parameters, published_overrides, published_parameters
+from compendium.notebook_source import (
+    check_parameters,
+    notebook_parameters,
+    parameter_types,
+    published_overrides,
+    published_parameters,
+)
 from compendium.notebooks import KERNEL_NAME, execute
 from compendium.provenance import RUN_RECORD_KEY, read_run_record
 
@@ -52,6 +58,76 @@ def test_unparseable_parameter_line_is_an_error(tmp_path):
     nbformat.write(nb, str(path))
     with pytest.raises(ValueError, match=r"cannot parse the parameter line\(s\) of \['b'\]"):
         notebook_parameters(path)
+
+
+def _parameters_notebook(tmp_path, source: str) -> Path:
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": KERNEL_NAME, "display_name": "Python (ocpkit)", "language": "python"}
+    cell = nbformat.v4.new_code_cell(source)
+    cell.metadata["tags"] = ["parameters"]
+    nb.cells.append(cell)
+    path = tmp_path / "typed.ipynb"
+    nbformat.write(nb, str(path))
+    return path
+
+
+def test_a_value_of_the_wrong_type_is_named_with_the_type_and_an_example(tmp_path):
+    path = _parameters_notebook(
+        tmp_path,
+        "segments = 20  # a count\n"
+        "tol = 1e-8\n"
+        "thrust: float = None  # None: the paper's\n"
+        "thrusts = [5.0, 1.0]  # type: Optional[list] None: all of them\n"
+        "label = 'fast'\n"
+        "anything = None  # no type named\n"
+        "recompute = False\n",
+    )
+    types = parameter_types(path)
+    assert types["segments"] == (int,) and types["thrust"] == (float, None) and types["thrusts"] == (list, None)
+    assert types["anything"] == () and types["recompute"] == (bool,)
+    # admitted: an int for a float, None where the default or the type comment says so, anything where nothing does
+    check_parameters(path, {"tol": 1, "thrust": 2, "thrusts": None, "anything": "x", "label": "slow", "segments": 4})
+    with pytest.raises(ValueError) as caught:
+        check_parameters(path, {"thrust": "fast", "segments": True, "tol": None, "recompute": 1, "label": 3})
+    lines = str(caught.value).splitlines()
+    assert lines == [
+        "typed.ipynb: the parameter 'thrust' takes a float or None, but the value given is 'fast' (a str): "
+        "give a float or None, e.g. -p thrust 2.5",
+        "typed.ipynb: the parameter 'segments' takes an int, but the value given is True (a bool): "
+        "give an int, e.g. -p segments 20",
+        "typed.ipynb: the parameter 'tol' takes a float, but the value given is None (None): "
+        "give a float, e.g. -p tol 1e-08",
+        "typed.ipynb: the parameter 'recompute' takes a bool, but the value given is 1 (an int): "
+        "give a bool, e.g. -p recompute False",
+        "typed.ipynb: the parameter 'label' takes a str, but the value given is 3 (an int): "
+        "give a str, e.g. -p label fast",
+    ]
+
+
+def test_a_type_papermill_cannot_read_is_an_error(tmp_path):
+    with pytest.raises(ValueError, match=r"cannot parse the parameter line\(s\) of \['a'\]"):
+        notebook_parameters(_parameters_notebook(tmp_path, "a: float | None = None  # papermill skips this line"))
+    with pytest.raises(ValueError, match=r"annotation 'ndarray' of the parameter 'b' in typed.ipynb is none of"):
+        parameter_types(_parameters_notebook(tmp_path, "b: ndarray = None"))
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_every_parameter_of_the_notebooks_has_a_type(path):
+    """A default of None names the type the parameter takes, so that a value of another type is caught."""
+    assert [name for name, types in parameter_types(path).items() if not types] == []
+
+
+def test_the_runner_names_a_wrong_type_before_any_kernel_starts(monkeypatch, capsys):
+    from compendium import notebooks
+
+    monkeypatch.setattr(notebooks, "execute", lambda *a, **k: pytest.fail("a kernel started"))
+    nb = str(paths.notebooks_dir() / "01_lunar_ascent.ipynb")
+    other = str(paths.notebooks_dir() / "00_validation.ipynb")
+    assert notebooks.main(["run", other, nb, "-p", "thrust_to_weight", "fast"]) == 2
+    err = capsys.readouterr().err
+    assert "01_lunar_ascent.ipynb: the parameter 'thrust_to_weight' takes a float or None" in err
+    assert "the value given is 'fast' (a str)" in err and "e.g. -p thrust_to_weight 2.5" in err
+    assert "unknown parameter(s) ['thrust_to_weight'] for 00_validation.ipynb" in err  # the first, checked too
 
 
 def _kernel_available():

@@ -84,3 +84,93 @@ def test_continuation_progress_calls_the_study_log(monkeypatch):
         tick(1.0, "result", 0.5)
         tick(0.5, "result", 0.7)
     assert seen == [(1.0, "result", 0.5), (0.5, "result", 0.7)]
+
+
+# -- the time each notebook of make reproduce takes ----------------------------------------------------------------
+
+
+def _executed(folder, name, parameters, duration, exception=None):
+    import json
+
+    meta = {"papermill": {"parameters": parameters, "duration": duration, "exception": exception}}
+    (folder / f"{name}.ipynb").write_text(json.dumps({"cells": [], "metadata": meta, "nbformat": 4}))
+
+
+def test_the_previous_runs_measured_time_counts_only_for_a_complete_run_with_the_same_parameters(tmp_path):
+    from compendium.progress import measured_durations
+
+    _executed(tmp_path, "a", {"thrusts": None}, 1100.5)
+    _executed(tmp_path, "b", {"segments": 6}, 3.0)  # a run with other parameters (by hand)
+    _executed(tmp_path, "c", {}, 12.0, exception=True)  # stopped in a cell: a part of the run
+    (tmp_path / "d.ipynb").write_text("not json")
+    given = {"a": {"thrusts": None}, "b": {}, "c": {}, "d": {}, "e": {}}
+    assert measured_durations(tmp_path, given) == {"a": 1100.5}
+    assert measured_durations(tmp_path / "absent", given) == {}
+
+
+def test_every_notebook_has_a_prior_duration():
+    from compendium import paths
+    from compendium.progress import prior_durations
+
+    prior = prior_durations()
+    assert set(prior) == {p.stem for p in paths.notebooks_dir().glob("*.ipynb")}
+    assert all(seconds > 0 for seconds in prior.values())
+    assert max(prior, key=prior.get) == "05_orbit_transfer"  # most of make reproduce's time
+
+
+def test_the_eta_is_per_notebook_and_the_total_the_sum_of_those_left():
+    import time
+
+    from compendium.progress import Estimate, NotebookETA, notebook_estimates
+
+    estimates = notebook_estimates(["a", "b", "c", "d"], {"a": 30.0, "b": 95.0}, {"b": 10.0, "c": 1080.0})
+    assert estimates == {
+        "a": Estimate(30.0, "last run here"),
+        "b": Estimate(95.0, "last run here"),  # measured here wins over the prior
+        "c": Estimate(1080.0, "reference machine"),
+        "d": None,
+    }
+    eight = time.mktime((2026, 12, 6, 8, 0, 0, 0, 0, -1))  # 08:00, local time
+    eta = NotebookETA(estimates, clock=lambda: eight)
+    assert (
+        eta.line("a")
+        == "a: ~30 s (last run here), until ~08:00; all 4 left: ~20 min + 1 without an estimate, until ~08:20"
+    )
+    assert (
+        eta.line("c")
+        == "c: ~18 min (reference machine), until ~08:18; all 2 left: ~18 min + 1 without an estimate, until ~08:18"
+    )
+    assert eta.line("d") == "d: no estimate (no earlier run); all 1 left: no estimate"
+
+
+def test_the_runners_bar_shows_the_per_notebook_eta_and_not_an_average(capsys):
+    from pathlib import Path
+
+    from compendium.notebooks import _each
+    from compendium.progress import Estimate, NotebookETA
+
+    eta = NotebookETA({"fast": Estimate(5.0, "last run here"), "slow": Estimate(4000.0, "reference machine")})
+    assert [nb.name for nb in _each([Path("fast.ipynb"), Path("slow.ipynb")], "reproduce", eta)] == [
+        "fast.ipynb",
+        "slow.ipynb",
+    ]
+    err = capsys.readouterr().err
+    assert "fast: ~5 s (last run here), until ~" in err and "all 2 left: ~1 h 07 min, until ~" in err
+    assert "slow: ~1 h 07 min (reference machine), until ~" in err and "all 1 left: ~1 h 07 min" in err
+    assert "notebook/s" not in err and "s/notebook" not in err  # tqdm's rate, and its average-based remaining time
+
+
+def test_make_reproduce_estimates_each_notebook_from_the_run_it_replaces(tmp_path, monkeypatch, capsys):
+    """The previous run's executed notebooks are removed first: their times are read before."""
+    from compendium import notebooks, paths
+    from compendium.notebook_source import published_overrides
+
+    orbit, lunar = paths.notebooks_dir() / "05_orbit_transfer.ipynb", paths.notebooks_dir() / "01_lunar_ascent.ipynb"
+    _executed(tmp_path, "05_orbit_transfer", published_overrides(orbit), 1500.0)  # this machine is slower
+    monkeypatch.setattr(notebooks, "execute", lambda *a, **k: None)
+    monkeypatch.setattr(notebooks, "publish_run", lambda folder: [])
+    assert notebooks.reproduce([lunar, orbit], tmp_path) == {}
+    err = capsys.readouterr().err
+    assert "01_lunar_ascent: ~6 s (reference machine), until ~" in err and "all 2 left: ~25 min, until ~" in err
+    assert "05_orbit_transfer: ~25 min (last run here), until ~" in err
+    assert not (tmp_path / "05_orbit_transfer.ipynb").exists()

@@ -6,6 +6,9 @@ Command line (``make test`` runs it after nbval, whose runs write under ``build/
     python -m compendium.guard build/test-output          # against the repository's record
     python -m compendium.guard . --reference-commit HEAD  # the working tree (after make reproduce) against HEAD
 
+Comparing the working tree with a commit, it ends with a note (:func:`closing_note`): how many files of the record
+differ byte-wise from the commit yet reproduce it, of which kinds, and the command that restores the committed bytes.
+
 Every run leaves a record (:mod:`compendium.outputs`) naming its notebook, parameters and the files it wrote.
 
 1. **A published run** (the notebook's published parameters) must write exactly the files its contract declares,
@@ -67,6 +70,8 @@ class Report:
     notes: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     differences: list[str] = field(default_factory=list)
+    #: the files compared whole against the committed ones (a published run's), by path: their kind in the contract
+    reproduced: dict[str, str] = field(default_factory=dict)
 
 
 # -- values --------------------------------------------------------------------------------------------------------
@@ -466,6 +471,8 @@ def check_run(output_root: Path, record: dict, reference: Path, contract: Contra
             continue
         diffs, note = _compare_file(kind, spec, fresh, committed)
         report.compared.append(label)
+        if not diffs:
+            report.reproduced[rel] = kind
         if note:
             report.notes.append(f"{notebook}: {note}")
         report.differences += _limited(label, diffs)
@@ -528,6 +535,86 @@ def committed_record(commit: str, into: Path, repository: Path | None = None) ->
     return into
 
 
+# -- the working tree against the commit ----------------------------------------------------------------------------
+
+#: how each kind of file of the contract differs from the committed bytes and still reproduces it, for the closing note
+_WITHIN = {
+    "figures": "PNG and PDF figures redrawn: their bytes follow the machine's fonts, libraries and last bits; what "
+    "they draw is compared (figures/data)",
+    "figure data": "arrays the figures draw (figures/data/*.json), each value within its class",
+    "tables": "CSV tables, each number within its class's tolerance",
+    "json": "JSON summaries, each value within its class",
+    "markdown": "Markdown tables, their words the same and their numbers within their class",
+}
+
+
+@dataclass
+class RecordChanges:
+    """The published record of a working tree against a commit, after a comparison (:func:`guard`) that passed.
+
+    ``within``: the files that differ byte-wise from the commit and reproduce it by the contract, by kind (the keys
+    of the contract's :meth:`~compendium.contract.NotebookContract.files`); ``identical``: the compared files with
+    the commit's bytes; ``unchecked``: files of ``figures/`` and ``data/derived/`` changed (or new, or deleted)
+    since the commit that the comparison did not check, which restoring the committed bytes would discard too.
+    """
+
+    commit: str
+    within: dict[str, list[str]] = field(default_factory=dict)
+    identical: list[str] = field(default_factory=list)
+    unchecked: list[str] = field(default_factory=list)
+
+    @property
+    def restore(self) -> str:
+        """The command that puts back the commit's bytes of the published record (index and working tree)."""
+        return f"git checkout {self.commit} -- {' '.join(PUBLISHED_FOLDERS)}"
+
+
+def record_changes(report: Report, repository: str | Path, commit: str = "HEAD") -> RecordChanges:
+    """What of ``figures/`` and ``data/derived/`` in ``repository``'s working tree differs from ``commit`` (git's
+    view: content, not timestamps; git-ignored run records aside), against what ``report`` (:func:`guard` of the
+    working tree against that commit's record) found reproduced."""
+
+    def git(*args: str) -> list[str]:
+        done = subprocess.run(["git", "-C", str(repository), *args], capture_output=True, text=True, check=True)
+        return [line for line in done.stdout.splitlines() if line]
+
+    changed = set(git("diff", "--name-only", "--no-renames", commit, "--", *PUBLISHED_FOLDERS))
+    changed |= set(git("ls-files", "--others", "--exclude-standard", "--", *PUBLISHED_FOLDERS))
+    out = RecordChanges(commit)
+    for rel, kind in sorted(report.reproduced.items()):
+        if rel in changed:
+            out.within.setdefault(kind, []).append(rel)
+        else:
+            out.identical.append(rel)
+    out.unchecked = sorted(changed - set(report.reproduced))
+    return out
+
+
+def closing_note(changes: RecordChanges) -> str:
+    """What ``git status`` will show of the published record after a comparison that passed, and how to get the
+    committed bytes back (the words :func:`main` prints at the end of ``make reproduce``)."""
+    within = sum(len(files) for files in changes.within.values())
+    if not within and not changes.unchecked:
+        return f"the published record has the bytes of {changes.commit} ({len(changes.identical)} files compared)"
+    lines = [
+        f"{within} files of the published record differ byte-wise from {changes.commit} and reproduce it within "
+        f"the contract (notebooks/contract.toml); {len(changes.identical)} are byte-identical."
+    ]
+    lines += [f"  {len(changes.within[kind])} {_WITHIN[kind]}" for kind in _WITHIN if kind in changes.within]
+    if changes.unchecked:
+        shown = ", ".join(changes.unchecked[:5]) + (", ..." if len(changes.unchecked) > 5 else "")
+        lines.append(
+            f"{len(changes.unchecked)} other changed file(s) there were not compared ({shown}): review them with "
+            f"git status; `{changes.restore}` would discard them too."
+        )
+    elif within:
+        lines.append(
+            f"`git status` lists them as modified. To put back the committed bytes (this discards only the changes "
+            f"just found within the contract): {changes.restore}"
+        )
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m compendium.guard", description=__doc__.split("\n")[0])
     parser.add_argument("output_root", type=Path, help="where the runs wrote (e.g. build/test-output)")
@@ -552,7 +639,15 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {line}", file=sys.stderr)
         return 1
     print("every compared file reproduces the published record (notebooks/contract.toml)")
+    if args.reference_commit and _is_checkout(args.output_root):
+        print(closing_note(record_changes(report, args.output_root, args.reference_commit)))
     return 0
+
+
+def _is_checkout(folder: Path) -> bool:
+    """Whether ``folder`` is the top of a git working tree (the runs wrote into the repository itself)."""
+    done = subprocess.run(["git", "-C", str(folder), "rev-parse", "--show-toplevel"], capture_output=True, text=True)
+    return done.returncode == 0 and Path(done.stdout.strip()).resolve() == folder.resolve()
 
 
 if __name__ == "__main__":

@@ -17,7 +17,11 @@ Compared with a bare ``jupyter lab notebooks/``, the server
   otherwise refuses to start;
 * saves a notebook without the views of live widgets that come with a picture
   (:func:`compendium.notebooks.pre_save_hook`: the explorer's sliders), so a
-  notebook run and saved in Lab stays as stored.
+  notebook run and saved in Lab stays as stored;
+* starts with the settings defaults of :data:`SETTINGS` (JupyterLab's
+  ``overrides.json``): no "official Jupyter news" question over the figures, and
+  no request for news or updates leaves the machine. A user's own settings
+  (Settings menu) still win over them.
 
 JupyterLab is the one installed next to the running interpreter.
 """
@@ -27,6 +31,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 from compendium.notebooks import KERNEL_NAME
 from compendium.paths import repo_root
@@ -34,6 +39,10 @@ from compendium.paths import repo_root
 # Jupyter's short options that set one of the defaults below: given one, the default must go, as for the long name
 # (``--notebook-dir=DIR`` next to ``--ServerApp.root_dir=...`` would stop the server: "root_dir only accepts one value").
 _OPTION_ALIASES = {"--notebook-dir": "--ServerApp.root_dir"}
+
+#: JupyterLab's application settings folder the compendium's Lab uses: its ``overrides.json`` turns the news feed
+#: and the update check of ``@jupyterlab/apputils-extension:notification`` off (``fetchNews`` ``"false"``)
+SETTINGS = Path(__file__).with_name("lab_settings")
 
 
 def lab_command(extra_args: list[str] | tuple[str, ...] = ()) -> list[str]:
@@ -50,6 +59,7 @@ def lab_command(extra_args: list[str] | tuple[str, ...] = ()) -> list[str]:
         # a live widget's view is not saved where a picture comes with it (compendium.explorer): a notebook run and
         # saved in Lab stays as stored
         "--ContentsManager.pre_save_hook=compendium.notebooks.pre_save_hook",
+        f"--LabApp.app_settings_dir={SETTINGS}",
     ]
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         defaults.append("--allow-root")

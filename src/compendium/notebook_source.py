@@ -36,8 +36,9 @@ def notebook_parameters(path: str | Path) -> dict:
     """Parameters declared in the notebook's ``parameters`` cell: name -> default (source text).
 
     Every assignment in the cell must be one papermill can parse (it silently
-    skips, for instance, a line whose comment contains ``=``); otherwise the
-    parameter could not be set from the command line, and this raises.
+    skips, for instance, a line whose comment contains ``=``, or one annotated
+    ``float | None``); otherwise the parameter could not be set from the command
+    line, and this raises.
     """
     import papermill as pm
 
@@ -45,8 +46,8 @@ def notebook_parameters(path: str | Path) -> dict:
     assigned = [
         t.id
         for node in ast.parse(cell.source).body
-        if isinstance(node, ast.Assign)
-        for t in node.targets
+        if isinstance(node, (ast.Assign, ast.AnnAssign))
+        for t in (node.targets if isinstance(node, ast.Assign) else [node.target])
         if isinstance(t, ast.Name)
     ]
     params = pm.inspect_notebook(str(path))
@@ -68,11 +69,98 @@ def literal_parameters(path: str | Path) -> dict:
 
 
 def check_parameters(path: str | Path, parameters: dict) -> None:
-    """Raise ``ValueError`` naming any parameter the notebook does not declare."""
+    """Raise ``ValueError`` naming any parameter the notebook does not declare, or whose value is not of the
+    parameter's type (:func:`parameter_types`): the notebook, the parameter, the value given, the type expected and
+    an example of ``-p NAME VALUE``, each wrong parameter on its own line."""
     known = notebook_parameters(path)
     unknown = sorted(set(parameters) - set(known))
     if unknown:
         raise ValueError(f"unknown parameter(s) {unknown} for {Path(path).name}; its parameters are {sorted(known)}")
+    types, defaults = parameter_types(path), literal_parameters(path)
+    wrong = [
+        _wrong_type(Path(path).name, name, value, types[name], defaults[name])
+        for name, value in parameters.items()
+        if types[name] and not _admits(types[name], value)
+    ]
+    if wrong:
+        raise ValueError("\n".join(wrong))
+
+
+#: the types a parameter may declare, by the name its annotation or default gives them
+_TYPES: dict[str, type] = {t.__name__: t for t in (float, int, bool, str, list, dict, tuple)}
+#: the example value of ``-p NAME VALUE`` for a type whose parameter has no default of it
+_EXAMPLES = {
+    float: "2.5",
+    int: "10",
+    bool: "True",
+    str: "word",
+    list: "[1.0, 2.0]",
+    dict: "{'key': 1.0}",
+    tuple: "(1, 2)",
+}
+
+
+def parameter_types(path: str | Path) -> dict[str, tuple[type | None, ...]]:
+    """The types each parameter of the notebook admits (``None`` for the value ``None``): the type its parameters
+    cell names, as an annotation (``thrust_to_weight: float = None``) or a type comment (``thrusts = [5.0]  #
+    type: Optional[list] ...``): ``float``, ``int``, ``bool``, ``str``, ``list``, ``dict`` or ``tuple``, maybe with
+    ``[...]`` after it, or ``Optional[...]`` of one; else the type of its default. A default of ``None`` admits
+    ``None`` too; ``()`` where nothing names a type (a default of ``None`` without one: any value). An ``int`` is
+    admitted for a ``float`` (:func:`check_parameters`). papermill parses no ``X | None``: write ``Optional[X]``."""
+    import papermill as pm
+
+    defaults = literal_parameters(path)
+    out: dict[str, tuple[type | None, ...]] = {}
+    for name, spec in pm.inspect_notebook(str(path)).items():
+        annotation = spec.get("inferred_type_name") or "None"
+        if annotation != "None":
+            out[name] = _annotated(Path(path).name, name, annotation)
+            if defaults[name] is None and None not in out[name]:
+                out[name] += (None,)
+        elif defaults[name] is None:
+            out[name] = ()
+        else:
+            out[name] = (type(defaults[name]),)
+    return out
+
+
+def _annotated(notebook: str, name: str, annotation: str) -> tuple[type | None, ...]:
+    text, optional = annotation.strip(), False
+    inner = re.fullmatch(r"Optional\[(.*)\]", text)
+    if inner:
+        text, optional = inner.group(1).strip(), True
+    base = _TYPES.get(re.sub(r"\[.*\]$", "", text).strip().lower())
+    if base is None:
+        raise ValueError(
+            f"the annotation {annotation!r} of the parameter {name!r} in {notebook} is none of "
+            f"{sorted(_TYPES)} (maybe with [...] after it) or Optional[...] of one: write one of those"
+        )
+    return (base, None) if optional else (base,)
+
+
+def _admits(types: tuple[type | None, ...], value) -> bool:
+    if value is None:
+        return None in types
+    if isinstance(value, bool):  # a bool is an int to isinstance; neither a number nor a count is True
+        return bool in types
+    return any(t is not None and (isinstance(value, t) or (t is float and isinstance(value, int))) for t in types)
+
+
+def _wrong_type(notebook: str, name: str, value, types: tuple[type | None, ...], default) -> str:
+    import shlex
+
+    expected = " or ".join("None" if t is None else t.__name__ for t in types)
+    kind = "None" if value is None else type(value).__name__
+    shown = default if isinstance(default, str) else repr(default)
+    example = shown if default is not None and len(shown) <= 40 else _EXAMPLES[next(t for t in types if t)]
+    return (
+        f"{notebook}: the parameter {name!r} takes {_a(expected)}, but the value given is {value!r} ({_a(kind)}): "
+        f"give {_a(expected)}, e.g. -p {name} {shlex.quote(example)}"
+    )
+
+
+def _a(noun: str) -> str:
+    return noun if noun == "None" else f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
 def default_parameters(notebook: str) -> dict:

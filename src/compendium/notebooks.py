@@ -40,6 +40,7 @@ from .notebook_source import (
     static_views,
     written_to,
 )
+from .progress import NotebookETA, measured_durations, notebook_estimates, prior_durations
 from .provenance import RUN_RECORD_KEY, RUNS, run_folder
 from .report import UNFINISHED, Unfinished, build_report
 
@@ -358,13 +359,15 @@ def reproduce(
 
     output = Path(output)
     published = _checked_runs(notebooks, output, None if report is None else Path(report))
+    measured = measured_durations(output, {nb.stem: params for nb, params in published.items()})
+    eta = NotebookETA(notebook_estimates([nb.stem for nb in published], measured, prior_durations()))
     if output.is_dir():
         for path in sorted(output.glob("*.ipynb")):
             if _executed_by_papermill(path):
                 path.unlink()
         (output / UNFINISHED).unlink(missing_ok=True)
     failed: dict[Path, Unfinished] = {}
-    for nb in _each(list(published), "reproduce"):
+    for nb in _each(list(published), "reproduce", eta):
         params, executed = published[nb], output / nb.name
         try:
             execute(nb, executed, params, kernel=kernel, progress=True)
@@ -424,6 +427,22 @@ def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> d
     return published
 
 
+def _check_each(notebooks: list[Path], given: dict) -> None:
+    """``given`` checked against every notebook's parameters cell before any kernel starts
+    (:func:`~compendium.notebook_source.check_parameters`): every problem found, in one ``ValueError``."""
+    problems = []
+    for nb in notebooks:
+        if not nb.is_file():
+            problems.append(f"{nb}: no such notebook")
+            continue
+        try:
+            check_parameters(nb, given)
+        except ValueError as exc:
+            problems += str(exc).splitlines()
+    if problems:
+        raise ValueError("nothing was run:\n  " + "\n  ".join(problems))
+
+
 def _executed_by_papermill(path: Path) -> bool:
     """Whether ``path`` is a notebook papermill wrote (its record in the metadata): one :func:`reproduce` may remove."""
     import json
@@ -453,13 +472,21 @@ def _parse_value(text: str):
         return text
 
 
-def _each(notebooks, verb: str):
-    """The notebooks with a bar over them (one line per finished notebook stays)."""
+def _each(notebooks, verb: str, eta: NotebookETA | None = None):
+    """The notebooks with a bar over them (one line per finished notebook stays). With ``eta``, the time each
+    notebook and all those left are expected to take, in a line when each starts and on the bar (tqdm's own
+    estimate, an average over notebooks, is left out)."""
     from tqdm import tqdm
 
-    bar = tqdm(notebooks, desc=verb, unit="notebook", file=sys.stderr)
+    fmt = None if eta is None else "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
+    bar = tqdm(notebooks, desc=verb, unit="notebook", file=sys.stderr, bar_format=fmt, dynamic_ncols=True)
     for nb in bar:
-        bar.set_postfix_str(nb.name)
+        if eta is None:
+            bar.set_postfix_str(nb.name)
+        else:
+            line = eta.line(nb.stem)
+            _say(line)
+            bar.set_postfix_str(line)
         yield nb
 
 
@@ -510,6 +537,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             given = {k: _parse_value(v) for k, v in args.parameter}
+            _check_each(args.notebooks, given)
             for nb in _each(args.notebooks, "run"):
                 folder, outputs = run(nb, given, runs=args.output, kernel=args.kernel, progress=True)
                 if outputs.resolve() == folder.resolve():

@@ -7,6 +7,10 @@ under a cell would be stored with the notebook, and JupyterLab keeps what a clea
 of spaces, the cursor moves of nested bars), so a notebook run and saved in Lab would differ from the
 stored one. ``OCPKIT_PROGRESS=off`` (nbval, tests) draws no bars; ``terminal`` (set by
 :mod:`compendium.notebooks` for headless runs) or unset draws them.
+
+For ``make reproduce``, how long each notebook and all those left are expected to take (:class:`NotebookETA`):
+each notebook's time measured by the previous run on this machine, else the one ``notebooks/durations.toml``
+gives (:data:`PRIOR_DURATIONS`).
 """
 
 from __future__ import annotations
@@ -15,8 +19,12 @@ import io
 import os
 import sys
 from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
 
 from tqdm import tqdm
+
+from . import paths
 
 _TERMINAL = None
 
@@ -71,3 +79,102 @@ def continuation_progress(desc: str, parameter: str, log=None):
         yield callback
     finally:
         bar.close()
+
+
+# -- how long each notebook of make reproduce takes ------------------------------------------------------------------
+
+#: seconds each notebook's published run took, the estimate before a run on this machine measured it (notebooks/)
+PRIOR_DURATIONS = "durations.toml"
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """How long a notebook's run is expected to take, and what says so (``"last run here"``, ``"reference machine"``)."""
+
+    seconds: float
+    source: str
+
+
+def prior_durations(folder: Path | None = None) -> dict[str, float]:
+    """The seconds :data:`PRIOR_DURATIONS` in ``folder`` (default the notebooks' own) gives each notebook."""
+    import tomllib
+
+    path = (folder or paths.notebooks_dir()) / PRIOR_DURATIONS
+    if not path.is_file():
+        return {}
+    return {name: float(seconds) for name, seconds in tomllib.loads(path.read_text()).items()}
+
+
+def measured_durations(executed: Path, parameters: dict[str, dict]) -> dict[str, float]:
+    """papermill's duration of each notebook executed into ``executed`` whose run completed with the parameters
+    ``parameters`` gives for its name (the parameters passed to papermill, those of ``notebooks/published.toml`` for
+    ``make reproduce``): the previous run's measured time, on this machine."""
+    import json
+
+    out = {}
+    for name, given in parameters.items():
+        try:
+            meta = json.loads((executed / f"{name}.ipynb").read_text(encoding="utf-8"))["metadata"]["papermill"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        complete = meta.get("exception") is None and isinstance(meta.get("duration"), (int, float))
+        if complete and meta.get("parameters") == json.loads(json.dumps(given)):
+            out[name] = float(meta["duration"])
+    return out
+
+
+def notebook_estimates(names: list[str], measured: dict[str, float], prior: dict[str, float]) -> dict:
+    """Each notebook's :class:`Estimate`: its time measured on this machine where known, else the prior; ``None``
+    where neither is known."""
+    out: dict[str, Estimate | None] = {}
+    for name in names:
+        if name in measured:
+            out[name] = Estimate(measured[name], "last run here")
+        elif name in prior:
+            out[name] = Estimate(prior[name], "reference machine")
+        else:
+            out[name] = None
+    return out
+
+
+class NotebookETA:
+    """The expected end of the running notebook and of all of them, from per-notebook :class:`Estimate`\\ s (not an
+    average over notebooks: one notebook may take most of the time). ``estimates``: in the order they run."""
+
+    def __init__(self, estimates: dict[str, Estimate | None], clock=None):
+        import time
+
+        self.estimates, self.clock = dict(estimates), clock or time.time
+
+    def line(self, name: str) -> str:
+        """What to show when ``name`` starts: its own estimate and end, and the sum of the estimates of it and every
+        notebook after it (their end), in clock times that stay right while the line is not redrawn."""
+        import time
+
+        names = list(self.estimates)
+        left = names[names.index(name) :]
+        now = self.clock()
+        own = self.estimates[name]
+        known = [self.estimates[n].seconds for n in left if self.estimates[n] is not None]  # type: ignore[union-attr]
+        unknown = len(left) - len(known)
+
+        def at(seconds: float) -> str:
+            return time.strftime("%H:%M", time.localtime(now + seconds))
+
+        this = (
+            f"~{_duration(own.seconds)} ({own.source}), until ~{at(own.seconds)}"
+            if own is not None
+            else "no estimate (no earlier run)"
+        )
+        if not known:
+            return f"{name}: {this}; all {len(left)} left: no estimate"
+        total = f"~{_duration(sum(known))}" + (f" + {unknown} without an estimate" if unknown else "")
+        return f"{name}: {this}; all {len(left)} left: {total}, until ~{at(sum(known))}"
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.0f} min"
+    return f"{int(seconds // 3600)} h {seconds % 3600 / 60:02.0f} min"
