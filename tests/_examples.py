@@ -11,7 +11,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
 
-_BLOCK = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
+# a fence's info string: a language (``python``), nothing, or a directive and its argument (``{figure} path``)
+_BLOCK = re.compile(r"^```(\S*)[^\n]*\n(.*?)^```", flags=re.S | re.M)
 
 
 def examples(text: str) -> list[tuple[str, str | None]]:
