@@ -19,7 +19,15 @@ author = "the ocpkit compendium authors"
 copyright = "2026, the ocpkit compendium authors"
 release = version = "0.3.0.dev0"
 
-extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "_example_figures"]
+# viewcode: a [source] link beside every documented name, to its module's highlighted code on the site itself
+extensions = [
+    "myst_nb",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.napoleon",
+    "sphinx.ext.viewcode",
+    "sphinx_copybutton",
+    "_example_figures",
+]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 exclude_patterns = ["_build", "_generated", "ocpkit.md", "**/.ipynb_checkpoints"]
 
@@ -55,6 +63,9 @@ html_title = "ocpkit"
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
 html_show_sourcelink = False
 html_static_path = ["_static"]
+# the copy button copies a block's code without the prompts of a console session (">>> ", "$ ")
+copybutton_prompt_text = r">>> |\.\.\. |\$ "
+copybutton_prompt_is_regexp = True
 
 # MathJax 2 served from the site itself with its TeX web fonts (compendium.mathjax, the report's too; Debian's
 # libjs-mathjax and fonts-mathjax, which `make mathjax` installs): no request leaves the machine. The tree is copied

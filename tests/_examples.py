@@ -11,7 +11,21 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
 
-_BLOCK = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
+# a fence's info string: a language (``python``), nothing, or a directive and its argument (``{figure} path``)
+_BLOCK = re.compile(r"^```(\S*)[^\n]*\n(.*?)^```", flags=re.S | re.M)
+
+
+#: the longest line a code block on a user page may have: the sources' line length, which a block shows whole in a
+#: window 1440 px wide (docs/_static/site.css; tests/test_site.py measures it)
+CODE_WIDTH = 120
+#: tracker language ("Issue 26's goals", "issues 12 and 22", "issue #7"), which user pages leave to the changelog
+TRACKER = re.compile(r"\bissues? #?\d+", flags=re.I)
+
+
+def code_blocks(text: str) -> list[tuple[str, str]]:
+    """Every fenced code block of ``text`` that is shown as code: its language and code (not a directive's body:
+    ``{figure}``, ``{toctree}``, ``{eval-rst}``)."""
+    return [(m.group(1), m.group(2)) for m in _BLOCK.finditer(text) if not m.group(1).startswith("{")]
 
 
 def examples(text: str) -> list[tuple[str, str | None]]:

@@ -13,11 +13,13 @@ import re
 import subprocess
 
 import pytest
-from _examples import DOCS, REPO, examples, run_session, same_print, section
+from _examples import CODE_WIDTH, DOCS, REPO, TRACKER, code_blocks, examples, run_session, same_print, section
 
 PAGES = sorted(p for p in DOCS.rglob("*.md") if not p.relative_to(DOCS).parts[0].startswith("_"))
 WITH_EXAMPLES = [page for page in PAGES if examples(page.read_text())]
-LIBRARY_ALONE = {"stating-a-problem.md", "constraints-parameters-phases.md", "indirect.md", "ocpkit.md"}
+LIBRARY_ALONE = {"stating-a-problem.md", "constraints-parameters-phases.md", "indirect.md", "ocpkit.md", "how-do-i.md"}
+#: the pages written for users: all but the changelog, which is history by design (it includes CHANGELOG.md)
+USER_PAGES = [page for page in PAGES if page.name != "changelog.md"]
 
 
 @pytest.mark.parametrize("page", WITH_EXAMPLES, ids=[str(p.relative_to(DOCS)) for p in WITH_EXAMPLES])
@@ -40,6 +42,51 @@ def test_the_examples_are_found():
     assert {"stating-a-problem.md", "constraints-parameters-phases.md", "indirect.md", "many-solves.md"} <= names
     shown = [printed for page in WITH_EXAMPLES for _, printed in examples(page.read_text()) if printed is not None]
     assert len(shown) >= 4
+
+
+def test_no_user_page_names_the_tracker():
+    """History belongs to the changelog: no user page, nor a docstring the API pages render, says "issue 26"."""
+    found = [f"{p.relative_to(DOCS)}: {m}" for p in USER_PAGES for m in TRACKER.findall(p.read_text())]
+    library = sorted((REPO / "src" / "ocpkit").rglob("*.py"))
+    found += [f"{p.relative_to(REPO)}: {m}" for p in library for m in TRACKER.findall(p.read_text())]
+    assert found == []
+    assert TRACKER.findall("Issue 26's goals; issues 12 and 22; issue #7") == ["Issue 26", "issues 12", "issue #7"]
+
+
+def test_every_code_block_on_a_user_page_fits_the_page():
+    """A code block's longest line is at most CODE_WIDTH characters, the width a block shows whole in a window
+    1440 px wide (docs/_static/site.css; tests/test_site.py measures it in Chromium)."""
+    long = [
+        f"{page.relative_to(DOCS)}: {len(line)} characters: {line[:60]}..."
+        for page in USER_PAGES
+        for _, code in code_blocks(page.read_text())
+        for line in code.splitlines()
+        if len(line) > CODE_WIDTH
+    ]
+    assert long == []
+    assert sum(len(code_blocks(page.read_text())) for page in USER_PAGES) > 30, "the blocks are found"
+
+
+def test_the_how_do_i_page_answers_the_first_questions():
+    """Each question a newcomer asks first has its section, with an example that prints what it shows."""
+    page = DOCS / "guide" / "how-do-i.md"
+    text = page.read_text()
+    for question, call in [
+        ("solve for minimum time?", "FreeFinalTime("),
+        ("give an initial guess?", "Guess("),
+        ("fix an end value, or let it lie in a range?", "final=(-0.1, 0.1)"),
+        ("refine the mesh until the solution is accurate?", "mesh_history"),
+        ("sample a quantity derived from the solution?", ".sample(lambda x, u, t"),
+        ("tell whether a solution can be trusted?", "verdict"),
+        ("declare an angle, so that whole turns do not matter?", "period="),
+        ("use a parameter, and solve for several of its values?", "parameters={"),
+        ("link phases?", "MultiPhaseProblem("),
+    ]:
+        cases = examples(section(page, f"... {question}"))
+        assert cases and any(call in code for code, _ in cases), question
+        assert all(printed is not None for _, printed in cases), f"{question}: every example shows what it prints"
+    assert "how-do-i" in (DOCS / "guide" / "index.md").read_text()
+    assert "compendium" not in text
 
 
 def test_the_first_example_matches_the_exact_cost():
@@ -166,15 +213,18 @@ def test_other_parameters_commands_run_verbatim_on_a_fresh_clone(tmp_path):
 
 
 def test_the_api_reference_documents_every_public_module_and_name():
-    """Every public module of ocpkit has its page section (an automodule), and every name ocpkit and
-    ocpkit.shooting export is documented there with a docstring."""
+    """Every public module of ocpkit has its page (an automodule), and every name ocpkit and ocpkit.shooting export
+    is documented there with a docstring; a module's page is its own (docs/api/<group>/<module>.md, the group page
+    an index of them), so that no page of the reference is tens of thousands of pixels long."""
     import importlib
     import pkgutil
 
     import ocpkit
     import ocpkit.shooting
 
-    documented = set(re.findall(r"automodule:: (\S+)", "".join(p.read_text() for p in (DOCS / "api").glob("*.md"))))
+    pages = sorted((DOCS / "api").rglob("*.md"))
+    documented = set(re.findall(r"automodule:: (\S+)", "".join(p.read_text() for p in pages)))
+    assert [p.name for p in pages if p.read_text().count("automodule::") > 1] == [], "one module per page"
     modules = {m.name for m in pkgutil.walk_packages(ocpkit.__path__, "ocpkit.")}
     public = {m for m in modules if not any(part.startswith("_") for part in m.split("."))}
     packages = {m for m in public if hasattr(importlib.import_module(m), "__path__")}

@@ -4,12 +4,14 @@ loaded, and not one request off the machine."""
 
 from __future__ import annotations
 
+import html
+import re
 import subprocess
 import sys
 
 import pytest
 from _browser import FONTCONFIG, Recorder, served
-from _examples import DOCS, REPO
+from _examples import CODE_WIDTH, DOCS, REPO, TRACKER
 from test_lab import needs_chromium
 
 from compendium import mathjax
@@ -36,11 +38,25 @@ _SHOWN = """(async () => {
 })()"""
 
 PAGES = {
-    "getting-started.html": {"contents": 3},
-    "api/transcriptions.html": {"contents": 5},
-    "results/desai-conway.html": {"contents": 2, "images": 0},
+    "getting-started.html": {"contents": 3, "images": 1},  # the picture of sol.plot()
+    "guide/how-do-i.html": {"contents": 9, "images": 1},
+    "guide/accuracy.html": {"contents": 5, "images": 1},
+    "api/transcriptions/transcription-hlgl.html": {"contents": 5, "math": 5},  # the HLGL formulas, typeset
+    "results/desai-conway.html": {"contents": 2, "images": 2},
     "_notebooks/04_shooting_validation.html": {"contents": 3, "math": 10, "images": 3},
 }
+
+#: the characters a line of the first code block on the page shows without scrolling, in a window 1440 px wide
+_CODE_FITS = """(() => {
+  const pre = document.querySelector('div.highlight pre');
+  const probe = document.createElement('span');
+  probe.textContent = 'x'.repeat(100);
+  pre.appendChild(probe);
+  const width = probe.getBoundingClientRect().width / 100;
+  probe.remove();
+  const style = getComputedStyle(pre);
+  return Math.floor((pre.clientWidth - parseFloat(style.paddingLeft) - parseFloat(style.paddingRight)) / width);
+})()"""
 
 
 @pytest.fixture(scope="module")
@@ -73,6 +89,12 @@ def test_pages_of_the_site_in_chromium(site, tmp_path, monkeypatch):
             for page in PAGES:
                 browser.call("Page.navigate", url=base + page)
                 shown[page] = browser.poll(_SHOWN, 30, f"{page} shown")
+            browser.call(
+                "Emulation.setDeviceMetricsOverride", width=1440, height=900, deviceScaleFactor=1, mobile=False
+            )
+            browser.call("Page.navigate", url=base + "guide/how-do-i.html")
+            browser.poll(_SHOWN, 30, "guide/how-do-i.html shown at 1440 px")
+            fits = browser.js(_CODE_FITS)
         finally:
             browser.close()
     for page, expected in PAGES.items():
@@ -83,7 +105,30 @@ def test_pages_of_the_site_in_chromium(site, tmp_path, monkeypatch):
         assert got["math"] >= got["raw"], f"{page}: {got['raw']} equations, {got['math']} typeset"
         assert len(got["images"]) >= expected.get("images", 0) and all(got["images"]), (page, got["images"])
     assert shown["_notebooks/04_shooting_validation.html"]["faces"].get("MJXc-TeX-main-Rw") == "loaded"
+    assert fits >= CODE_WIDTH, f"a code block shows {fits} characters at 1440 px, the pages' blocks up to {CODE_WIDTH}"
     requests = recorder.requests()
     assert any(url.startswith(f"{base}_static/mathjax/fonts/HTML-CSS/TeX/woff/MathJax_Main") for url in requests)
     assert [url for url in requests if not url.startswith((base, "data:", "about:blank"))] == []
     assert recorder.failures() == []
+
+
+def test_no_page_of_the_built_site_names_the_tracker(site):
+    """What the site shows, from the pages, the docstrings and the tables they include: no "Issue 26" outside the
+    changelog. The notebooks are rendered as stored (the published record), so they are left to their own text."""
+    pages = [p for p in site.rglob("*.html") if p.name != "changelog.html" and "_notebooks" not in p.parts]
+    assert len(pages) > 60, "the API pages, the guide, the results and the highlighted sources"
+    found = {}
+    for page in pages:
+        text = html.unescape(re.sub(r"<[^>]+>", " ", page.read_text()))
+        if TRACKER.search(text):
+            found[str(page.relative_to(site))] = TRACKER.findall(text)
+    assert found == {}
+
+
+def test_the_site_has_copy_buttons_and_source_links(site):
+    """sphinx-copybutton on every code block, and viewcode's [source] beside every documented name."""
+    assert (site / "_static" / "copybutton.js").is_file()
+    assert "copybutton.js" in (site / "guide" / "how-do-i.html").read_text()
+    hlgl = (site / "api" / "transcriptions" / "transcription-hlgl.html").read_text()
+    assert "_modules/ocpkit/transcription/hlgl.html" in hlgl
+    assert (site / "_modules" / "ocpkit" / "transcription" / "hlgl.html").is_file()

@@ -493,7 +493,7 @@ def follow_extremal(
     raise_on_failure: bool = True,
 ) -> ExtremalPath:
     """Continue an extremal of the arc method (:func:`to_extremal`) in a problem parameter over ``values``, through
-    changes of its structure (issue 24, item 6).
+    changes of its structure.
 
     Each value is shot from the last solution (``ocpkit.shooting.follow``; a failed step is halved). An arc whose
     duration falls below ``shortest`` of the horizon has died: it is removed and the shooting problem re-formed

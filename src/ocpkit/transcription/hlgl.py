@@ -1,18 +1,25 @@
-"""Fifth-degree Gauss-Lobatto collocation (Herman & Conway 1996; Desai & Conway Eqs. 6-7).
+r"""Fifth-degree Gauss-Lobatto collocation (Herman & Conway 1996; Desai & Conway Eqs. 6-7).
 
 On each segment ``[t_i, t_{i+2}]`` of length ``h`` the states are NLP parameters
 at ``t_i``, the centre ``t_c`` and ``t_{i+2}``; each state is the quintic Hermite
 polynomial through those values and the slopes ``f`` there. The controls are
 NLP parameters at ``t_i, t_a, t_c, t_b, t_{i+2}`` with
-``t_a, t_b = t_c -/+ (h/2) sqrt(3/7)``. With ``s = sqrt(21)``:
+``t_a, t_b = t_c -/+ (h/2) sqrt(3/7)``. With :math:`s = \sqrt{21}` and :math:`x_e = x_{i+2}`:
 
-    x_a = [(231+39s) x_i + 224 x_c + (231-39s) x_e + h((21+3s) f_i - 16s f_c + (3s-21) f_e)] / 686
-    x_b = [(231-39s) x_i + 224 x_c + (231+39s) x_e + h((21-3s) f_i + 16s f_c - (21+3s) f_e)] / 686
-    C1  = [(180+32s) x_i - 64s x_c + (32s-180) x_e + h((9+s) f_i + 98 f_a + 64 f_c + (9-s) f_e)] / 360
-    C2  = [(180-32s) x_i + 64s x_c - (180+32s) x_e + h((9-s) f_i + 98 f_b + 64 f_c + (9+s) f_e)] / 360
+.. math::
 
-and ``C1 = C2 = 0`` are the defect equations (``x_e = x_{i+2}``). A Lagrange
-cost uses the five-point Lobatto rule ``h [L_i/20 + 49 L_a/180 + 16 L_c/45 + 49 L_b/180 + L_e/20]``.
+   x_a &= \tfrac{1}{686} \big[(231 + 39s)\, x_i + 224\, x_c + (231 - 39s)\, x_e
+          + h \big((21 + 3s)\, f_i - 16s\, f_c + (3s - 21)\, f_e\big)\big] \\
+   x_b &= \tfrac{1}{686} \big[(231 - 39s)\, x_i + 224\, x_c + (231 + 39s)\, x_e
+          + h \big((21 - 3s)\, f_i + 16s\, f_c - (21 + 3s)\, f_e\big)\big] \\
+   C_1 &= \tfrac{1}{360} \big[(180 + 32s)\, x_i - 64s\, x_c + (32s - 180)\, x_e
+          + h \big((9 + s)\, f_i + 98\, f_a + 64\, f_c + (9 - s)\, f_e\big)\big] \\
+   C_2 &= \tfrac{1}{360} \big[(180 - 32s)\, x_i + 64s\, x_c - (180 + 32s)\, x_e
+          + h \big((9 - s)\, f_i + 98\, f_b + 64\, f_c + (9 + s)\, f_e\big)\big]
+
+and :math:`C_1 = C_2 = 0` are the defect equations. A Lagrange cost uses the five-point Lobatto rule
+:math:`h \left[\tfrac{1}{20} L_i + \tfrac{49}{180} L_a + \tfrac{16}{45} L_c + \tfrac{49}{180} L_b
++ \tfrac{1}{20} L_e\right]`.
 
 NLP size for ``nx`` states, ``nu`` controls and ``n`` segments:
 ``nx (2n+1) + nu (4n+1) (+1 for a free tf)`` parameters and ``2 nx n`` defects.

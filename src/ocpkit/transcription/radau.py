@@ -117,7 +117,7 @@ class Radau(Transcription):
     @property
     def ipopt_defaults(self) -> dict[str, IpoptOption]:  # type: ignore[override]  # read-only here, an attribute above
         """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
-        interval, QAMD for several" (issue 26): it picks the faster ordering on 17 of 19 comparable cases (five
+        interval, QAMD for several": it picks the faster ordering on 17 of 19 comparable cases (five
         problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
         adopted, because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve
         (notebook 10, Radau 4 x 160) converges in 978 iterations under AMF and stops at 3000 under QAMD, the free-
