@@ -38,7 +38,10 @@ from _tables import values  # noqa: E402
 
 myst_substitutions = values()
 # the pictures that pages' examples draw, drawn by those examples at build time (docs/_example_figures.py)
-example_figures = {"getting-started.md": "getting-started-plot.png"}
+example_figures = {
+    "getting-started.md": "getting-started-plot.png",
+    "guide/how-do-i.md": ["how-do-i-plot.png", "how-do-i-refinement.png"],
+}
 myst_heading_anchors = 3
 nb_execution_mode = "off"  # the notebooks' stored outputs, as nbval checks them
 nb_merge_streams = True

@@ -68,13 +68,15 @@ def test_every_code_block_on_a_user_page_fits_the_page():
 
 
 def test_the_how_do_i_page_answers_the_first_questions():
-    """Each question a newcomer asks first has its section, with an example that prints what it shows."""
+    """Each question a newcomer asks first has its section, with an example that prints what it shows, or draws the
+    picture under it (drawn at build time by that example, docs/_example_figures.py)."""
     page = DOCS / "guide" / "how-do-i.md"
     text = page.read_text()
     for question, call in [
         ("solve for minimum time?", "FreeFinalTime("),
         ("give an initial guess?", "Guess("),
         ("fix an end value, or let it lie in a range?", "final=(-0.1, 0.1)"),
+        ("look at a solution?", "fig = sol.plot()"),
         ("refine the mesh until the solution is accurate?", "mesh_history"),
         ("sample a quantity derived from the solution?", ".sample(lambda x, u, t"),
         ("tell whether a solution can be trusted?", "verdict"),
@@ -84,7 +86,9 @@ def test_the_how_do_i_page_answers_the_first_questions():
     ]:
         cases = examples(section(page, f"... {question}"))
         assert cases and any(call in code for code, _ in cases), question
-        assert all(printed is not None for _, printed in cases), f"{question}: every example shows what it prints"
+        drawn = [code for code, printed in cases if printed is None]
+        assert all(code.startswith("fig = ") for code in drawn), f"{question}: every example shows what it prints"
+        assert section(page, f"... {question}").count("](../_generated/") == len(drawn), f"{question}: its pictures"
     assert "how-do-i" in (DOCS / "guide" / "index.md").read_text()
     assert "compendium" not in text
 
@@ -235,3 +239,13 @@ def test_the_api_reference_documents_every_public_module_and_name():
             if isinstance(obj, (type, type(len))) or callable(obj):
                 assert obj.__module__ in documented, f"{package.__name__}.{name}"
                 assert (obj.__doc__ or "").strip(), f"{package.__name__}.{name} has no docstring"
+
+
+def test_the_notebooks_page_quotes_the_runners_own_message_for_a_wrong_type():
+    from compendium.notebook_source import check_parameters
+
+    with pytest.raises(ValueError) as caught:
+        check_parameters(REPO / "notebooks" / "01_lunar_ascent.ipynb", {"thrust_to_weight": "fast"})
+    page = " ".join((DOCS / "guide" / "notebooks-and-lab.md").read_text().split())
+    assert f"`{caught.value}`" in page
+

@@ -163,6 +163,27 @@ def test_a_refinement_history_is_drawn_and_a_single_solve_says_how_to_get_one(hl
         hlgl.plot_refinement()
 
 
+def test_a_mesh_whose_state_met_the_tolerance_shows_the_part_that_did_not():
+    """The energy-optimal double integrator refined to 1e-6 (the How-do-I page's example): mesh 1's state estimate
+    meets the tolerance and its objective part does not, which is why a mesh 2 follows; the figure says so."""
+    energy = OptimalControlProblem(
+        "double_integrator",
+        [State("x", initial=1.0, final=0.0), State("v", initial=0.0, final=0.0)],
+        [Control("u", lower=-0.5, upper=0.5)],
+        lambda x, u, t: [x["v"], u["u"]],
+        tf=3.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+    )
+    refined = HLGL(energy, intervals=10).solve(mesh_tolerance=1e-6)
+    over = [m for m in refined.mesh_history if m.failing]
+    assert over and all(m.error_estimate <= 1e-6 < m.worst for m in over)
+    ax = axes(refined.plot_refinement(), "error estimate")
+    (marker,) = lines(ax, "failing")
+    np.testing.assert_array_equal(marker.get_xdata(), [m.iteration for m in over])
+    np.testing.assert_array_equal(marker.get_ydata(), [m.worst for m in over])
+    assert [a.get_text() for a in ax.texts] == [", ".join(m.failing) for m in over]
+
+
 def test_bad_arguments_name_themselves_and_the_choices(hlgl):
     with pytest.raises(ValueError, match=r"unknown name 'speed'.*\['x', 'v', 'u'\]"):
         hlgl.plot(names=["speed"])
@@ -190,9 +211,10 @@ def test_without_matplotlib_the_error_says_how_to_install_it(hlgl, monkeypatch):
         hlgl.plot()
 
 
-def test_the_site_draws_a_pages_figure_with_the_pages_own_example(tmp_path):
-    """docs/_example_figures.py runs a page's python blocks up to the one that assigns ``fig`` and saves that figure
-    (the Getting-started picture is its example's, drawn at build time)."""
+def test_the_site_draws_a_pages_figures_with_the_pages_own_examples(tmp_path):
+    """docs/_example_figures.py runs a page's python blocks and saves the figure of each block that assigns ``fig``
+    as the next image, and runs nothing after the last (the Getting-started and How-do-I pictures are their examples',
+    drawn at build time)."""
     import importlib.util
 
     from _examples import DOCS
@@ -204,11 +226,15 @@ def test_the_site_draws_a_pages_figure_with_the_pages_own_example(tmp_path):
     page.write_text(
         "```python\nfrom test_structure import saturated\nfrom ocpkit import HLGL\n"
         "solution = HLGL(saturated(), intervals=8).solve()\n```\n\n"
-        "```python\nfig = solution.plot(which='controls')\n```\n\n```python\nraise RuntimeError('not reached')\n```\n"
+        "```python\nfig = solution.plot(which='controls')\n```\n\n"
+        "```python\nfig = solution.plot(which='states')\n```\n\n```python\nraise RuntimeError('not reached')\n```\n"
     )
-    module.draw(page, tmp_path / "out" / "picture.png")
-    assert (tmp_path / "out" / "picture.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    out = [tmp_path / "out" / "controls.png", tmp_path / "out" / "states.png"]
+    module.draw(page, out)
+    assert all(image.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for image in out)
+    assert out[0].read_bytes() != out[1].read_bytes()
     page.write_text("```python\nx = 1\n```\n")
-    with pytest.raises(ValueError, match="no python block that assigns fig"):
-        module.draw(page, tmp_path / "none.png")
+    with pytest.raises(ValueError, match="has 0 python blocks that assign fig, and example_figures in conf.py names 1"):
+        module.draw(page, [tmp_path / "none.png"])
     assert "fig = solution.plot()" in (DOCS / "getting-started.md").read_text()
+    assert "fig = sol.plot()" in (DOCS / "guide" / "how-do-i.md").read_text()

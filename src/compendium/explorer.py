@@ -1,4 +1,4 @@
-"""Move a slider, see the new optimal trajectory (issue 25): :func:`explore`.
+"""Move a slider, see the new optimal trajectory: :func:`explore`.
 
 What is explored is a family of problems: each value of the sliders (continuous parameters) and of the drop-downs
 (discrete choices) is solved again, warm-started from the solved value nearest to it (a continuation along the

@@ -321,8 +321,9 @@ def refinement_figure(
 ) -> Figure:
     """The figure of :meth:`Solution.plot_refinement <ocpkit.solution.Solution.plot_refinement>`: from a
     refinement's ``history`` (:class:`~ocpkit.program.solve.MeshIteration` s), each mesh's intervals and collocation
-    points, its error estimate against ``tolerance`` (logarithmic), and its interval boundaries over normalised time
-    (one row of ticks per mesh: each mesh's intervals are fractions of its own horizon)."""
+    points, its state error estimate against ``tolerance`` (logarithmic) and, on a mesh whose state part met it, the
+    largest other part that did not (named: the objective, a path constraint), and its interval boundaries over
+    normalised time (one row of ticks per mesh: each mesh's intervals are fractions of its own horizon)."""
     if not history:
         raise ValueError("a refinement's figure needs at least one mesh iteration")
     fig = _new_figure(figsize or (8.0, 5.5)) if fig is None else _empty(fig)
@@ -338,6 +339,20 @@ def refinement_figure(
     size.legend(fontsize=7)
     estimate = np.array([m.error_estimate for m in history], dtype=float)
     error.semilogy(k, estimate, "o-", color=_COLOURS["states"], label="state error estimate")
+    over = [m for m in history if m.failing and np.isfinite(m.worst)]
+    if over:  # the state part met the tolerance there, another part did not: it drove the next mesh
+        error.semilogy(
+            [m.iteration for m in over],
+            [m.worst for m in over],
+            "^",
+            color=_COLOURS["constraints"],
+            gid="failing",
+            label="largest other part over the tolerance",
+        )
+        for m in over:
+            error.annotate(
+                ", ".join(m.failing), (m.iteration, m.worst), xytext=(5, 3), textcoords="offset points", fontsize=7
+            )
     error.axhline(tolerance, color="0.35", ls="--", lw=0.9, gid="tolerance", label=f"tolerance {tolerance:.0e}")
     error.set_xlabel("mesh iteration")
     error.set_title("error estimate", fontsize=10)

@@ -1,4 +1,4 @@
-"""Published problems beyond the seeds, for the refinement's trust (issue 22); constants in
+"""Published problems beyond the seeds, for the refinement's trust; constants in
 ``data/problems/beyond_the_seeds.toml``, published values in ``data/paper/beyond_the_seeds.csv``.
 
 * :func:`tumour`: tumour anti-angiogenesis (Ledzewicz & Schättler 2008; Betts 2010, Ex. 6.17), a bang, singular,
@@ -122,7 +122,7 @@ def miser3_state_constraint() -> OptimalControlProblem:
 
 def orbit_raising(periodic: bool = True) -> OptimalControlProblem:
     """``periodic=False`` states the thrust angle as a plain unbounded control, as a user might first write it: the
-    NLP may then move its node values by whole turns (issue 22: 233.7, -109.7 and -417 degrees in one interval)."""
+    NLP may then move its node values by whole turns (233.7, -109.7 and -417 degrees in one interval)."""
     c = load_problem_data("beyond_the_seeds")["orbit_raising"]
     mu, thrust, rate = c["mu"], c["thrust"], c["mass_rate"]
 

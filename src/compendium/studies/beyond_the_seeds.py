@@ -1,4 +1,4 @@
-"""Refinement on published problems beyond the seeds (notebook 07, section 5; issue 22).
+"""Refinement on published problems beyond the seeds (notebook 07, section 5).
 
 Each case is a problem, a starting mesh and a published value (``data/paper/beyond_the_seeds.csv``, or a closed
 form); :func:`run_case` refines it to a tolerance and reports the outcome: ``met`` (every part of the estimate,
@@ -134,7 +134,7 @@ CASES = [
 #: starts of :data:`CASES`: its coarse meshes hold spurious optima that every mesh refined from them inherits, which
 #: the refinement's recoveries leave (:data:`ocpkit.program.solve.RECOVERIES`). Refined in notebook 07's published run
 #: only (``cops_statements``: minutes). COPS prints the optimum of its discretised NLP (1247.98); the statement's
-#: continuous optimum lies within 1e-5 of it (issue 41's bar), the reach allowed.
+#: continuous optimum lies within 1e-5 of it, the reach allowed.
 COPS_CASES = [
     Case("hang glider, COPS statement", lambda: hang_glider(cops=True), name, start,
          ("hang_glider_cops", "final_range_m"), lambda s: -s.objective, discretisation=1e-5)

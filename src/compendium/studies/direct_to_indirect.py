@@ -1,4 +1,4 @@
-"""From a direct solution to a certified extremal in one call (notebook 10; issue 24).
+"""From a direct solution to a certified extremal in one call (notebook 10).
 
 Each case is a published problem, a direct solve (Radau) and the reference it is compared with: closed-form
 junction times, a published junction table (``data/paper/goddard_control_toolbox.csv``), a published optimum
