@@ -248,4 +248,3 @@ def test_the_notebooks_page_quotes_the_runners_own_message_for_a_wrong_type():
         check_parameters(REPO / "notebooks" / "01_lunar_ascent.ipynb", {"thrust_to_weight": "fast"})
     page = " ".join((DOCS / "guide" / "notebooks-and-lab.md").read_text().split())
     assert f"`{caught.value}`" in page
-
