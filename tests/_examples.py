@@ -62,9 +62,14 @@ def section(path: Path, title: str) -> str:
     return "".join(lines[start:])
 
 
+#: a number in scientific notation: on these pages always an error, an estimate, a residual or a tolerance
+_SCIENTIFIC = re.compile(r"[-+]?\d+(?:\.\d+)?[eE][-+]?\d+")
+
+
 def same_print(printed: str, shown: str) -> list[str]:
     """Differences of what an example printed from what the page shows, by the contract's classes: the words
-    exactly, a re-integration error by its magnitude (rounding noise below 1e-12), every other number converged."""
+    exactly, a number in scientific notation (an error, an estimate, a residual, a tolerance) by its magnitude
+    (within a factor 2; rounding noise below 1e-12), every other number converged."""
     from compendium.contract import Converged, Error, text_differences
 
     out = []
@@ -72,9 +77,9 @@ def same_print(printed: str, shown: str) -> list[str]:
     if len(a) != len(b):
         return [f"{len(a)} lines printed, {len(b)} shown"]
     for x, y in zip(a, b):
-        (x0, _, x1), (y0, _, y1) = x.partition("re-integration error"), y.partition("re-integration error")
-        out += text_differences(" ".join(x0.split()), " ".join(y0.split()), Converged())
-        out += text_differences(x1.strip(), y1.strip(), Error(floor=1e-12))
+        words_x, words_y = (" ".join(_SCIENTIFIC.sub("<e>", line).split()) for line in (x, y))
+        out += text_differences(words_x, words_y, Converged())
+        out += text_differences(" ".join(_SCIENTIFIC.findall(x)), " ".join(_SCIENTIFIC.findall(y)), Error(floor=1e-12))
     return out
 
 

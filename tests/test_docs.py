@@ -110,6 +110,11 @@ def test_the_printed_example_is_compared_by_class_not_digit_for_digit():
     assert same_print("ShootingTrajectory J = 0.23066243, re-integration error 8.0e-16", shown) == []
     assert same_print("ShootingTrajectory J = 0.23067243, re-integration error 1.2e-15", shown)  # 4e-5 relative
     assert same_print("ShootingTrajectory J = 0.23066243, re-integration error 1.2e-05", shown)
+    verdict = "passed at 1e-06: state 9.5e-08, objective 1.5e-07; J 0.2306625526, flown 0.2306625191"
+    assert same_print(verdict.replace("9.5e-08", "9.1e-08").replace("1.5e-07", "1.6e-07"), verdict) == []
+    assert same_print(verdict.replace("9.5e-08", "9.5e-07"), verdict)  # an estimate ten times larger
+    assert same_print(verdict.replace("passed at", "failed at"), verdict)  # the words exactly
+    assert same_print(verdict.replace("0.2306625526", "0.2306635526"), verdict)  # a cost converged
 
 
 def test_the_one_call_example_reaches_the_reference_junctions():

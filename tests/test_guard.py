@@ -17,7 +17,15 @@ import pytest
 from compendium import plotting
 from compendium.contract import Converged, Error, Exact, Order, SolverPath, load_contract, to_number
 from compendium.figure_data import figure_data
-from compendium.guard import closing_note, committed_record, compare_figure_data, guard, read_csv, record_changes
+from compendium.guard import (
+    closing_note,
+    committed_record,
+    compare_figure_data,
+    guard,
+    main,
+    read_csv,
+    record_changes,
+)
 from compendium.paths import repo_root
 from compendium.provenance import RUNS
 
@@ -145,7 +153,7 @@ def _git(repo, *args):
     ).stdout  # fmt: skip
 
 
-def test_the_closing_note_counts_what_differs_within_the_contract_and_restores_the_commit(record, tmp_path):
+def test_the_closing_note_counts_what_differs_within_the_contract_and_restores_the_commit(record, tmp_path, capsys):
     """make reproduce on another machine: the record rewritten in the working tree, every file within the contract,
     some of them byte-wise different; the note counts them and its command brings the committed bytes back."""
     _, repo = record  # a fresh run's folder, made a git checkout: its record is the commit's
@@ -192,6 +200,12 @@ def test_the_closing_note_counts_what_differs_within_the_contract_and_restores_t
     changes = note()
     assert changes.within == {"figures": ["figures/f.png"]} and changes.unchecked == ["figures/sketch.txt"]
     assert "1 other changed file(s) there were not compared (figures/sketch.txt)" in closing_note(changes)
+
+    (repo / "figures" / "sketch.txt").unlink()  # as make reproduce prints it: the comparison, then the note
+    assert main([str(repo), "--reference-commit", "HEAD"]) == 0
+    printed = capsys.readouterr().out
+    assert "every compared file reproduces the published record" in printed
+    assert printed.rstrip().endswith(closing_note(note()))
 
 
 def test_a_status_change_is_a_difference(record):

@@ -201,3 +201,16 @@ def test_the_report_shows_the_figures_and_serves_mathjax_itself(tmp_path):
     assert 'src="mathjax/MathJax.js?config=' in page and "libs/mathjax" not in page
     assert (tmp_path / "report" / "mathjax" / "MathJax.js").is_file()
     assert "01_lunar_ascent.html" in index.read_text()
+
+
+def test_the_example_of_a_wrong_type_can_be_pasted_into_a_shell():
+    """A list with strings in it is shown in double quotes, an empty default gives a usable example."""
+    import shlex
+
+    from compendium.notebook_source import _wrong_type
+
+    said = _wrong_type("02.ipynb", "case1_fast", 3, (list,), ["U", "V"])
+    assert (
+        said.endswith("""e.g. -p case1_fast "['U', 'V']\"""") and shlex.split(said.split("e.g. ")[1])[2] == "['U', 'V']"
+    )
+    assert _wrong_type("05.ipynb", "horizon_seeds", "x", (list,), []).endswith("e.g. -p horizon_seeds '[1.0, 2.0]'")

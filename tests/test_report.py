@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -33,6 +34,7 @@ from compendium.report import (
     UNFINISHED,
     Unfinished,
     build_report,
+    run_facts,
     strip_markers,
     title,
     verdicts,
@@ -171,7 +173,11 @@ def test_provenance_names_commit_machine_python_packages_and_the_run(report, whe
     page = _page(report, where) if where != "index" else (report / "index.html").read_text()
     env = environment()
     commit = _git("rev-parse", "HEAD")
-    if commit is None:
+    path = paths.notebooks_dir() / f"{where}.ipynb"
+    record = run_facts(path, _read(path)).record if where != "index" else None
+    if record is not None and record.get("git"):  # a run of this notebook recorded here (make store, nbval): its commit
+        assert f"<code>{record['git']['commit'][:12]}</code>" in page and "from its record" in page
+    elif commit is None:
         assert "not a git checkout" in page
     else:
         assert f"<code>{commit[:12]}</code>" in page
@@ -413,6 +419,12 @@ def test_a_page_shows_the_record_of_its_own_run_whatever_ran_since(tmp_path, mon
     build_report(stopped.parent, tmp_path / "report-stopped")
     page = (tmp_path / "report-stopped" / "demo.html").read_text()
     assert f"<code>{run}/</code> (the run wrote no record there: it did not complete)" in page
+    other = record | {"notebook": "other"}  # another notebook's run, just now, in a shared folder
+    (runs / "other.json").write_text(json.dumps(other, indent=2) + "\n")
+    future = time.time() + 60
+    os.utime(runs / "other.json", (future, future))
+    assert keep_run_record(stopped, since=future - 1) is None  # not demo's
+    assert keep_run_record(stopped, since=future - 1, notebook="other") == other
 
 
 def test_runs_not_published_or_not_run_are_on_the_report_and_earlier_pages_go(tmp_path, monkeypatch):

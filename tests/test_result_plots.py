@@ -139,8 +139,14 @@ def test_a_shooting_trajectory_draws_its_costates_and_switching_times(hlgl):
     assert titles(titled) == ["u"] and str(result.status) in titled.get_suptitle()
 
 
-def test_an_extremal_shades_its_arcs_at_its_own_junctions():
-    extremal = to_extremal(Radau(race(), 4, 15).solve(error_threshold=None))  # upper then lower, switch at 1
+@pytest.mark.parametrize("method", ["switching", "arcs"])
+def test_an_extremal_shades_its_arcs_at_its_own_junctions(method):
+    """Both routes: the switching method's structure snapped to its switching times, the arc shooting's own arcs."""
+    from ocpkit.shooting.arcs import ArcResult
+
+    direct = Radau(race(), 4, 15).solve(error_threshold=None)
+    extremal = to_extremal(direct, method=method)  # upper then lower, switch at 1
+    assert isinstance(extremal.shooting, ArcResult) is (method == "arcs")
     fig = extremal.plot()
     u = axes(fig, "u")
     assert [p.get_label() for p in u.patches] == ["upper", "lower"]
@@ -191,8 +197,13 @@ def test_bad_arguments_name_themselves_and_the_choices(hlgl):
         hlgl.plot(which="nodes")
     with pytest.raises(ValueError, match=r"no constraints to draw: which= takes \['states', 'controls', 'costates'\]"):
         hlgl.plot(which="constraints")
-    with pytest.raises(ValueError, match="n must be at least 2"):
-        hlgl.plot(n=1)
+    for n in (1, 2.5, True):
+        with pytest.raises(ValueError, match="n must be a whole number of points per phase, at least 2"):
+            hlgl.plot(n=n)
+    with pytest.raises(ValueError, match=r"which= names no group: give some of \['states', 'controls', 'costates'\]"):
+        hlgl.plot(which=[])
+    with pytest.raises(ValueError, match=r"names= lists no name: give some of \['x', 'v', 'u'\]"):
+        hlgl.plot(names=[])
 
 
 def test_a_figure_given_is_drawn_into_when_empty(hlgl):
@@ -238,3 +249,45 @@ def test_the_site_draws_a_pages_figures_with_the_pages_own_examples(tmp_path):
         module.draw(page, [tmp_path / "none.png"])
     assert "fig = solution.plot()" in (DOCS / "getting-started.md").read_text()
     assert "fig = sol.plot()" in (DOCS / "guide" / "how-do-i.md").read_text()
+
+
+def test_a_failed_solve_and_a_phase_say_what_they_are_in_the_title(bouncing):
+    failed = HLGL(saturated(), intervals=20).solve(ipopt_options={"max_iter": 2}, raise_on_failure=False)
+    assert not failed.converged
+    assert f"NOT CONVERGED ({failed.status})" in failed.plot()._suptitle.get_text()
+    phase = bouncing.phase(0)
+    assert phase.plot()._suptitle.get_text().startswith(f"phase {phase.name}: its own cost")
+
+
+def test_a_large_problem_draws_its_states_and_controls_and_says_how_to_see_the_rest():
+    """A chain of nine integrators: 9 states, 1 control and 9 costates are 19 axes, more than CROWDED."""
+    from ocpkit.plotting import CROWDED
+
+    chain = OptimalControlProblem(
+        "chain",
+        [State(f"x{k}", initial=1.0 if k == 0 else 0.0, final=0.0) for k in range(9)],
+        [Control("u", -10.0, 10.0)],
+        lambda x, u, t: [*(x[k + 1] for k in range(8)), u[0]],
+        tf=10.0,
+        lagrange=lambda x, u, t: u[0] ** 2,
+    )
+    sol = HLGL(chain, intervals=10).solve()
+    assert 9 + 1 + 9 > CROWDED
+    fig = sol.plot()
+    assert titles(fig) == [*(f"x{k}" for k in range(9)), "u"]
+    assert "costates left out, 10 axes already: plot(which=...) draws them" in fig._suptitle.get_text()
+    assert len(titles(sol.plot(which=["costates"]))) == 9  # asked for, they are drawn
+
+
+def test_a_window_backend_keeps_the_figure_open_for_plt_show(hlgl, monkeypatch):
+    """Under Agg or the notebook's inline backend a figure is closed in pyplot at once (a notebook shows it once, as
+    the cell's value); under a window backend it stays open, so that plt.show() shows it."""
+    before = set(plt.get_fignums())
+    fig = hlgl.plot(which="controls")
+    assert set(plt.get_fignums()) == before
+    monkeypatch.setattr(plt, "get_backend", lambda: "QtAgg")
+    fig = hlgl.plot(which="controls")
+    try:
+        assert fig.number in plt.get_fignums()
+    finally:
+        plt.close(fig)

@@ -116,21 +116,50 @@ def sdist(dist) -> Path:
     return archive
 
 
+def _declared_closure(wheel: Path, extra: str) -> set[str]:
+    """The entries of this environment's site-packages (packages, modules, .dist-info, .libs folders) of the
+    distributions ``wheel`` requires with ``extra``, and of those they require, recursively."""
+    from importlib import metadata
+
+    from packaging.requirements import Requirement
+    from packaging.utils import canonicalize_name
+
+    with zipfile.ZipFile(wheel) as archive:
+        (meta,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        text = archive.read(meta).decode()
+    todo = [(line.split(":", 1)[1].strip(), extra) for line in text.splitlines() if line.startswith("Requires-Dist:")]
+    seen: set[str] = set()
+    entries: set[str] = set()
+    while todo:
+        requirement, with_extra = todo.pop()
+        req = Requirement(requirement)
+        name = canonicalize_name(req.name)
+        if name in seen or (req.marker is not None and not req.marker.evaluate({"extra": with_extra})):
+            continue
+        seen.add(name)
+        dist = metadata.distribution(name)
+        entries |= {f.parts[0] for f in dist.files or [] if f.parts[0] != ".." and not f.parts[0].endswith(".pth")}
+        todo += [(r, "") for r in dist.requires or []]
+    assert {"casadi", "numpy", "scipy", "pandas", "matplotlib"} <= seen, seen
+    return entries
+
+
 @pytest.fixture(scope="module")
 def fresh_python(wheel, tmp_path_factory) -> Path:
     """The Python of a fresh virtual environment with `pip install "<wheel>[plot]"` done in it, offline: the
     dependencies (casadi, numpy, scipy, pandas, and matplotlib for the extra) are this environment's, seen through a
-    folder of links to its site-packages without ocpkit, the compendium or any .pth file (this repository's src/,
-    the editable install), so pip finds them installed and installs the wheel alone."""
+    folder of links to the files of exactly the distributions the wheel declares, and theirs (so an import of
+    anything undeclared fails), without ocpkit, the compendium or any .pth file (this repository's src/, the
+    editable install): pip finds them installed and installs the wheel alone."""
     root = tmp_path_factory.mktemp("fresh")
     env_dir = root / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True)
     python = env_dir / "bin" / "python"
     view = root / "dependencies"
     view.mkdir()
-    for entry in Path(sysconfig.get_paths()["purelib"]).iterdir():
-        if entry.suffix != ".pth" and not entry.name.startswith(("ocpkit", "compendium", "__editable__")):
-            (view / entry.name).symlink_to(entry)
+    site = Path(sysconfig.get_paths()["purelib"])
+    for name in sorted(_declared_closure(wheel, extra="plot")):
+        (view / name).symlink_to(site / name)
     purelib = subprocess.run(
         [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
         check=True,
@@ -230,3 +259,10 @@ def test_wheel_metadata_describes_the_library(wheel):
     assert meta["Description-Content-Type"] == "text/markdown"
     description = meta.get_payload()
     assert description.startswith("# ocpkit") and "make " not in description and "notebooks/" not in description
+
+
+def test_the_fresh_environment_holds_only_what_the_wheel_declares(fresh_python):
+    """An undeclared import of the library would fail for a user: here too (tqdm and papermill are the compendium's)."""
+    for module in ("tqdm", "papermill", "compendium"):
+        proc = subprocess.run([str(fresh_python), "-c", f"import {module}"], capture_output=True, text=True)
+        assert proc.returncode != 0 and "ModuleNotFoundError" in proc.stderr, (module, proc.stderr)

@@ -600,7 +600,8 @@ def closing_note(changes: RecordChanges) -> str:
         f"{within} files of the published record differ byte-wise from {changes.commit} and reproduce it within "
         f"the contract (notebooks/contract.toml); {len(changes.identical)} are byte-identical."
     ]
-    lines += [f"  {len(changes.within[kind])} {_WITHIN[kind]}" for kind in _WITHIN if kind in changes.within]
+    kinds = [*(k for k in _WITHIN if k in changes.within), *(k for k in changes.within if k not in _WITHIN)]
+    lines += [f"  {len(changes.within[kind])} {_WITHIN.get(kind, kind)}" for kind in kinds]
     if changes.unchecked:
         shown = ", ".join(changes.unchecked[:5]) + (", ..." if len(changes.unchecked) > 5 else "")
         lines.append(
@@ -625,8 +626,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="ocpkit-record-") as tmp:
         reference = args.reference
-        if args.reference_commit:
-            reference = committed_record(args.reference_commit, Path(tmp))
+        if args.reference_commit:  # of the checkout the runs wrote into, where they did (make reproduce)
+            repository = args.output_root if _is_checkout(args.output_root) else None
+            reference = committed_record(args.reference_commit, Path(tmp), repository=repository)
         report = guard(args.output_root, reference)
     print(f"published record: {len(report.compared)} files compared, {len(report.skipped)} not compared")
     for line in report.skipped:

@@ -41,7 +41,9 @@ from compendium.paths import repo_root
 _OPTION_ALIASES = {"--notebook-dir": "--ServerApp.root_dir"}
 
 #: JupyterLab's application settings folder the compendium's Lab uses: its ``overrides.json`` turns the news feed
-#: and the update check of ``@jupyterlab/apputils-extension:notification`` off (``fetchNews`` ``"false"``)
+#: and the update check of ``@jupyterlab/apputils-extension:notification`` off (``fetchNews`` ``"false"``). It
+#: takes the place of the environment's own (``share/jupyter/lab/settings``, empty in the compendium's ``.venv``): an
+#: ``overrides.json`` an extension installed there would not be read; give ``--LabApp.app_settings_dir`` to use it.
 SETTINGS = Path(__file__).with_name("lab_settings")
 
 

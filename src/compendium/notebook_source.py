@@ -152,10 +152,13 @@ def _wrong_type(notebook: str, name: str, value, types: tuple[type | None, ...],
     expected = " or ".join("None" if t is None else t.__name__ for t in types)
     kind = "None" if value is None else type(value).__name__
     shown = default if isinstance(default, str) else repr(default)
-    example = shown if default is not None and len(shown) <= 40 else _EXAMPLES[next(t for t in types if t)]
+    usable = default is not None and len(shown) <= 40 and not (isinstance(default, (list, tuple, dict)) and not default)
+    example = shown if usable else _EXAMPLES[next(t for t in types if t)]
+    # a Python literal with quotes in it reads best in double quotes (shlex.quote would splice '"'"' into it)
+    quoted = f'"{example}"' if "'" in example and not any(c in example for c in '"$`\\!') else shlex.quote(example)
     return (
         f"{notebook}: the parameter {name!r} takes {_a(expected)}, but the value given is {value!r} ({_a(kind)}): "
-        f"give {_a(expected)}, e.g. -p {name} {shlex.quote(example)}"
+        f"give {_a(expected)}, e.g. -p {name} {quoted}"
     )
 
 

@@ -9,8 +9,8 @@ Command line::
     python -m compendium.notebooks report build/notebooks --output build/report
 
 A run writes the executed notebook, its figures and tables and its record into its own folder
-(:mod:`compendium.outputs`), and the executed notebook keeps a copy of that record (:func:`keep_run_record`); only ``reproduce``, ``store`` and ``publish`` copy a run into the published record,
-and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
+(:mod:`compendium.outputs`), and the executed notebook keeps a copy of that record (:func:`keep_run_record`);
+only ``reproduce``, ``store`` and ``publish`` copy a run into the published record, and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
 Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
 private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
 progress in the terminal (``OCPKIT_PROGRESS=terminal``, see :mod:`compendium.progress`), not in the stored notebooks.
@@ -126,12 +126,15 @@ def execute(
         )
     except BaseException:
         try:  # a run that stopped wrote no record: its executed notebook says so (an earlier run's is not its own)
-            keep_run_record(output, started)
+            keep_run_record(output, started, notebook=path.stem)
         except (OSError, ValueError):
             pass
         raise
     else:
-        keep_run_record(output, started)
+        try:
+            keep_run_record(output, started, notebook=path.stem)
+        except (OSError, ValueError) as exc:  # the run completed: its report falls back on the folder's record
+            print(f"{path.name}: the run's record could not be kept in {output} ({exc})", file=sys.stderr)
     finally:
         shutil.rmtree(ipc_dir, ignore_errors=True)
         for k, v in previous.items():
@@ -142,12 +145,13 @@ def execute(
     return output
 
 
-def keep_run_record(executed: Path, since: float) -> dict | None:
+def keep_run_record(executed: Path, since: float, notebook: str | None = None) -> dict | None:
     """Put the record of the run ``executed`` shows into its metadata (:data:`~compendium.provenance.RUN_RECORD_KEY`)
-    and return it: the record in the folder its first output line names (:func:`~compendium.notebook_source.written_to`) written at or after
-    ``since`` (a :func:`time.time`; one second earlier, for file systems that keep coarse times), ``None`` if that
-    folder holds none so recent (the run did not complete). Nothing is written into a notebook that names no
-    folder, or into none at all."""
+    and return it: the record of ``notebook`` (the source notebook's name without ``.ipynb``; default the executed
+    notebook's) in the folder its first output line names (:func:`~compendium.notebook_source.written_to`),
+    written at or after ``since`` (a :func:`time.time`; one second earlier, for file systems that keep coarse
+    times), ``None`` if that folder holds none so recent (the run did not complete). Another notebook's record in the
+    same folder is never taken. Nothing is written into a notebook that names no folder, or into none at all."""
     import json
 
     import nbformat
@@ -157,9 +161,8 @@ def keep_run_record(executed: Path, since: float) -> dict | None:
     folder = written_to(executed)
     if folder is None:
         return None
-    fresh = [r for r in sorted((folder / RUNS).glob("*.json")) if r.stat().st_mtime >= since - 1.0]
-    newest = max(fresh, key=lambda r: r.stat().st_mtime, default=None)
-    record = json.loads(newest.read_text()) if newest is not None else None
+    own = folder / RUNS / f"{notebook or executed.stem}.json"
+    record = json.loads(own.read_text()) if own.is_file() and own.stat().st_mtime >= since - 1.0 else None
     nb = nbformat.read(str(executed), as_version=4)
     nb.metadata[RUN_RECORD_KEY] = record
     nbformat.write(nb, str(executed))

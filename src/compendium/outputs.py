@@ -160,8 +160,8 @@ class Outputs:
 
         Rejects parameters papermill passed that the notebook does not declare (papermill itself only warns, then
         runs the defaults). A run with other parameters than the published run's puts :attr:`note` on every figure
-        pyplot draws from now on (:func:`compendium.plotting.note_figures`), inline ones too. Also shows warnings as ``Category: message``, without the file path Python prints by
-        default: a stored notebook must not carry the paths of the machine that ran it.
+        pyplot draws from now on (:func:`compendium.plotting.note_figures`), inline ones too. Also shows warnings as
+        ``Category: message``, without the file path Python prints by default: a stored notebook must not carry the paths of the machine that ran it.
         """
         warnings.formatwarning = _format_warning
         _reject_unknown_injected(notebook)

@@ -89,7 +89,8 @@ PRIOR_DURATIONS = "durations.toml"
 
 @dataclass(frozen=True)
 class Estimate:
-    """How long a notebook's run is expected to take, and what says so (``"last run here"``, ``"reference machine"``)."""
+    """How long a notebook's run is expected to take, and what says so (``"last run here"``,
+    ``"reference machine"``)."""
 
     seconds: float
     source: str

@@ -3,8 +3,8 @@
 What :mod:`compendium.outputs` writes into a run's record and :mod:`compendium.report` shows beside it, and what
 :mod:`compendium.notebooks` and :mod:`compendium.guard` read back: the commit a run was of and what was changed since
 (:func:`git_state`), the machine and the versions of :data:`PACKAGES` (:func:`environment`), the folder of a run's
-records (:data:`RUNS`, :func:`read_run_record`, :data:`RUN_RECORD_KEY`) and the folder a run writes (:func:`run_folder`, named by
-:func:`run_key` under :func:`runs_root`). Below it only :mod:`compendium.paths` and :mod:`compendium.notebook_source`.
+records (:data:`RUNS`, :func:`read_run_record`, :data:`RUN_RECORD_KEY`) and the folder a run writes
+(:func:`run_folder`, named by :func:`run_key` under :func:`runs_root`). Below it only :mod:`compendium.paths` and :mod:`compendium.notebook_source`.
 """
 
 from __future__ import annotations

@@ -3,9 +3,11 @@
 draw.
 
 matplotlib is not a dependency of ocpkit: it is imported when a figure is drawn, and its absence is an ImportError
-that says how to install it. Each figure is made with pyplot (so that a notebook's inline backend renders it) and
-closed in pyplot at once: a notebook shows it exactly once, as the value of the cell that returns it, a script saves
-it (``fig.savefig("name.png")``), and a loop of plots leaves no figure open behind it.
+that says how to install it. Each figure is made with pyplot (so that a notebook's inline backend renders it). Under
+the inline backend and the file backends (Agg, the default without a display) it is closed in pyplot at once: a
+notebook shows it exactly once, as the value of the cell that returns it (``fig = sol.plot()`` shows nothing until
+``fig`` is a cell's value), a script saves it (``fig.savefig("name.png")``), and a loop of plots leaves no figure open
+behind it. Under a window backend (QtAgg, TkAgg, ...) it stays open, and ``plt.show()`` shows it.
 
 Every line the figures mark times or limits with carries a ``gid``: ``"bound"`` (a finite bound of a state or a
 control, a limit of a path constraint, dashed), ``"phase boundary"`` (where a phase starts, solid grey),
@@ -27,10 +29,13 @@ if TYPE_CHECKING:
 
     from .trajectory import Trajectory
 
-__all__ = ["GROUPS", "refinement_figure", "trajectory_figure"]
+__all__ = ["CROWDED", "GROUPS", "refinement_figure", "trajectory_figure"]
 
 #: the groups of axes a trajectory's figure may hold, in its order
 GROUPS = ("states", "controls", "costates", "constraints")
+#: above this many axes, a figure drawn with neither ``which`` nor ``names`` leaves costates and path constraints out
+#: (and says so in its title)
+CROWDED = 16
 
 _COLOURS = {"states": "#1f5fa8", "controls": "#d1495b", "costates": "#2a9d8f", "constraints": "#e9a23b"}
 _ARC_COLOURS = {
@@ -55,11 +60,18 @@ def _pyplot() -> Any:
     return plt
 
 
+#: backends that draw into files or a notebook's cell output, not a window: their figures are closed in pyplot
+_NOT_WINDOWS = ("agg", "cairo", "pdf", "pgf", "ps", "svg", "template")
+
+
 def _new_figure(figsize: tuple[float, float]) -> Figure:
-    """A pyplot figure with a constrained layout, closed in pyplot (module docstring)."""
+    """A pyplot figure with a constrained layout, closed in pyplot unless a window backend shows it (module
+    docstring)."""
     plt = _pyplot()
     fig = plt.figure(figsize=figsize, layout="constrained")
-    plt.close(fig)
+    backend = plt.get_backend().lower()
+    if "inline" in backend or backend in _NOT_WINDOWS:
+        plt.close(fig)
     return fig
 
 
@@ -125,6 +137,8 @@ def _selected(
                 choices.append(name)
         path = piece.problem.functions.path
         choices += [n for n in (path.names if path is not None else ()) if n not in choices]
+    if not names:
+        raise ValueError(f"names= lists no name: give some of {choices}, or leave it out to draw them all")
     for name in names:
         if name not in choices:
             raise ValueError(f"unknown name {name!r} in names=: the trajectory's names are {choices}")
@@ -152,6 +166,8 @@ def _groups(trajectory: Trajectory, pieces: list[Trajectory], which: str | Seque
     if which is None:
         return available
     asked = [which] if isinstance(which, str) else list(which)
+    if not asked:
+        raise ValueError(f"which= names no group: give some of {available}, or leave it out to draw them all")
     for group in asked:
         if group not in GROUPS:
             raise ValueError(f"unknown group {group!r} in which=: the groups are {list(GROUPS)}")
@@ -254,11 +270,17 @@ def trajectory_figure(
     """The figure of :meth:`Trajectory.plot <ocpkit.trajectory.Trajectory.plot>` (its arguments); ``title``
     replaces the default one, ``arcs`` shades each named control's arcs, ``(kind, start, end)`` each, in the colour
     of their kind (:data:`ocpkit.structure.ARC_KINDS`), with a legend."""
-    if n < 2:
-        raise ValueError(f"n must be at least 2 (points per phase), got {n}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise ValueError(f"n must be a whole number of points per phase, at least 2, got {n!r}")
     pieces = _pieces(trajectory)
     groups = _groups(trajectory, pieces, which)
     axes = _selected(_axes_of(pieces, groups), names, pieces, groups)
+    left_out = [g for g in groups if g in ("costates", "constraints")] if which is None and names is None else []
+    if len(axes) > CROWDED and left_out:  # a large problem: its states and controls, and how to see the rest
+        groups = [g for g in groups if g not in left_out]
+        axes = _selected(_axes_of(pieces, groups), None, pieces, groups)
+    else:
+        left_out = []
     ncols = 1 if len(axes) == 1 else 2 if len(axes) in (2, 4) else 3
     nrows = -(-len(axes) // ncols)
     fig = _new_figure(figsize or (3.6 * ncols, 2.4 * nrows + 0.5)) if fig is None else _empty(fig)
@@ -297,7 +319,10 @@ def trajectory_figure(
                 fontsize=7,
                 color="0.35",
             )
-    fig.suptitle(title if title is not None else _title(trajectory, pieces), fontsize=11)
+    heading = title if title is not None else _title(trajectory, pieces)
+    if left_out:
+        heading += f"\n({' and '.join(left_out)} left out, {len(axes)} axes already: plot(which=...) draws them)"
+    fig.suptitle(heading, fontsize=11)
     return fig
 
 
@@ -307,6 +332,12 @@ def _title(trajectory: Trajectory, pieces: list[Trajectory]) -> str:
     else:
         name = trajectory.problem.name
     method = getattr(trajectory, "transcription", None) or type(trajectory).__name__
+    from .solution import PhaseSolution
+
+    if isinstance(trajectory, PhaseSolution):
+        return f"phase {trajectory.name}: its own cost {trajectory.objective:.8g}\n{method}"
+    if getattr(trajectory, "converged", True) is False:
+        return f"{name}: NOT CONVERGED ({getattr(trajectory, 'status', '?')}), objective {trajectory.objective:.8g}\n{method}"
     return f"{name}: objective {trajectory.objective:.8g}\n{method}"
 
 
@@ -351,7 +382,7 @@ def refinement_figure(
         )
         for m in over:
             error.annotate(
-                ", ".join(m.failing), (m.iteration, m.worst), xytext=(5, 3), textcoords="offset points", fontsize=7
+                ", ".join(m.failing), (m.iteration, m.worst), xytext=(6, -9), textcoords="offset points", fontsize=7
             )
     error.axhline(tolerance, color="0.35", ls="--", lw=0.9, gid="tolerance", label=f"tolerance {tolerance:.0e}")
     error.set_xlabel("mesh iteration")

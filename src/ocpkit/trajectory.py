@@ -159,14 +159,17 @@ class Trajectory(ABC):
         path constraint's expression, each drawn on ``n`` points per phase; a direct solution's points (its scheme's
         nodes) as dots on it and its mesh breakpoints as ticks along the bottom; finite bounds and path-constraint
         limits dashed (where within the span of the values from them); the phases' boundaries as solid lines
-        (a solution of several phases, each phase on its own interval, its own bounds), the switching times and
-        junctions of an indirect trajectory dotted; the title names the problem, the method and the objective.
+        (a solution of several phases, each phase on its own interval, its own bounds), an indirect trajectory's
+        breakpoints dotted (the events of its switching functions, where the control may switch, and its junctions); the title names the problem, the method and the objective.
 
         ``which``: the groups drawn, some of ``"states"``, ``"controls"``, ``"costates"``, ``"constraints"``
-        (default every group the trajectory has); ``names``: only these states, controls and path constraints (a
+        (default every group the trajectory has, but only states and controls where all would make more than
+        :data:`~ocpkit.plotting.CROWDED` axes, as the title then says); ``names``: only these states, controls and
+        path constraints (a
         state's costate with it); ``figsize``: inches (default from the number of axes); ``fig``: an empty figure
-        or subfigure to draw into. Returns the figure, which pyplot does not keep open: a notebook shows it once as a
-        cell's value (a trailing ``;`` hides it), a script saves it with ``fig.savefig(...)`` (:mod:`ocpkit.plotting`).
+        or subfigure to draw into. Returns the figure. A notebook shows it once, as a cell's value (``sol.plot()``
+        last in a cell; after ``fig = sol.plot()``, ``fig``; a trailing ``;`` hides it); a script saves it with
+        ``fig.savefig(...)``, or shows it with ``plt.show()`` under a window backend (:mod:`ocpkit.plotting`).
         """
         from .plotting import trajectory_figure
 
