@@ -256,7 +256,7 @@ def test_a_failed_solve_and_a_phase_say_what_they_are_in_the_title(bouncing):
     assert not failed.converged
     assert f"NOT CONVERGED ({failed.status})" in failed.plot()._suptitle.get_text()
     phase = bouncing.phase(0)
-    assert phase.plot()._suptitle.get_text().startswith(f"phase {phase.name}: its own cost")
+    assert phase.plot()._suptitle.get_text().startswith(f"{phase.problem.name}: the phase's own cost")
 
 
 def test_a_large_problem_draws_its_states_and_controls_and_says_how_to_see_the_rest():

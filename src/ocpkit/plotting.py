@@ -332,10 +332,8 @@ def _title(trajectory: Trajectory, pieces: list[Trajectory]) -> str:
     else:
         name = trajectory.problem.name
     method = getattr(trajectory, "transcription", None) or type(trajectory).__name__
-    from .solution import PhaseSolution
-
-    if isinstance(trajectory, PhaseSolution):
-        return f"phase {trajectory.name}: its own cost {trajectory.objective:.8g}\n{method}"
+    if trajectory.objective_label != "objective":  # a phase of a solution: its own share
+        return f"{name}: {trajectory.objective_label} {trajectory.objective:.8g}\n{method}"
     if getattr(trajectory, "converged", True) is False:
         return f"{name}: NOT CONVERGED ({getattr(trajectory, 'status', '?')}), objective {trajectory.objective:.8g}\n{method}"
     return f"{name}: objective {trajectory.objective:.8g}\n{method}"

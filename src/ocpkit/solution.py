@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, NoReturn, cast
+from typing import TYPE_CHECKING, Any, ClassVar, NoReturn, cast
 
 import numpy as np
 
@@ -59,6 +59,8 @@ class PhaseSolution(Trajectory):
     and :meth:`path_dataframe` select by name.
     """
 
+    #: a phase's own share of the cost, not the whole solution's objective
+    objective_label: ClassVar[str] = "the phase's own cost"
     name: str
     problem: OptimalControlProblem
     statement: OptimalControlProblem

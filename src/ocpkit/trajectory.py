@@ -16,7 +16,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -71,6 +71,8 @@ class Trajectory(ABC):
     tf: float
     objective: float
     breakpoints: np.ndarray
+    #: what ``objective`` is, as a figure's title names it (:meth:`plot`)
+    objective_label: ClassVar[str] = "objective"
 
     # -- to be provided --------------------------------------------------------------------
     @abstractmethod
