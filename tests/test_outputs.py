@@ -119,7 +119,7 @@ def test_a_figure_of_a_run_with_other_parameters_says_so_and_the_published_runs_
     save_figure(alone, "a_figure", repo / "alone")
     published, other = Outputs(NOTEBOOK, params), Outputs(NOTEBOOK, params | {"thrust_to_weight": 2.5})
     assert published.note is None
-    assert other.note == "Not the published run: thrust_to_weight = 2.5 (published: None)"
+    assert other.note == "Not the published run: thrust_to_weight = 2.5 (published: None, the paper's)"
     for out in (published, other):
         fig = _drawn()
         out.figure(fig, "a_figure")
@@ -263,3 +263,17 @@ def test_anything_else_does_not_publish(repo, how, message):
     with pytest.raises(PublishError, match=message):
         publish_run(folder)
     assert not (repo / "figures").exists()
+
+
+def test_the_note_says_what_a_none_stands_for_where_the_parameters_cell_says_it():
+    from compendium.notebook_source import none_meanings
+    from compendium.plotting import run_note
+
+    meanings = none_meanings(paths.notebooks_dir() / "05_orbit_transfer.ipynb")
+    assert meanings["thrusts"] == "all of the slides'"
+    note = run_note({"thrusts": [5.0], "recompute": False}, {"thrusts": None, "recompute": True}, meanings)
+    assert " ".join(note.split()) == (
+        "Not the published run: thrusts = [5.0] (published: None, all of the slides'); recompute = False "
+        "(published: True)"
+    )
+    assert run_note({"x": None}, {"x": 1.0}) == "Not the published run: x = None (published: 1.0)"

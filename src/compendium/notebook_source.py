@@ -182,6 +182,19 @@ def published_overrides(path: str | Path) -> dict:
     return {k: ast.literal_eval(v) for k, v in table.items()}
 
 
+def none_meanings(path: str | Path) -> dict[str, str]:
+    """What ``None`` stands for, for each parameter whose comment in the parameters cell says it (``# ...; None: the
+    paper's (data/problems/...)`` gives ``"the paper's"``: up to a parenthesis, a semicolon or a comma)."""
+    import papermill as pm
+
+    out = {}
+    for name, spec in pm.inspect_notebook(str(path)).items():
+        said = re.search(r"\bNone:\s*([^;(,]*[^;(,\s])", spec.get("help") or "")
+        if said:
+            out[name] = said.group(1)
+    return out
+
+
 def published_parameters(notebook: str) -> dict:
     """The parameters of the notebook's published run: its parameters cell, updated by ``notebooks/published.toml``."""
     path = paths.notebooks_dir() / f"{notebook}.ipynb"

@@ -42,7 +42,7 @@ import pandas as pd
 
 from . import contract, paths
 from .figure_data import write_figure_data
-from .notebook_source import code_digest, notebook_parameters, parameters_cell, published_parameters
+from .notebook_source import code_digest, none_meanings, notebook_parameters, parameters_cell, published_parameters
 from .plotting import add_note, note_figures, run_note, save_figure
 from .provenance import RUNS, git_state, run_folder
 
@@ -135,7 +135,10 @@ class Outputs:
         self.changed = {k: v for k, v in self.parameters.items() if v != published[k]}
         self.is_published_run = not self.changed
         #: what each figure of a run with other parameters says of it (:func:`compendium.plotting.run_note`)
-        self.note = run_note(self.changed, published) if self.changed else None
+        self.note = None
+        if self.changed:
+            meanings = none_meanings(paths.notebooks_dir() / f"{notebook}.ipynb")
+            self.note = run_note(self.changed, published, meanings)
         self.explicit = bool(os.environ.get("OCPKIT_OUTPUT_DIR"))
         self.root = run_folder(notebook, self.parameters)
         if self.root == paths.repo_root().resolve():

@@ -46,17 +46,24 @@ _NOTE_HOOK = "compendium.plotting:_note_new_figure"
 _run_note: str | None = None
 
 
-def run_note(changed: dict, published: dict, width: int = 110) -> str:
+def run_note(changed: dict, published: dict, meanings: dict | None = None, width: int = 110) -> str:
     """The note of a run whose parameters ``changed`` (name -> value) differ from the published run's
-    (``published``, name -> value): ``Not the published run: thrust_to_weight = 2.5 (published: None)``, long values
-    cut short, wrapped at ``width`` characters."""
+    (``published``, name -> value): ``Not the published run: thrust_to_weight = 2.5 (published: None, the paper's)``,
+    with what a ``None`` stands for where ``meanings`` (name -> text,
+    :func:`compendium.notebook_source.none_meanings`) says it, long values cut short, wrapped at ``width``
+    characters."""
     import reprlib
     import textwrap
 
     short = reprlib.Repr()
     short.maxstring = short.maxother = 40
     short.maxlist = short.maxtuple = short.maxdict = 6
-    parts = [f"{k} = {short.repr(v)} (published: {short.repr(published.get(k))})" for k, v in changed.items()]
+    meanings = meanings or {}
+
+    def shown(name: str, value) -> str:
+        return f"None, {meanings[name]}" if value is None and name in meanings else short.repr(value)
+
+    parts = [f"{k} = {shown(k, v)} (published: {shown(k, published.get(k))})" for k, v in changed.items()]
     return "\n".join(textwrap.wrap("Not the published run: " + "; ".join(parts), width, break_long_words=False))
 
 
