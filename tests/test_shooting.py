@@ -6,6 +6,7 @@ import pytest
 
 from ocpkit import Control, OptimalControlProblem, Outcome, SolverError, State
 from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
+from ocpkit.shooting.strategies import FiniteDifferences
 
 from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
 
@@ -428,3 +429,56 @@ def test_shooting_with_a_free_initial_state():
     assert r.converged and r.z[0] == pytest.approx(1.0, abs=1e-12) and abs(r.objective) < 1e-20
     with pytest.raises(ValueError, match="a Mayer term independent of the free initial states"):
         Shooting(pr.replace(mayer=lambda x0, xf, t0, tf: x0["x"] ** 2), control_law(pr, "box", regularized=True))
+
+
+def _damped_oscillator_at_a_grazing(delta):
+    """x1' = x2, x2' = -x1 - c x2 + u, |u| <= 1, min int |u| over ten periods; the costate's peaks grow by 8 %
+    each (p2'' = -p2 + c p2'), and p0 is scaled so that the fourth peak of |p2| reaches ``1 + delta``: three peaks
+    below the switching level, one grazing it (a thrust arc of width about 2 sqrt(2 delta), or, for delta < 0, a
+    touch without a crossing), then about thirty transversal switchings."""
+    from scipy.linalg import expm
+    from scipy.optimize import minimize_scalar
+
+    c, T = 0.05, 20 * np.pi
+    pr = OptimalControlProblem(
+        "damped_oscillator",
+        [State("x1", initial=1.0, final=0.0), State("x2", initial=0.0, final=0.0)],
+        [Control("u", -1.0, 1.0)],
+        lambda x, u, t, P: ca.vertcat(x[1], -x[0] - c * x[1] + u[0]),
+        tf=T,
+        lagrange=lambda x, u, t, P: ca.fabs(u[0]),
+    )
+    A = np.array([[0.0, 1.0], [-1.0, -c]])
+    direction = np.array([np.sin(0.3), np.cos(0.3)])
+    def p2(s):
+        return abs((expm(-A.T * s) @ direction)[1])
+
+    t = np.linspace(0.0, T, 2001)
+    samples = np.array([p2(s) for s in t])
+    k = np.flatnonzero((samples[1:-1] > samples[:-2]) & (samples[1:-1] > samples[2:]))[3] + 1
+    fourth = minimize_scalar(lambda s: -p2(s), bounds=(t[k - 1], t[k + 1]), method="bounded", options={"xatol": 1e-12})
+    return pr, (1 + delta) / -fourth.fun * direction
+
+
+@pytest.mark.parametrize("switching", ["detection", "correction"])
+@pytest.mark.parametrize("delta, step", [(1e-4, 1e-7), (1e-5, 1e-8), (-1e-5, 1e-7)])
+def test_variational_jacobian_through_a_grazing_switching(switching, delta, step):
+    """Many switchings, one of them grazing: the variational Jacobian (its jump term (phi_I - phi_II) tau'(y0) at
+    every switching, slide 17 of Martinon & Gergaud) against central differences at the integrator's 1e-12.
+
+    The grazing arc's switchings move as 1/sqrt(delta) with z (dg/dt about sqrt(2 delta) at the crossing), so its
+    columns are 4 to 15 times those of transversal switchings alone; the difference step stays well below delta so
+    that no difference crosses the grazing (the arc appearing or vanishing). Measured: 1e-7 to 1e-6 relative (the truncation error of the differences grows as (step / delta)^2)."""
+    pr, z = _damped_oscillator_at_a_grazing(delta)
+    s = Shooting(pr, control_law(pr, "box"), switching=switching, rtol=1e-12, atol=1e-12)
+    flight = s.integrate(z, record=True)
+    times = flight.switching_times
+    assert flight.switchings >= 30, "the transversal switchings after the grazing one"
+    shortest = np.diff(times).min()
+    if delta > 0:  # the grazing arc is found, at its width
+        assert shortest == pytest.approx(2 * np.sqrt(2 * delta), rel=0.2)
+    else:  # a touch without a crossing: no arc
+        assert shortest > 0.5
+    _, J_var = s.jacobian_matrix(z, method="variational")
+    _, J_cd = s.jacobian_matrix(z, method=FiniteDifferences(central=True, step=step))
+    assert np.abs(J_var - J_cd).max() <= 1e-5 * np.abs(J_cd).max()

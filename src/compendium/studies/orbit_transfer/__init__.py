@@ -28,7 +28,8 @@ The package follows the chain, one module per section, each importing only those
 :mod:`~compendium.studies.orbit_transfer.continuation` (a robust solve, a thrust schedule),
 :mod:`~compendium.studies.orbit_transfer.minimum_time` (steps 1 and 2),
 :mod:`~compendium.studies.orbit_transfer.energy` (step 3), :mod:`~compendium.studies.orbit_transfer.l1` (step 4 and
-the horizon study), :mod:`~compendium.studies.orbit_transfer.cache` (the published record as cache, the 3-D track),
+the horizon study), :mod:`~compendium.studies.orbit_transfer.low_thrust` (the slides' conclusion at low thrust: the
+Jacobian along the Newton path, the noise floor of S against the integrator's tolerance), :mod:`~compendium.studies.orbit_transfer.cache` (the published record as cache, the 3-D track),
 :mod:`~compendium.studies.orbit_transfer.chain` (the chain with its caches) and
 :mod:`~compendium.studies.orbit_transfer.family` (the explorer's family along the thrust). Notebook 05 reads them all
 from here (``from compendium.studies import orbit_transfer as study``).
@@ -46,6 +47,7 @@ from .energy import (
 )
 from .family import thrust_family, thrust_magnitude
 from .l1 import best_known_fuel, goal_met, horizon_branches, l1_runs, residual_noise
+from .low_thrust import closest_approach, jacobian_check, newton_path, slides_conclusion, tolerance_runs
 from .minimum_time import (
     classify_on_scan,
     minimum_time_continuation,
@@ -66,6 +68,7 @@ __all__ = [
     "calibrate_multiplier",
     "cartesian_track",
     "classify_on_scan",
+    "closest_approach",
     "energy_longitude_continuation",
     "energy_longitude_start",
     "energy_solutions",
@@ -75,19 +78,23 @@ __all__ = [
     "fuel_kg",
     "goal_met",
     "horizon_branches",
+    "jacobian_check",
     "l1_runs",
     "minimum_time_continuation",
     "minimum_time_start",
     "minimum_time_versus_longitude",
     "minimum_times",
+    "newton_path",
     "propellant_kg",
     "read_cache",
     "refine_minimum_time",
     "residual_noise",
     "scan_minima",
+    "slides_conclusion",
     "solve_robustly",
     "thrust_family",
     "thrust_magnitude",
     "thrust_schedule",
+    "tolerance_runs",
     "versus_slides",
 ]
