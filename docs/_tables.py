@@ -113,6 +113,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "shooting_validation": _derived("shooting_validation"),
     "orbit_transfer_summary": _derived("orbit_transfer_summary"),
     "orbit_transfer_no_detection": _derived("orbit_transfer_no_detection"),
+    "orbit_transfer_slides_conclusion": _derived("orbit_transfer_slides_conclusion"),
     "beyond_the_seeds": beyond_the_seeds,
     "direct_to_indirect": direct_to_indirect,
     "bryson_denham": _derived("bryson_denham"),
@@ -331,12 +332,60 @@ def _switching_detection() -> dict[str, str]:
         f"at {_thrusts(none[none['norm_S slides'] > 1e-5].thrust_N)} in the slides and at {_thrusts(short)} here"
     )
     values["no_detection_rejected"] = _span(none["rejected % at the solution"], ".0f") + " %"
+    values |= _slides_conclusion()
     at5 = runs[runs.thrust_N == 5]
     seen, blind = at5[at5.detection != "none"], at5[at5.detection == "none"]
     values["hamiltonian_with_detection"] = _sci(seen.hamiltonian_drift.max(), "most")
     values["hamiltonian_without_detection"] = (
         f"{_sci(blind.hamiltonian_drift.min())} to {_sci(blind.hamiltonian_drift.max())} along the "
         f"{len(blind)} runs without, each at its own stopping point"
+    )
+    return values
+
+
+def _slides_conclusion() -> dict[str, str]:
+    """The slides' conclusion at low thrust (notebook 05, section 3): the Jacobian along the Newton path, the stall,
+    the noise floor of S against the integrator's tolerance, and the tolerance at which the conclusion holds."""
+    check = _read(DERIVED / "orbit_transfer_jacobian_check.csv")
+    floor = _read(DERIVED / "orbit_transfer_noise_floor.csv")
+    conclusion = _read(DERIVED / "orbit_transfer_slides_conclusion.csv").sort_values("thrust_N", ascending=False)
+    values = {}
+    stalled = conclusion[~conclusion.converged_at_the_slides_tol]
+    values["conclusion_stalled"] = _thrusts(stalled.thrust_N) if len(stalled) else "no thrust"
+    T = float(check.thrust_N.iloc[0])
+    later = check[check.iterate > 0]
+    values["jacobian_check"] = (
+        f"at {T:g} N, over the run's {check.iterate.nunique()} Jacobians, the median column error is "
+        f"{_sci(check.error_reference_tol.median())} integrated at 1e-12 (the largest after the first iterate, the "
+        f"energy start, {_sci(later.error_reference_tol.max())}) and {_sci(check.error.median())} at the slides' 1e-8"
+    )
+    last = check[check.iterate == check.iterate.max()].iloc[0]
+    extremal = conclusion.set_index("thrust_N").loc[T]
+    values["stall"] = (
+        f"its last iterates have {last.switchings:.0f} switchings against the extremal's {extremal.switchings:.0f}, "
+        f"and the switching function comes within {_sci(abs(last.closest_approach_g))} of zero at "
+        f"t = {last.closest_approach_t_h:.0f} h without crossing it"
+        if extremal.switchings != last.switchings
+        else f"it converges at {T:g} N"
+    )
+    tols = sorted(floor.integrator_tol.unique(), reverse=True)
+    values["floor_tolerances"] = ", ".join(f"{t:g}" for t in tols)
+    corrected = floor[floor.detection == "correction"].sort_values(["thrust_N", "integrator_tol"], ascending=False)
+    values["noise_floor"] = "; ".join(
+        f"{t:g} N: " + ", ".join(_sci(n) for n in g.noise_of_S) for t, g in corrected.groupby("thrust_N", sort=False)
+        if t < 1
+    )
+    held = conclusion[conclusion.reproduced]
+    values["conclusion_rows"] = "; ".join(
+        f"at {r.thrust_N:g} N |S| = {_sci(r.norm_S)} at tolerance {r.integrator_tol:g} (slides {_sci(r.norm_S_slides)}, "
+        f"noise of S {_sci(r.noise_of_S)}; {r.n_jac:.0f} Jacobians, the slides' {r.n_jac_slides:.0f})"
+        for r in held[held.thrust_N < 1].itertuples()
+    )
+    missed = conclusion[~conclusion.reproduced]
+    values["conclusion_missed"] = (
+        "It holds at every thrust at one of those tolerances."
+        if missed.empty
+        else f"It holds at no tolerance tried at {_thrusts(missed.thrust_N)}."
     )
     return values
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ocpkit import Control, OptimalControlProblem, Outcome, SolverError, State
-from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, control_law, homotopy
+from ocpkit.shooting import CompiledSystem, HamiltonianSystem, Shooting, ShootingTrajectory, control_law, homotopy
 from ocpkit.shooting.strategies import FiniteDifferences
 
 from compendium.problems import double_integrator, double_integrator_solution, harmonic_oscillator
@@ -457,7 +457,7 @@ def _damped_oscillator_at_a_grazing(delta):
     samples = np.array([p2(s) for s in t])
     k = np.flatnonzero((samples[1:-1] > samples[:-2]) & (samples[1:-1] > samples[2:]))[3] + 1
     fourth = minimize_scalar(lambda s: -p2(s), bounds=(t[k - 1], t[k + 1]), method="bounded", options={"xatol": 1e-12})
-    return pr, (1 + delta) / -fourth.fun * direction
+    return pr, (1 + delta) / -fourth.fun * direction, float(fourth.x)
 
 
 @pytest.mark.parametrize("switching", ["detection", "correction"])
@@ -469,7 +469,7 @@ def test_variational_jacobian_through_a_grazing_switching(switching, delta, step
     The grazing arc's switchings move as 1/sqrt(delta) with z (dg/dt about sqrt(2 delta) at the crossing), so its
     columns are 4 to 15 times those of transversal switchings alone; the difference step stays well below delta so
     that no difference crosses the grazing (the arc appearing or vanishing). Measured: 1e-7 to 1e-6 relative (the truncation error of the differences grows as (step / delta)^2)."""
-    pr, z = _damped_oscillator_at_a_grazing(delta)
+    pr, z, _ = _damped_oscillator_at_a_grazing(delta)
     s = Shooting(pr, control_law(pr, "box"), switching=switching, rtol=1e-12, atol=1e-12)
     flight = s.integrate(z, record=True)
     times = flight.switching_times
@@ -482,3 +482,34 @@ def test_variational_jacobian_through_a_grazing_switching(switching, delta, step
     _, J_var = s.jacobian_matrix(z, method="variational")
     _, J_cd = s.jacobian_matrix(z, method=FiniteDifferences(central=True, step=step))
     assert np.abs(J_var - J_cd).max() <= 1e-5 * np.abs(J_cd).max()
+
+
+@pytest.mark.parametrize("delta", [1e-4, -1e-5])
+def test_the_closest_approach_of_a_switching_function_names_a_grazing_switching(delta):
+    """A touch without a crossing (delta < 0: |p2| peaks 1e-5 below the switching level) is found at the peak, with
+    its value; where every peak above the level crosses it, the nearest approach is a peak well below (not grazing)."""
+    from ocpkit.shooting.grazing import closest_approach
+
+    pr, z, peak = _damped_oscillator_at_a_grazing(delta)
+    s = Shooting(pr, control_law(pr, "box"), rtol=1e-12, atol=1e-12)
+    approach = closest_approach(ShootingTrajectory(s.integrate(z, record=True), s.compiled.system))
+    if delta < 0:
+        assert approach.grazing and approach.t == pytest.approx(peak, abs=1e-6)
+        assert abs(approach.g) == pytest.approx(-delta, rel=1e-3)
+        assert "comes within 1e-05 of zero" in approach.describe()
+    else:
+        assert not approach.grazing and abs(approach.g) > 0.05
+
+
+def test_a_stall_at_a_grazing_switching_says_so():
+    """Away from the noise, a stall whose last iterate grazes says where, and what gets past it; one that does not
+    graze says nothing of it (the wording of the slides' transfer at 0.2 N, notebook 05)."""
+    from ocpkit.shooting.grazing import Approach
+    from ocpkit.shooting.result import stall_advice
+
+    said = stall_advice(1e-2, 1e-8, 1e-9, Approach(710.02, 0, 9.4e-6, 0.91))
+    assert "not the integrator's noise" in said
+    assert "switching function 0 comes within 9.4e-06 of zero (1e-05 of its range) at t = 710.02" in said
+    assert "a grazing switching" in said and "solver='newton'" in said
+    assert "grazing" not in stall_advice(1e-2, 1e-8, 1e-9, Approach(710.02, 0, 0.05, 0.91))
+    assert "grazing" not in stall_advice(1e-2, 1e-8, 1e-9, None)

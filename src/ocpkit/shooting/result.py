@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from ..trajectory import Trajectory
+    from .grazing import Approach
 
 
 @dataclass(kw_only=True)
@@ -60,6 +61,11 @@ class IndirectResult:
     #: where the run stalled above ``tol``: the noise floor of S measured at the last iterate (:func:`noise_floor`),
     #: which :attr:`remedy` compares with ``tol`` (:func:`stall_advice`); None where it was not measured
     noise: float | None = None
+    #: where the run stalled above ``tol``, away from the integrator's noise: the switching functions' nearest
+    #: approach to zero without a crossing at the last iterate (:func:`~ocpkit.shooting.grazing.closest_approach`),
+    #: a grazing switching where it is within :data:`~ocpkit.shooting.grazing.GRAZING` of their range; None where
+    #: it was not measured
+    grazing: Approach | None = None
 
     @property
     def remedy(self) -> str:
@@ -67,7 +73,7 @@ class IndirectResult:
         the run stalled (:func:`stall_advice`)."""
         if self.noise is None:
             return self.status.remedy
-        return f"{stall_advice(self.norm, self.tol, self.noise)}; {self.status.remedy}"
+        return f"{stall_advice(self.norm, self.tol, self.noise, self.grazing)}; {self.status.remedy}"
 
     @property
     def trajectory(self) -> Trajectory:
@@ -161,12 +167,13 @@ def noise_floor(
     return float(np.median(spreads)) if spreads else float("nan")
 
 
-def stall_advice(norm: float, tol: float, noise: float) -> str:
+def stall_advice(norm: float, tol: float, noise: float, grazing: Approach | None = None) -> str:
     """What a run that stalled at ``|S| = norm`` above ``tol`` tells its user, given S's ``noise`` floor
     (:func:`noise_floor`). Where ``|S|`` is within ten times the noise, the stall is the integrator's: the sentence
     names the noise and the ``tol`` that would pass (the power of ten at or above both ``|S|`` and the noise; a tol
     below the noise is met only by chance), and how to lower the noise. Otherwise it says the stall is not the
-    noise's."""
+    noise's, and, where ``grazing`` (the switching functions' nearest approach to zero without a crossing,
+    :func:`~ocpkit.shooting.grazing.closest_approach`) is a grazing switching, where, and what gets past it."""
     if not np.isfinite(noise):
         return f"the noise of S could not be measured here (S fails near the last iterate); |S| = {norm:.2g}"
     if norm <= 10.0 * noise:
@@ -178,10 +185,17 @@ def stall_advice(norm: float, tol: float, noise: float) -> str:
             "the states and costates are of order one (a condition of size 1e4 carries 1e4 times the rounding of "
             "one of size 1), or tighten the integrator's rtol/atol"
         )
-    return (
+    said = (
         f"|S| = {norm:.2g} is {norm / max(noise, 1e-300):.2g} times S's noise ({noise:.2g}): not the integrator's "
         "noise; far from a solution, or another switching structure"
     )
+    if grazing is not None and grazing.grazing:
+        said += (
+            f"; at the last iterate {grazing.describe()}: a grazing switching, an arc appearing or vanishing there, "
+            "where S is not differentiable and the Jacobian does not see the arc; start nearer the solution (a "
+            "continuation), or take another path to it (solver='newton', a tighter integrator rtol/atol)"
+        )
+    return said
 
 
 __all__ = ["IndirectResult", "noise_floor", "settled", "stall_advice"]

@@ -49,6 +49,7 @@ from ..outcome import Outcome
 from ..statement import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
 from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
+from .grazing import closest_approach
 from .result import IndirectResult, noise_floor, settled, stall_advice
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, run_solver, solver_strategy
 from .trajectory import ShootingTrajectory
@@ -563,10 +564,16 @@ class Shooting:
             claimed = Outcome.INTEGRATION_FAILED
         norm = float(np.linalg.norm(S))
         ok, status = settled(norm, tol, claimed)
-        noise, advice = None, ""
+        noise, grazing, advice = None, None, ""
         if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
             noise = noise_floor(lambda y: self.residual(y, P), z)
-            advice = stall_advice(norm, tol, noise)
+            if norm > 10.0 * noise and final is not None:  # not the noise: a grazing switching, or not
+                flight = final if record else self.integrate(z, P, record=True)
+                try:
+                    grazing = closest_approach(ShootingTrajectory(flight, self.compiled.system))
+                except ValueError:  # a history cut at its capacity: not measured
+                    grazing = None
+            advice = stall_advice(norm, tol, noise, grazing)
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
             unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))
         else:
@@ -594,6 +601,7 @@ class Shooting:
             system=self.compiled.system,
             free_parameters=self.solved_free_parameters(x0),
             noise=noise,
+            grazing=grazing,
         )
         if not ok and raise_on_failure:
             name = {"hybr": "MINPACK hybrid", "newton": "damped Newton"}.get(

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from ocpkit.shooting import Shooting
+from ocpkit.shooting.grazing import closest_approach as nearest_approach
 from ocpkit.shooting.strategies import FiniteDifferences, Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
@@ -51,22 +52,13 @@ def newton_path(systems: TransferSystems, thrust_N: float, z_energy, *, rtol: fl
     return result, recorder.points
 
 
-def closest_approach(shooting: Shooting, z, samples: int = 400_001) -> tuple[float, float]:
-    """``(t, g)``: where the switching function comes nearest zero without crossing it (a local extremum of g on
-    the side of its arc) along the integration from ``z``, on ``samples`` points of the dense output. A ``g`` near
+def closest_approach(shooting: Shooting, z) -> tuple[float, float]:
+    """``(t, g)``: where the switching function comes nearest zero without crossing it along the integration from
+    ``z`` (:func:`ocpkit.shooting.grazing.closest_approach`; NaN where it never turns back before zero). A ``g`` near
     zero is a grazing switching: an arc about to appear (or just vanished), where S is not differentiable."""
-    integration = shooting.integrate(z, record=True)
-    trajectory = ShootingTrajectory(integration, shooting.compiled.system)
-    t = np.linspace(trajectory.t0, trajectory.tf, samples)
-    Y, _ = trajectory._y(t)
-    g = np.asarray(shooting.compiled.system.switching.map(t.size)(Y.T, trajectory.full_parameters)).ravel()
-    inner, before, after = g[1:-1], g[:-2], g[2:]
-    touch = ((inner > before) & (inner > after) & (inner < 0)) | ((inner < before) & (inner < after) & (inner > 0))
-    k = np.flatnonzero(touch) + 1
-    if k.size == 0:
-        return float("nan"), float("nan")
-    nearest = k[np.argmin(np.abs(g[k]))]
-    return float(t[nearest]), float(g[nearest])
+    flight = shooting.integrate(z, record=True)
+    approach = nearest_approach(ShootingTrajectory(flight, shooting.compiled.system))
+    return (float("nan"), float("nan")) if approach is None else (approach.t, approach.g)
 
 
 def _column_errors(J: np.ndarray, references: list[np.ndarray]) -> np.ndarray:
