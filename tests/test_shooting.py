@@ -450,6 +450,7 @@ def _damped_oscillator_at_a_grazing(delta):
     )
     A = np.array([[0.0, 1.0], [-1.0, -c]])
     direction = np.array([np.sin(0.3), np.cos(0.3)])
+
     def p2(s):
         return abs((expm(-A.T * s) @ direction)[1])
 
@@ -481,7 +482,8 @@ def test_variational_jacobian_through_a_grazing_switching(switching, delta, step
         assert shortest > 0.5
     _, J_var = s.jacobian_matrix(z, method="variational")
     _, J_cd = s.jacobian_matrix(z, method=FiniteDifferences(central=True, step=step))
-    assert np.abs(J_var - J_cd).max() <= 1e-5 * np.abs(J_cd).max()
+    columns = np.linalg.norm(J_var - J_cd, axis=0) / np.linalg.norm(J_cd, axis=0)  # a weak column seen too
+    assert columns.max() <= 1e-5
 
 
 @pytest.mark.parametrize("delta", [1e-4, -1e-5])
@@ -507,9 +509,11 @@ def test_a_stall_at_a_grazing_switching_says_so():
     from ocpkit.shooting.grazing import Approach
     from ocpkit.shooting.result import stall_advice
 
-    said = stall_advice(1e-2, 1e-8, 1e-9, Approach(710.02, 0, 9.4e-6, 0.91))
+    said = stall_advice(1e-2, 1e-8, 1e-9, Approach(710.02, 0, 9.4e-6, 0.91, "the switching function of u1, u2, u3"))
     assert "not the integrator's noise" in said
-    assert "switching function 0 comes within 9.4e-06 of zero (1e-05 of its range) at t = 710.02" in said
+    assert (
+        "the switching function of u1, u2, u3 comes within 9.4e-06 of zero (1e-05 of its range) at t = 710.02" in said
+    )
     assert "a grazing switching" in said and "solver='newton'" in said
     assert "grazing" not in stall_advice(1e-2, 1e-8, 1e-9, Approach(710.02, 0, 0.05, 0.91))
     assert "grazing" not in stall_advice(1e-2, 1e-8, 1e-9, None)

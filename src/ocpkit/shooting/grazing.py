@@ -7,9 +7,11 @@ at the touch. Martinon & Gergaud's low-thrust transfer at 0.2 N stalls so (noteb
 coast of the extremal and drives the switching function's minimum there to 1e-5.
 
 :func:`closest_approach` finds the nearest such approach along a recorded integration: the switching functions on
-``per_step`` points of each step's dense output (the quintic Hermite interpolant of
-:class:`~ocpkit.shooting.trajectory.ShootingTrajectory`), their interior extrema on the arc's side of zero, the
-smallest refined by a bounded scalar minimisation.
+``per_step`` points of each step's dense output (:meth:`ShootingTrajectory.switching
+<ocpkit.shooting.ShootingTrajectory.switching>`), their interior extrema on the arc's side of zero, the nearest
+refined by a bounded scalar minimisation. Extrema at ``t0`` and ``tf`` are not approaches (an arc there is born at
+an end, which the end conditions see), nor are stretches where ``g`` stays within :data:`SINGULAR` of its range
+from zero a whole step each side (a singular arc, whose switching function vanishes identically: not a touch).
 """
 
 from __future__ import annotations
@@ -23,16 +25,20 @@ from .trajectory import ShootingTrajectory
 
 #: an approach within this share of the switching function's range along the flight is a grazing switching
 GRAZING = 1e-3
+#: a switching function within this share of its range a whole step either side of an extremum vanishes there
+#: identically (a singular arc, zero to rounding): not an approach
+SINGULAR = 1e-8
 
 
 class Approach(NamedTuple):
-    """Where switching function ``index`` comes nearest zero without crossing it: at ``t``, with value ``g``;
-    ``scale`` its largest ``|g|`` along the flight."""
+    """Where switching function number ``function`` (``label``: of which controls) comes nearest zero without
+    crossing it: at ``t``, with value ``g``; ``scale`` its largest ``|g|`` along the flight."""
 
     t: float
-    index: int
+    function: int
     g: float
     scale: float
+    label: str = ""
 
     @property
     def relative(self) -> float:
@@ -45,47 +51,62 @@ class Approach(NamedTuple):
         return self.relative <= GRAZING
 
     def describe(self) -> str:
+        """``the switching function of u comes within 9.4e-06 of zero (1e-05 of its range) at t = 710.018 …``."""
+        name = self.label or f"switching function {self.function}"
         return (
-            f"switching function {self.index} comes within {abs(self.g):.2g} of zero ({self.relative:.1g} of its "
-            f"range) at t = {self.t:.6g} without crossing it"
+            f"{name} comes within {abs(self.g):.2g} of zero ({self.relative:.1g} of its range) at t = {self.t:.6g} "
+            "without crossing it"
         )
+
+
+def _labels(trajectory: ShootingTrajectory) -> list[str]:
+    """``the switching function of u`` (``… of ux, uy (threshold 2)`` in a group of several), one per function."""
+    names = trajectory.problem.control_names
+    labels = []
+    for group in trajectory.system.law.groups:
+        controls = ", ".join(names[i] for i in group.indices)
+        for k in range(len(group.thresholds)):
+            which = f" (threshold {k + 1})" if len(group.thresholds) > 1 else ""
+            labels.append(f"the switching function of {controls}{which}")
+    return labels
 
 
 def closest_approach(trajectory: ShootingTrajectory, per_step: int = 8) -> Approach | None:
     """The nearest approach to zero without a crossing of any switching function along ``trajectory`` (a recorded
-    integration); None where none has an interior extremum on its arc's side."""
-    system = trajectory.system
+    integration); None where no switching function turns back before zero inside the flight."""
     edges = trajectory._t
     s = (np.arange(per_step) / per_step)[None, :]
     t = np.concatenate([(edges[:-1, None] + s * np.diff(edges)[:, None]).ravel(), edges[-1:]])
-    P = trajectory.full_parameters
-
-    def g_at(times: np.ndarray) -> np.ndarray:
-        Y, _ = trajectory._y(times)
-        return np.asarray(system.switching.map(times.size)(Y.T, P)).T
-
-    G = g_at(t)
+    G = trajectory.switching(t)
+    labels = _labels(trajectory)
     best: Approach | None = None
     for k in range(G.shape[1]):
         g = G[:, k]
+        scale = float(np.abs(g).max())
         inner, before, after = g[1:-1], g[:-2], g[2:]
-        touch = ((inner >= before) & (inner >= after) & (inner < 0)) | ((inner <= before) & (inner <= after) & (inner > 0))
-        candidates = np.flatnonzero(touch) + 1
+        turns = ((inner >= before) & (inner >= after) & (inner < 0)) | (
+            (inner <= before) & (inner <= after) & (inner > 0)
+        )
+        candidates = np.flatnonzero(turns) + 1
+        lo, hi = np.maximum(candidates - per_step, 0), np.minimum(candidates + per_step, g.size - 1)
+        flat = np.maximum(np.abs(g[lo]), np.abs(g[hi])) < SINGULAR * scale  # zero throughout: a singular arc
+        candidates = candidates[~flat]
         if candidates.size == 0:
             continue
         i = candidates[np.argmin(np.abs(g[candidates]))]
         side = np.sign(g[i])
         found = minimize_scalar(
-            lambda tau, k=k, side=side: side * g_at(np.array([tau]))[0, k],
+            lambda tau, k=k, side=side: side * trajectory.switching(np.array([tau]))[0, k],
             bounds=(t[i - 1], t[i + 1]),
             method="bounded",
             options={"xatol": 1e-12 * max(1.0, abs(t[i]))},
         )
-        value = side * found.fun if found.fun > 0 else g[i]  # (a crossing inside the bracket: the sample)
-        approach = Approach(float(found.x), k, float(value), float(np.abs(g).max()))
+        # a crossing inside the bracket (the refinement went through zero): the sampled extremum stands
+        at, value = (float(found.x), side * found.fun) if found.fun > 0 else (float(t[i]), float(g[i]))
+        approach = Approach(at, k, float(value), scale, labels[k] if k < len(labels) else "")
         if best is None or approach.relative < best.relative:
             best = approach
     return best
 
 
-__all__ = ["GRAZING", "Approach", "closest_approach"]
+__all__ = ["GRAZING", "SINGULAR", "Approach", "closest_approach"]

@@ -48,8 +48,8 @@ from ..errors import SolverError
 from ..outcome import Outcome
 from ..statement import FreeFinalTime, OptimalControlProblem
 from .compiled import CompiledSystem, Integration
-from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .grazing import closest_approach
+from .hamiltonian import ControlLaw, HamiltonianSystem, control_law
 from .result import IndirectResult, noise_floor, settled, stall_advice
 from .strategies import SWITCHING_MODES, MinpackHybrid, jacobian_strategy, run_solver, solver_strategy
 from .trajectory import ShootingTrajectory
@@ -568,11 +568,11 @@ class Shooting:
         if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
             noise = noise_floor(lambda y: self.residual(y, P), z)
             if norm > 10.0 * noise and final is not None:  # not the noise: a grazing switching, or not
-                flight = final if record else self.integrate(z, P, record=True)
                 try:
+                    flight = final if record else self.integrate(z, P, record=True)
                     grazing = closest_approach(ShootingTrajectory(flight, self.compiled.system))
-                except ValueError:  # a history cut at its capacity: not measured
-                    grazing = None
+                except (SolverError, ValueError, RuntimeError, ArithmeticError):  # (a history cut at its capacity)
+                    grazing = None  # not measured: the failure is reported as it is
             advice = stall_advice(norm, tol, noise, grazing)
         if final is None:  # the last iterate may lie outside the domain (tf <= t0): reported as it is
             unknowns, tf = z[: self.problem.nx], (z[-1] if self.free_tf else float(cast(float, self.problem.tf)))

@@ -98,6 +98,14 @@ class ShootingTrajectory(Trajectory):
         )
         return y.reshape(shape + (y.shape[-1],)), i
 
+    def switching(self, t: ArrayLike) -> np.ndarray:
+        """The control law's switching functions ``g_k = q - c_k`` at the times ``t``, shape ``t.shape + (n_g,)``
+        (:meth:`~ocpkit.shooting.ControlLaw.switching`; the law switches where one crosses zero)."""
+        y, _ = self._y(t)
+        Y = y.reshape(-1, y.shape[-1])
+        g = np.asarray(self.system.switching.map(Y.shape[0])(Y.T, self.full_parameters)).T
+        return g.reshape(y.shape[:-1] + (g.shape[-1],))
+
     def _state(self, t: np.ndarray) -> np.ndarray:
         return self._y(t)[0][..., : self._n]
 

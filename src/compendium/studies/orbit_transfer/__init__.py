@@ -47,7 +47,7 @@ from .energy import (
 )
 from .family import thrust_family, thrust_magnitude
 from .l1 import best_known_fuel, goal_met, horizon_branches, l1_runs, residual_noise
-from .low_thrust import closest_approach, jacobian_check, newton_path, slides_conclusion, tolerance_runs
+from .low_thrust import jacobian_check, newton_path, slides_conclusion, switching_approach, tolerance_runs
 from .minimum_time import (
     classify_on_scan,
     minimum_time_continuation,
@@ -68,7 +68,6 @@ __all__ = [
     "calibrate_multiplier",
     "cartesian_track",
     "classify_on_scan",
-    "closest_approach",
     "energy_longitude_continuation",
     "energy_longitude_start",
     "energy_solutions",
@@ -92,6 +91,7 @@ __all__ = [
     "scan_minima",
     "slides_conclusion",
     "solve_robustly",
+    "switching_approach",
     "thrust_family",
     "thrust_magnitude",
     "thrust_schedule",

@@ -15,13 +15,13 @@ import numpy as np
 import pandas as pd
 
 from ocpkit.shooting import Shooting
-from ocpkit.shooting.grazing import closest_approach as nearest_approach
+from ocpkit.shooting.grazing import closest_approach
 from ocpkit.shooting.strategies import FiniteDifferences, Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
 from ...progress import progress
 from .l1 import l1_runs, residual_noise
-from .systems import COSTATES, TransferSystems, fuel_kg
+from .systems import COSTATES, TransferSystems
 
 #: the integrator tolerance of the reference derivatives (central differences) of the Jacobian check
 REFERENCE_TOL = 1e-12
@@ -45,19 +45,26 @@ class RecordingJacobian:
 
 def newton_path(systems: TransferSystems, thrust_N: float, z_energy, *, rtol: float = 1e-8, maxfev: int = 300):
     """The slides' run (correction, variational Jacobian, MINPACK from the energy costates) at ``rtol``:
-    ``(result, points)``, ``points`` the unknowns at each Jacobian evaluation."""
+    ``(result, points)``, ``points`` the ``("iterate", z)`` of each Jacobian evaluation and ``("end", z)`` where the
+    run stopped (where that is not the last of them), as :func:`jacobian_check` takes them."""
     recorder = RecordingJacobian()
     shooting = systems.shooting("fuel", thrust_N, switching="correction", jacobian=recorder, tol=rtol)
     result = shooting.solve(z_energy, solver="hybr", maxfev=maxfev, raise_on_failure=False)
-    return result, recorder.points
+    points = [("iterate", z) for z in recorder.points]
+    if not np.array_equal(result.z, recorder.points[-1]):  # MINPACK's last steps take no new Jacobian
+        points.append(("end", np.array(result.z, dtype=float)))
+    return result, points
 
 
-def closest_approach(shooting: Shooting, z) -> tuple[float, float]:
+def switching_approach(shooting: Shooting, z) -> tuple[float, float]:
     """``(t, g)``: where the switching function comes nearest zero without crossing it along the integration from
-    ``z`` (:func:`ocpkit.shooting.grazing.closest_approach`; NaN where it never turns back before zero). A ``g`` near
-    zero is a grazing switching: an arc about to appear (or just vanished), where S is not differentiable."""
-    flight = shooting.integrate(z, record=True)
-    approach = nearest_approach(ShootingTrajectory(flight, shooting.compiled.system))
+    ``z`` (:func:`ocpkit.shooting.grazing.closest_approach`); NaN where it never turns back before zero, or where the
+    integration's history is cut at its capacity. A ``g`` near zero is a grazing switching: an arc about to appear
+    (or just vanished), where S is not differentiable."""
+    try:
+        approach = closest_approach(ShootingTrajectory(shooting.integrate(z, record=True), shooting.compiled.system))
+    except ValueError:
+        approach = None
     return (float("nan"), float("nan")) if approach is None else (approach.t, approach.g)
 
 
@@ -77,36 +84,50 @@ def jacobian_check(
     reference_tol: float = REFERENCE_TOL,
     steps=REFERENCE_STEPS,
 ) -> pd.DataFrame:
-    """The variational Jacobian along ``points`` (a Newton path), column by column, against central differences of
-    S integrated at ``reference_tol`` (switchings corrected), for the Jacobian integrated at ``rtol`` and at
-    ``reference_tol``. One row per point and column: ``error`` and ``error_reference_tol`` (relative column
-    errors), the column's norm, and for the point |S| at ``reference_tol``, the switchings at ``rtol`` and at
-    ``reference_tol``, and the switching function's closest approach to zero without crossing (time and value)."""
+    """The variational Jacobian at ``points``, column by column, against central differences of S integrated at
+    ``reference_tol`` (switchings corrected), for the Jacobian integrated at ``rtol`` and at ``reference_tol``.
+
+    ``points``: ``(label, z)`` pairs (a Newton path: ``"iterate"`` at each Jacobian evaluation, ``"end"`` where the
+    run stopped, ``"solution"`` a converged point), numbered in their order from 0 (``iterate``; a solution -1). One row per point
+    and column: ``error`` and ``error_reference_tol`` (relative column errors), the column's norm and the
+    Jacobian's condition number (both at ``reference_tol``), and for the point |S| at ``reference_tol``, the
+    switchings at ``rtol`` and at ``reference_tol``, and the switching function's closest approach to zero without
+    crossing it (time and value)."""
     coarse = systems.shooting("fuel", thrust_N, switching="correction", tol=rtol)
     fine = systems.shooting("fuel", thrust_N, switching="correction", tol=reference_tol)
     names = [*COSTATES, "tf"]
     rows = []
-    bar = progress(total=len(points), desc=f"Jacobian check, {thrust_N:g} N", unit="iterate")
-    for k, z in enumerate(points):
+    bar = progress(total=len(points), desc=f"Jacobian check, {thrust_N:g} N", unit="point")
+    numbers = iter(range(len(points)))
+    for label, z in points:
         bar.update()
+        k = -1 if label == "solution" else next(numbers)
         _, J_coarse = coarse.jacobian_matrix(z, method="variational")
         S, J_fine = fine.jacobian_matrix(z, method="variational")
         references = [fine.jacobian_matrix(z, method=FiniteDifferences(central=True, step=h), S0=S)[1] for h in steps]
         e_coarse, e_fine = _column_errors(J_coarse, references), _column_errors(J_fine, references)
-        t_touch, g_touch = closest_approach(fine, z)
+        t_touch, g_touch = switching_approach(fine, z)
         common = {
             "thrust_N": thrust_N,
             "iterate": k,
+            "point": label,
             "norm_S_reference_tol": float(np.linalg.norm(S)),
             "switchings": coarse.integrate(z).switchings,
             "switchings_reference_tol": fine.integrate(z).switchings,
             "closest_approach_t_h": t_touch,
             "closest_approach_g": g_touch,
+            "condition": float(np.linalg.cond(J_fine)),
         }
-        norms = np.linalg.norm(references[0], axis=0)
+        norms = np.linalg.norm(J_fine, axis=0)
         for j, name in enumerate(names):
             rows.append(
-                {**common, "column": name, "column_norm": norms[j], "error": e_coarse[j], "error_reference_tol": e_fine[j]}
+                {
+                    **common,
+                    "column": name,
+                    "column_norm": norms[j],
+                    "error": e_coarse[j],
+                    "error_reference_tol": e_fine[j],
+                }
             )
     bar.close()
     return pd.DataFrame(rows)
@@ -187,9 +208,9 @@ __all__ = [
     "REFERENCE_STEPS",
     "REFERENCE_TOL",
     "RecordingJacobian",
-    "closest_approach",
     "jacobian_check",
     "newton_path",
     "slides_conclusion",
+    "switching_approach",
     "tolerance_runs",
 ]
