@@ -74,7 +74,8 @@ def _labels(trajectory: ShootingTrajectory) -> list[str]:
 def closest_approach(trajectory: ShootingTrajectory, per_step: int = 8) -> Approach | None:
     """The nearest approach to zero without a crossing of any switching function along ``trajectory`` (a recorded
     integration); None where no switching function turns back before zero inside the flight."""
-    edges = trajectory._t
+    edges = trajectory.integration.step_times
+    edges = edges[np.concatenate([[True], np.diff(edges) > 0])]  # (a switching at tf repeats the last time)
     s = (np.arange(per_step) / per_step)[None, :]
     t = np.concatenate([(edges[:-1, None] + s * np.diff(edges)[:, None]).ravel(), edges[-1:]])
     G = trajectory.switching(t)
