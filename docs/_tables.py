@@ -343,6 +343,13 @@ def _switching_detection() -> dict[str, str]:
     return values
 
 
+def _paper_norm(thrust_N: float) -> float:
+    """The slides' |S| of their detection run (finite differences) at ``thrust_N``, the run their fuel comes from."""
+    slides = _read(PAPER / "switching_detection.csv")
+    row = slides[(slides.thrust_N == thrust_N) & (slides.detection == "detection") & (slides.jacobian == "fd")]
+    return float(row.norm_S.iloc[0])
+
+
 def _slides_conclusion() -> dict[str, str]:
     """The slides' conclusion at low thrust (notebook 05, section 3): the Jacobian along the Newton path, the stall,
     the noise floor of S against the integrator's tolerance, and the tolerance at which the conclusion holds; each
@@ -358,9 +365,9 @@ def _slides_conclusion() -> dict[str, str]:
         else "converges at the slides' tolerance at every thrust"
     )
     T = float(check.thrust_N.iloc[0])
-    resolved = check.column_norm >= 1e-4 * check.groupby("iterate").column_norm.transform("max")
+    resolved = check.resolved.astype(bool)
     worst = check[resolved & (check.iterate != 0)].error_reference_tol.max()
-    if not worst <= 1e-2:
+    if not worst <= 1e-2:  # as the notebook asserts: the differences' own accuracy is 1e-3 where they resolve
         raise ValueError("the switching-detection page says the variational Jacobian is right along the path")
     weak = sorted(set(check[~resolved].column))
     solution = check[check.point == "solution"].iloc[0]
@@ -369,7 +376,7 @@ def _slides_conclusion() -> dict[str, str]:
         f"solution of the finite-difference run, the median column error is "
         f"{_sci(check.error_reference_tol.median())} integrated at 1e-12 (the worst of the columns the differences "
         f"resolve, after the energy start, {_sci(worst)}"
-        + (f"; {' and '.join(weak)} are below 1e-4 of the largest column, under the differences' noise" if weak else "")
+        + (f"; {' and '.join(weak)} are, at some points, below what the differences resolve" if weak else "")
         + f") and {_sci(check.error.median())} at the slides' 1e-8; the finite-difference run's solution, converged "
         f"at 1e-8, has |S| = {_sci(solution.norm_S_reference_tol)} integrated at 1e-12"
     )
@@ -407,6 +414,11 @@ def _slides_conclusion() -> dict[str, str]:
         f"{_sci(r.norm_S_slides, digits=3)}, noise of S {_sci(r.noise_of_S)}; {r.n_jac:.0f} Jacobians, the slides' "
         f"{r.n_jac_slides:.0f})"
         for r in held.itertuples()
+    )
+    at01 = conclusion[conclusion.thrust_N == conclusion.thrust_N.min()].iloc[0]
+    values["weakest_slides_fuel"] = (
+        f"at {at01.thrust_N:g} N the slides' fuel ({at01.fuel_kg_slides:.2f} kg) is that of their detection run, which "
+        f"had not converged (|S| = {_sci(_paper_norm(at01.thrust_N))}): ours is {abs(at01.fuel_kg - at01.fuel_kg_slides):.2f} kg off it"
     )
     if (held.norm_S_slides > held.noise_of_S).any():
         raise ValueError("the switching-detection page says the slides' |S| is below the noise of S where it holds")
@@ -531,6 +543,7 @@ def _direct_to_indirect() -> dict[str, str]:
     # slides' |S|, and multiple shooting brings the residual and its noise below it
     said = (
         single.norm_S.iloc[0] > 1e-8
+        and single.norm_S.iloc[0] <= 10 * single.noise.iloc[0]  # stalled at the noise
         and single.norm_S.iloc[-1] <= 1e-8
         and single.noise.iloc[-1] > slides
         and (multiple.norm_R <= slides).all()

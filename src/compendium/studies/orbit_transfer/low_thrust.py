@@ -16,6 +16,7 @@ import pandas as pd
 
 from ocpkit.shooting import Shooting
 from ocpkit.shooting.grazing import closest_approach
+from ocpkit.shooting.result import noise_floor
 from ocpkit.shooting.strategies import FiniteDifferences, Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
@@ -28,6 +29,9 @@ REFERENCE_TOL = 1e-12
 #: the relative steps of those central differences: 1e-5 resolves the strong columns, 1e-4 the weak ones (ey, hy:
 #: |dS/dz| about 1e-4 of the others), whose differences at 1e-5 are the noise of S divided by the step
 REFERENCE_STEPS = (1e-5, 1e-4)
+#: a column of central differences is resolved where its norm is at least this many times the noise of S divided by
+#: twice the step: the noise then changes it by at most 1e-3 of itself
+RESOLVED = 1000.0
 
 
 class RecordingJacobian:
@@ -90,13 +94,19 @@ def jacobian_check(
     ``points``: ``(label, z)`` pairs (a Newton path: ``"iterate"`` at each Jacobian evaluation, ``"end"`` where the
     run stopped, ``"solution"`` a converged point), numbered in their order from 0 (``iterate``; a solution -1). One row per point
     and column: ``error`` and ``error_reference_tol`` (relative column errors), the column's norm and the
-    Jacobian's condition number (both at ``reference_tol``), and for the point |S| at ``reference_tol``, the
+    Jacobian's condition number (both at ``reference_tol``), ``difference_noise`` (the noise of S at
+    ``reference_tol``, :func:`~ocpkit.shooting.result.noise_floor` at the last point, over twice the larger step)
+    and ``resolved`` (the differences' column at least :data:`RESOLVED` times that: a column the check can judge,
+    decided by the differences alone), and for the point |S| at ``reference_tol``, the
     switchings at ``rtol`` and at ``reference_tol``, and the switching function's closest approach to zero without
     crossing it (time and value)."""
     coarse = systems.shooting("fuel", thrust_N, switching="correction", tol=rtol)
     fine = systems.shooting("fuel", thrust_N, switching="correction", tol=reference_tol)
     names = [*COSTATES, "tf"]
     rows = []
+    # the noise of S at reference_tol (no Jacobian in it), measured once at the last point: a difference column is
+    # resolved where its norm is RESOLVED times what that noise does to a difference of the larger step
+    noise = noise_floor(fine.residual, np.asarray(points[-1][1], dtype=float))
     bar = progress(total=len(points), desc=f"Jacobian check, {thrust_N:g} N", unit="point")
     numbers = iter(range(len(points)))
     for label, z in points:
@@ -119,12 +129,17 @@ def jacobian_check(
             "condition": float(np.linalg.cond(J_fine)),
         }
         norms = np.linalg.norm(J_fine, axis=0)
+        z = np.asarray(z, dtype=float)
+        difference_noise = noise / (2 * max(steps) * np.maximum(np.abs(z), 1.0))
+        reference_norms = np.linalg.norm(references[int(np.argmax(steps))], axis=0)
         for j, name in enumerate(names):
             rows.append(
                 {
                     **common,
                     "column": name,
                     "column_norm": norms[j],
+                    "difference_noise": difference_noise[j],
+                    "resolved": bool(reference_norms[j] >= RESOLVED * difference_noise[j]),
                     "error": e_coarse[j],
                     "error_reference_tol": e_fine[j],
                 }
@@ -207,6 +222,7 @@ def slides_conclusion(runs: pd.DataFrame, slides: pd.DataFrame) -> pd.DataFrame:
 __all__ = [
     "REFERENCE_STEPS",
     "REFERENCE_TOL",
+    "RESOLVED",
     "RecordingJacobian",
     "jacobian_check",
     "newton_path",
