@@ -364,7 +364,8 @@ def _slides_conclusion() -> dict[str, str]:
         if len(stalled)
         else "converges at the slides' tolerance at every thrust"
     )
-    T = float(check.thrust_N.iloc[0])
+    T = float(check.thrust_N.min())  # the weakest thrust checked (the notebook's figure)
+    check = check[check.thrust_N == T]
     resolved = check.resolved.astype(bool)
     worst = check[resolved & (check.iterate != 0)].error_reference_tol.max()
     if not worst <= 1e-2:  # as the notebook asserts: the differences' own accuracy is 1e-3 where they resolve
