@@ -23,6 +23,8 @@ from scipy.optimize import minimize_scalar
 
 from .trajectory import ShootingTrajectory
 
+#: samples of the dense output evaluated at once
+CHUNK = 50_000
 #: an approach within this share of the switching function's range along the flight is a grazing switching
 GRAZING = 1e-3
 #: a switching function within this share of its range a whole step either side of an extremum vanishes there
@@ -78,7 +80,8 @@ def closest_approach(trajectory: ShootingTrajectory, per_step: int = 8) -> Appro
     edges = edges[np.concatenate([[True], np.diff(edges) > 0])]  # (a switching at tf repeats the last time)
     s = (np.arange(per_step) / per_step)[None, :]
     t = np.concatenate([(edges[:-1, None] + s * np.diff(edges)[:, None]).ravel(), edges[-1:]])
-    G = trajectory.switching(t)
+    # in chunks: a long flight (1e5 steps, 8e5 samples) would otherwise hold the dense output's work arrays at once
+    G = np.concatenate([trajectory.switching(part) for part in np.array_split(t, max(1, t.size // CHUNK))])
     labels = _labels(trajectory)
     best: Approach | None = None
     for k in range(G.shape[1]):
