@@ -101,6 +101,18 @@ def direct_to_indirect() -> str:
     return markdown_table(df, formats) + "\n\n" + _source(DERIVED / "direct_to_indirect.csv", PAPER)
 
 
+def reference_collection() -> str:
+    """Notebook 11's collection: each problem's converged value against its published one, and its solve at
+    defaults (links to the gallery's pages)."""
+    full = _read(DERIVED / "reference_collection.csv")
+    df = full[["problem", "published", "published_kind", "value", "value_by", "published_difference",
+               "published_verdict", "indirect", "defaults"]].copy()  # fmt: skip
+    df["problem"] = [f"[{p}](../gallery/{p}.md)" for p in df.problem]
+    df["published_verdict"] = df.published_verdict.str.replace("|", "/", regex=False)
+    formats = {"published": ".10g", "value": ".10g", "published_difference": ".1e"}
+    return markdown_table(_escaped(df), formats) + "\n\n" + _source(DERIVED / "reference_collection.csv", PAPER)
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "two_timescale_solvers": two_timescale_solvers,
     "two_timescale_couplings": two_timescale_couplings,
@@ -118,6 +130,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "direct_to_indirect": direct_to_indirect,
     "bryson_denham": _derived("bryson_denham"),
     "cops_gasoil_fit": _derived("cops_gasoil_fit"),
+    "reference_collection": reference_collection,
 }
 
 

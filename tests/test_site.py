@@ -44,6 +44,8 @@ PAGES = {
     "api/transcriptions/transcription-hlgl.html": {"contents": 5, "math": 5},  # the HLGL formulas, typeset
     "results/desai-conway.html": {"contents": 2, "images": 2},
     "_notebooks/04_shooting_validation.html": {"contents": 3, "math": 10, "images": 3},
+    "gallery/index.html": {"contents": 10, "images": 60},  # a thumbnail per problem, by what each exercises
+    "gallery/classic_brachistochrone.html": {"contents": 3, "math": 1, "images": 1},  # statement, code, picture
 }
 
 #: the characters a line of the first code block on the page shows without scrolling, in a window 1440 px wide
