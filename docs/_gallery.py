@@ -91,7 +91,7 @@ def snippet(ref, table=None) -> str:
         "from compendium.problems.collection import reference\n\n"
         f'ref = reference("{ref.name}")  # the statement, its program and its guess, as the collection poses them\n'
         f"program = ref.transcribe({scheme})\n"
-        f"solution = program.solve({guess}, mesh_tolerance={tol:g})\n"
+        f"solution = program.solve({guess}, mesh_tolerance={tol:g}, ipopt_options=ref.ipopt_options or None)\n"
         f'print(f"{ref.quantity} = {{ref.value(solution):.10g}}")\n'
         "fig = solution.plot()\n"
     )
