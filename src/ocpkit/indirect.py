@@ -10,14 +10,17 @@ The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the
    * ``"arcs"``: multiple shooting over the detected arcs with the junction times unknowns
      (:class:`ocpkit.shooting.arcs.ArcShooting`): bang, regular (``H_u = 0``), singular (the feedback from the
      switching function's derivatives, Poisson brackets with H) and boundary arcs (mixed constraints, and state
-     constraints of order one), boundary equalities with their multipliers, non-autonomous problems; started
+     constraints of orders one and two, with the costate's jumps at the junctions and touch points of order two),
+     boundary equalities with their multipliers, non-autonomous problems; started
      from the direct solution's states and costates at every estimated junction; the method wherever the
      structure has a singular or boundary arc, or the problem constraints or explicit time;
    * ``"switching"``: simple shooting of the slides' engine (:class:`ocpkit.shooting.Shooting`, switchings
      located and corrected inside the integration, the variational Jacobian) with the control law derived from
      ``H = H0 + psi u + w |u| + b u^2`` (:func:`ocpkit.shooting.control_law`), started from the costates at t0;
      the method for bang-bang and saturated laws, and for free parameters (as states);
-3. a :class:`Certificate` of the result (:func:`certify`).
+3. a :class:`Certificate` of the result (:func:`certify`), with its second-order verdict
+   (:func:`ocpkit.second_order.second_order`: a global minimum where the problem is convex, the conjugate-point
+   test where every arc is regular, else not applicable with the reason).
 
 What the chain does not treat yet stops it with a named error: a solution without costate estimates (Radau and
 HLGL give them), an arc or junction whose flow is not derived (named with what to do), a free t0, free parameters in
@@ -46,6 +49,7 @@ from .errors import SolverError
 from .hamiltonian_form import has_quadratic_term
 from .monotone import as_terminal
 from .outcome import Outcome
+from .second_order import SecondOrder, second_order
 from .shooting.continuation import ContinuationPath
 from .statement.symbols import readers
 from .structure import Structure, control_structure
@@ -78,9 +82,11 @@ class Check:
 
 @dataclass(frozen=True)
 class Certificate:
-    """The checks of an extremal (:func:`certify`), by name."""
+    """The checks of an extremal (:func:`certify`), by name, and its second-order verdict (``second_order``:
+    :class:`~ocpkit.second_order.SecondOrder`; where it applies, it is also the check ``second_order``)."""
 
     checks: tuple[Check, ...]
+    second_order: SecondOrder | None = None
 
     @property
     def passed(self) -> bool:
@@ -97,10 +103,13 @@ class Certificate:
         raise KeyError(f"no check {name!r}; the checks are {[c.name for c in self.checks]}")
 
     def describe(self) -> str:
-        return "\n".join(
+        lines = [
             f"{'ok  ' if c.passed else 'FAIL'} {c.name}: {c.value:.2e} (at most {c.tolerance:.0e}; {c.meaning})"
             for c in self.checks
-        )
+        ]
+        if self.second_order is not None and not self.second_order.applicable:
+            lines.append(f"n/a  second_order: {self.second_order.detail}")
+        return "\n".join(lines)
 
 
 @dataclass
@@ -276,6 +285,7 @@ def to_extremal(
     solver: str | Callable[..., tuple[Any, ...]] = "hybr",
     raise_on_failure: bool | None = None,
     strict: bool | None = None,
+    integrator_tol: float | None = None,
 ) -> Extremal:
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
@@ -309,6 +319,9 @@ def to_extremal(
     with its certificate (``converged`` False, ``status`` ``CERTIFICATE_FAILED``). A shooting that fails raises in
     either case, the run as the error's ``.result`` (there is no extremal to certify). ``strict`` is the deprecated
     name of ``raise_on_failure``. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
+    ``integrator_tol``: the flows' relative and absolute tolerance (default: 1e-12 for the arc method, ``tol``
+    within [1e-13, 1e-8] for the switching method); the objective and the junction times are as accurate as the
+    flows (1e-14 gives Bryson-Denham's cost within 4e-13, 1e-12 within 1.4e-11).
     """
     raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
     from .shooting.hamiltonian import CONTROL_SETS
@@ -319,6 +332,8 @@ def to_extremal(
         raise ValueError(f"control_set must be one of {CONTROL_SETS}, got {control_set!r}")
     if control_set == "ball" and method == "arcs":
         raise ValueError("control_set='ball' has the switching method's law only; use method='switching' or 'auto'")
+    if integrator_tol is not None and not 1e-15 <= integrator_tol <= 1e-3:
+        raise ValueError(f"integrator_tol must lie in [1e-15, 1e-3], got {integrator_tol!r}")
 
     _one_problem(solution)
     if not getattr(solution, "has_costates", False):
@@ -353,6 +368,7 @@ def to_extremal(
             solver,
             raise_on_failure,
             detect_s,
+            integrator_tol,
         )
     except ValueError as exc:
         if not outputs:
@@ -379,6 +395,7 @@ def _extremal(
     solver: str | Callable[..., tuple[Any, ...]],
     raise_on_failure: bool,
     detect_s: float,
+    integrator_tol: float | None = None,
 ) -> Extremal:
     """The chain of :func:`to_extremal` from its statement and structure on: the shooting, its certificate, the
     re-solve from the extremal where only the comparisons with the direct solution fail."""
@@ -398,7 +415,8 @@ def _extremal(
                 f"{problem.name!r} has free parameters: the arc method does not take them yet; "
                 "use method='switching' (free parameters as states) where the structure allows"
             )
-        shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf))
+        flows = {} if integrator_tol is None else {"rtol": integrator_tol, "atol": integrator_tol}
+        shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf), **flows)
         result = shooting.solve(shooting.guess(solution), tol=tol)
         route = f"arc shooting ({len(shooting.kinds)} arcs)"
     else:
@@ -422,7 +440,8 @@ def _extremal(
                 f"{statement.name!r}: no {control_set} law derives from its Hamiltonian ({exc}); to_extremal derives "
                 "the laws of H = H0 + psi u + w |u| + b |u|^2 only"
             ) from exc
-        accuracy = min(1e-8, max(tol, 1e-13))  # the flow as accurate as the residual asked for
+        # the flow as accurate as the residual asked for
+        accuracy = min(1e-8, max(tol, 1e-13)) if integrator_tol is None else integrator_tol
         shooting = Shooting(statement, law, switching=switching, jacobian=jacobian, rtol=accuracy, atol=accuracy)
         result, route = _shoot(shooting, solution, solver=solver, tol=tol)
     shoot_s = time.perf_counter() - start
@@ -1072,14 +1091,17 @@ def certify(
     drift = float(np.max(np.abs(H_star - H_star[0])) / np.max(scale))
     kelley, sign = _arc_conditions(trajectory, t, X, L, P)
     compared: list[Check] = []
+    found = control_structure(trajectory)
     if structure is not None:
-        found = control_structure(trajectory)
 
         def arcs(s: Structure, name: str) -> list[tuple[str, str | None]]:
             return [(a.kind, a.constraint) for a in s.arcs if a.control == name]
 
         same = all(arcs(found, n) == arcs(structure, n) for n in dict.fromkeys(a.control for a in structure.arcs))
-        compared.append(Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs, in order"))
+        same = same and [p.constraint for p in found.touches] == [p.constraint for p in structure.touches]
+        compared.append(
+            Check("structure", 0.0 if same else 1.0, 0.0, "the direct solution's arcs and touch points, in order")
+        )
     if direct is not None:
         J = float(result.objective)
         s = np.linspace(0.0, 1.0, 2001)
@@ -1104,16 +1126,21 @@ def certify(
         compared.append(
             Check("first_direct_objective", max(worse, 0.0), 1e-2, "no worse than the first direct solution")
         )
+    verdict = second_order(trajectory, found, getattr(result, "multipliers", None))
+    if verdict.applicable:
+        compared.append(Check("second_order", 0.0 if verdict.passed else 1.0, 0.0, str(verdict)))
     checks = (
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),
         Check("hamiltonian_minimum", max(worst, 0.0), 1e-8, "H above its minimum over the admissible set"),
         Check("feasibility", max(violation, 0.0), 1e-8, "largest violation of the state bounds and path constraints"),
         *((Check("hamiltonian_constant", drift, 1e-8, "change of H along the extremal"),) if autonomous else ()),
         Check("legendre_clebsch", kelley, 1e-8, "generalised Legendre-Clebsch condition on singular arcs"),
-        Check("multiplier_sign", sign, 1e-8, "the inequality's multiplier is nonnegative on boundary arcs"),
+        Check(
+            "multiplier_sign", sign, 1e-8, "the inequality's multiplier on boundary arcs and the jumps are nonnegative"
+        ),
         *compared,
     )
-    return Certificate(checks)
+    return Certificate(checks, verdict)
 
 
 def _ball_points(n: int, radius: float, directions: int = 200) -> np.ndarray:
@@ -1173,6 +1200,8 @@ def _arc_conditions(
         if kind.constraint is not None:
             mu = trajectory.multiplier(t[inside])
             sign = max(sign, float(np.max(-mu) / max(np.abs(mu).max(), 1e-300)))
+    for _, _, nu in trajectory.jumps:  # p(t+) = p(t-) - nu c_x: nu >= 0 at a state constraint's junction
+        sign = max(sign, -nu / (1.0 + abs(nu)))
     return max(kelley, 0.0), max(sign, 0.0)
 
 

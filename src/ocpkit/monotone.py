@@ -47,7 +47,7 @@ def monotone_constraints(problem: OptimalControlProblem) -> dict[str, tuple[int,
     P0 = ca.DM(np.asarray(problem.full_parameters, dtype=float).reshape(-1, 1)) if P.numel() else ca.DM(0, 1)
     out = {}
     for q in inequalities(problem):
-        if not q.pure or len(q.controls) != 1:
+        if not q.pure or q.order != 1 or len(q.controls) != 1:
             continue
         c = q.function(x, u, t, P)
         rate = ca.substitute(ca.jtimes(c, x, ham.f) + ca.jacobian(c, t), P, P0)
@@ -107,7 +107,7 @@ def as_terminal(
         else:
             merged.append(a)
     restated = problem.replace(boundary_constraints=[*problem.boundary_constraints, *added])
-    return restated, Structure(tuple(merged)), [c.name for c in added]
+    return restated, Structure(tuple(merged), structure.touches), [c.name for c in added]
 
 
 def _bang(control: Control, value: float) -> str | None:

@@ -11,6 +11,11 @@ involves, is
 * ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control);
 * ``"boundary"``: inside its bounds where an inequality of the problem is active (:func:`inequalities`: a state
   on its bound, a pure state constraint, or a mixed state-control path constraint at its bound); the arc names it.
+  For a state constraint of order two or more (``q``: its ``q``-th time derivative is the first that contains a
+  control), active only where ``c^(q)(x, u)`` also vanishes (within 1e-2 of its range): the control is the
+  boundary control there. A stretch where it is active but ``c^(q)`` does not vanish is a *touch point*
+  (:class:`Touch`, at the stretch's middle): the constraint reached at an instant, as Bryson-Denham's ``x <= l``
+  for ``1/6 <= l <= 1/4``; stretches that reach ``t0`` or ``tf`` are the boundary values', not touch points.
 
 Runs shorter than ``min_share`` of the horizon, a direct solution's singular runs within fewer than three mesh
 intervals (the smearing of a switch by the polynomial control), and its runs on a bound within fewer than three
@@ -52,12 +57,22 @@ class Inequality:
     name: str
     function: ca.Function
     pure: bool
-    #: the indices of the controls in ``c`` (mixed), or in its time derivative (a state constraint of order one)
+    #: the indices of the controls in ``c`` (mixed), or in its ``order``-th time derivative (a state constraint)
     controls: tuple[int, ...] = ()
+    #: 0 for a mixed constraint; for a state constraint, the order of the first time derivative along the dynamics
+    #: that contains a control (0 where none of the first three does)
+    order: int = 0
+    #: ``c^(order)(x, u, t, P)`` for a state constraint whose order is known, else None
+    rate: ca.Function | None = None
+
+
+#: the highest order of a state constraint that :func:`inequalities` looks for
+MAX_ORDER = 3
 
 
 def inequalities(problem: OptimalControlProblem) -> list[Inequality]:
-    """Every finite state bound and path-constraint bound of ``problem`` as an :class:`Inequality` ``c <= 0``."""
+    """Every finite state bound and path-constraint bound of ``problem`` as an :class:`Inequality` ``c <= 0``, a
+    state constraint with its order (up to :data:`MAX_ORDER`) and its derivative of that order."""
     ham = problem.functions.hamiltonian
     x, u, t, P = ham.x, ham.u, ham.t, ham.P
     out = []
@@ -65,9 +80,19 @@ def inequalities(problem: OptimalControlProblem) -> list[Inequality]:
     def add(name: str, expr: ca.SX) -> None:
         fun = ca.Function("inequality", [x, u, t, P], [expr], ["x", "u", "t", "P"], ["c"])
         pure = not ca.depends_on(expr, u)
-        moved = ca.jtimes(expr, x, ham.f) + ca.jacobian(expr, t) if pure else expr
-        controls = tuple(i for i in range(problem.nu) if ca.depends_on(moved, u[i]))
-        out.append(Inequality(name, fun, pure, controls))
+        if not pure:
+            controls = tuple(i for i in range(problem.nu) if ca.depends_on(expr, u[i]))
+            out.append(Inequality(name, fun, pure, controls))
+            return
+        moved, order = expr, 0
+        for q in range(1, MAX_ORDER + 1):
+            moved = ca.jtimes(moved, x, ham.f) + ca.jacobian(moved, t)
+            if ca.depends_on(moved, u):
+                order = q
+                break
+        controls = tuple(i for i in range(problem.nu) if ca.depends_on(moved, u[i])) if order else ()
+        rate = ca.Function("rate", [x, u, t, P], [moved], ["x", "u", "t", "P"], ["c_q"]) if order else None
+        out.append(Inequality(name, fun, pure, controls, order, rate))
 
     for i, s in enumerate(problem.states):
         if np.isfinite(s.lower):
@@ -102,10 +127,23 @@ class Arc:
 
 
 @dataclass(frozen=True)
+class Touch:
+    """A touch point: the state constraint ``constraint`` (:func:`inequalities`, of order two or more) active at
+    the one instant ``time``."""
+
+    constraint: str
+    time: float
+
+    def __str__(self) -> str:
+        return f"touch point of {self.constraint} at {self.time:.6g}"
+
+
+@dataclass(frozen=True)
 class Structure:
-    """Every control's arcs, in time order (:func:`control_structure`)."""
+    """Every control's arcs, in time order, and the state constraints' touch points (:func:`control_structure`)."""
 
     arcs: tuple[Arc, ...]
+    touches: tuple[Touch, ...] = ()
 
     def of(self, control: str) -> list[Arc]:
         """The arcs of ``control``."""
@@ -129,6 +167,8 @@ class Structure:
         for name in dict.fromkeys(a.control for a in self.arcs):
             parts = [str(a) if times else str(a).split(" on [")[0] for a in self.of(name)]
             lines.append(f"{name}: " + ", ".join(parts))
+        for touch in self.touches:
+            lines.append(str(touch) if times else f"touch point of {touch.constraint}")
         return "\n".join(lines)
 
 
@@ -156,7 +196,7 @@ def control_structure(
     polynomial = isinstance(trajectory, (Solution, PhaseSolution))
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
-    active = _active(trajectory, t, U, band)
+    active, touches = _active(trajectory, t, U, band, min_share)
     l1 = l1_controls(problem)
     arcs = []
     for i, c in enumerate(problem.controls):
@@ -201,24 +241,42 @@ def control_structure(
             end = t[-1] if k == len(runs) - 1 else _junction(t, (kind, a, b), runs[k + 1], switching, i)
             kind, _, constraint = kind.partition(":")
             arcs.append(Arc(c.name, kind, float(start), float(end), constraint or None))
-    return Structure(tuple(arcs))
+    return Structure(tuple(arcs), tuple(touches))
+
+
+#: how close to zero, relative to its range along the trajectory, ``c^(q)`` must be on a boundary arc of a state
+#: constraint of order ``q >= 2`` (elsewhere in a stretch where ``c`` is active, the stretch is a touch point)
+RATE_BAND = 1e-2
 
 
 def _active(
-    trajectory: Trajectory, t: np.ndarray, U: np.ndarray, band: float
-) -> dict[str, tuple[np.ndarray, tuple[int, ...]]]:
+    trajectory: Trajectory, t: np.ndarray, U: np.ndarray, band: float, min_share: float
+) -> tuple[dict[str, tuple[np.ndarray, tuple[int, ...]]], list[Touch]]:
     """Per inequality (:func:`inequalities`) active somewhere on the grid ``t`` (within ``band`` of zero, relative
-    to the range of its values along the trajectory): where, and the controls it involves."""
+    to the range of its values along the trajectory): where, and the controls it involves; and the touch points
+    of the state constraints of order two or more (module docstring)."""
     problem = trajectory.problem
     X = np.asarray(trajectory.state(t), dtype=float).reshape(t.size, problem.nx)
     P = np.repeat(np.asarray(problem.full_parameters, dtype=float).reshape(-1, 1), t.size, axis=1)
     out = {}
+    touches = []
+    shortest = max(int(np.ceil(min_share * (t.size - 1))), 1)
     for ineq in inequalities(problem):
         c = np.asarray(ineq.function.map(t.size)(X.T, U.T, t[None, :], P)).ravel()
         on = c >= -band * max(float(np.ptp(c)), 1e-12)
+        if ineq.pure and ineq.order >= 2 and ineq.rate is not None and on.any():
+            rate = np.asarray(ineq.rate.map(t.size)(X.T, U.T, t[None, :], P)).ravel()
+            flat = np.abs(rate) <= RATE_BAND * max(float(np.ptp(rate)), 1e-12)
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+            for a, b in zip(edges[::2], edges[1::2] - 1):  # each stretch where c is active
+                if a == 0 or b == t.size - 1:
+                    continue  # the boundary values', not a touch point
+                if np.count_nonzero(flat[a : b + 1]) < shortest:
+                    touches.append(Touch(ineq.name, float(0.5 * (t[a] + t[b]))))
+            on = on & flat
         if on.any():
             out[ineq.name] = (on, ineq.controls)
-    return out
+    return out, sorted(touches, key=lambda touch: touch.time)
 
 
 def _runs(
@@ -337,4 +395,4 @@ def _junction(
     return float(min(roots, key=lambda r: abs(r - guess)))
 
 
-__all__ = ["ARC_KINDS", "Arc", "Inequality", "Structure", "control_structure", "inequalities"]
+__all__ = ["ARC_KINDS", "MAX_ORDER", "Arc", "Inequality", "Structure", "Touch", "control_structure", "inequalities"]

@@ -16,19 +16,26 @@ Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative alo
 * **boundary** of an inequality ``c <= 0`` (:func:`ocpkit.structure.inequalities`): for a mixed constraint
   (``c_u != 0``) the control from ``c = 0``, the multiplier ``mu = -H_u / c_u`` and ``dp/dt = -H_x - mu c_x``; at
   each junction (not at t0 or tf) the control is continuous: ``mu = 0`` where H is regular in it, ``c = 0`` with
-  the neighbouring arc's control where H is affine in it. For a pure state constraint of order one, on a control
-  H is affine in, the control from ``D c = 0`` and the multiplier that keeps ``H_u = 0`` on the arc,
-  ``mu = D H_u / (H_up . c_x)``; the arc is entered from a singular arc only (``c = 0`` there, no jump of the
-  costate; from a bang arc the costate jumps, which is refused by name, except for a constraint that never
-  decreases, a budget, which :mod:`ocpkit.monotone` restates as its terminal condition before the arcs are posed), and a singular arc after it keeps its own
-  entry conditions (the system is then over-determined and consistent: Gauss-Newton). A state constraint on a
-  control H is regular in, and one of order two, are refused by name.
+  the neighbouring arc's control where H is affine in it. For a pure state constraint of order ``q`` (one or two:
+  ``D^q c`` is the first derivative that contains the control), direct adjoining (Hartl, Sethi & Vickson, SIAM Rev.
+  37, 1995): the control from ``D^q c = 0``; the multiplier ``mu`` in ``dp/dt = -H_x - mu c_x`` that keeps
+  ``phi = H_u`` (at the boundary control) zero on the arc, ``mu = D^q phi / ((D^(q-1) phi)_p . c_x)`` (``mu`` does
+  not enter ``phi, ..., D^(q-1) phi``). At the arc's entry the tangency ``c = ... = D^(q-1) c = 0`` and the
+  minimum condition ``phi = ... = D^(q-1) phi = 0`` hold. Of order one the costate is continuous at the junctions
+  (Jacobson, Lele & Speyer, JMAA 35, 1971; Maurer 1977 where the control jumps), so ``phi = 0`` at the entry is the
+  switching function's zero (from a bang arc) or the control's continuity (a regular control); from a singular arc
+  it holds already, and ``c = 0`` alone is posed (a singular arc after it keeps its own entry conditions: the
+  system is then over-determined and consistent, Gauss-Newton). Of order two the costate jumps at the entry, at the
+  exit and at a touch point, ``p(t+) = p(t-) - nu c_x`` with ``nu`` an unknown (``nu >= 0`` is certified): the
+  entry's four conditions determine its time and jump; the exit's time and jump are determined by what follows;
+  a touch point's by ``c = D c = 0``. A constraint of order two on a control H is affine in (chattering junctions,
+  Robbins 1980), one of order three, and one that leaves several controls inside their bounds are refused by name.
 
 Junctions between two bang arcs satisfy ``H(u_left) = H(u_right)``, the row divided by the control's jump (the
 switching function crosses its threshold: the row is its value there); between a regular arc and a bound the control is continuous. Unknowns: the free initial states, the
 initial costates, at each junction its time and ``(x, p)`` there (multiple shooting: each arc integrated from its
 own node, matched at its end), a free final time, one multiplier per boundary equality, and the starting controls
-of implicit regular arcs. Conditions: the matching, the junctions', and the transversality conditions of
+of implicit regular arcs, and the costate's jump at each junction of order two. Conditions: the matching, the junctions', and the transversality conditions of
 ``Phi = phi + nu' psi`` (``p(t0) = -Phi_x0`` for a free initial state, ``p(tf) = Phi_xf`` for a free final one,
 ``H(tf) + Phi_tf = 0`` for a free final time). The arcs are integrated by CVODES on a normalised time, with exact
 derivatives of the shooting function through its forward sensitivities.
@@ -50,7 +57,7 @@ from ..hamiltonian_form import l1_controls, sample_value
 from ..nodes import cubic_hermite
 from ..outcome import Outcome
 from ..statement import FreeFinalTime
-from ..structure import Structure, inequalities
+from ..structure import MAX_ORDER, Structure, inequalities
 from ..trajectory import Trajectory
 from .result import IndirectResult, noise_floor, settled, stall_advice
 
@@ -64,18 +71,24 @@ BANG = ("lower", "upper", "zero")
 
 @dataclass(frozen=True)
 class ArcType:
-    """The kind of each control on one arc (in the problem's control order) and its active inequality, if any."""
+    """The kind of each control on one arc (in the problem's control order) and its active inequality, if any;
+    ``touch`` names the state constraint whose touch point the arc starts at (the costate jumps there)."""
 
     kinds: tuple[str, ...]
     constraint: str | None = None
+    touch: str | None = None
 
 
 def arc_sequence(
     structure: Structure, problem: OptimalControlProblem, t0: float, tf: float
 ) -> list[tuple[ArcType, float, float]]:
     """The arcs of the whole control vector on ``[t0, tf]`` from each control's arcs: the common refinement of
-    their partitions, as ``(ArcType, start, end)``. A control without bounds is ``regular`` throughout."""
-    cuts = sorted({float(t0), float(tf)} | {a.start for a in structure.arcs} | {a.end for a in structure.arcs})
+    their partitions, as ``(ArcType, start, end)``, cut at the structure's touch points (the arc after each names
+    it). A control without bounds is ``regular`` throughout."""
+    touches = {float(touch.time): touch.constraint for touch in structure.touches}
+    cuts = sorted(
+        {float(t0), float(tf)} | {a.start for a in structure.arcs} | {a.end for a in structure.arcs} | set(touches)
+    )
     out: list[tuple[ArcType, float, float]] = []
     for a, b in zip(cuts[:-1], cuts[1:]):
         mid = 0.5 * (a + b)
@@ -89,7 +102,7 @@ def arc_sequence(
             kinds.append(arcs[0].kind)
             if arcs[0].constraint is not None:
                 constraint = arcs[0].constraint
-        kind = ArcType(tuple(kinds), constraint)
+        kind = ArcType(tuple(kinds), constraint, touches.get(a))
         if out and out[-1][0] == kind:
             out[-1] = (kind, out[-1][1], b)
         else:
@@ -111,6 +124,14 @@ class _Flow:
     implicit: list[ca.SX] = field(default_factory=list)  # H_u = 0 at the start of an implicit regular arc
     #: (control index, order q, d_u D^(2q) phi) for Legendre-Clebsch
     singular: list[tuple[int, int, ca.SX]] = field(default_factory=list)
+    #: on a boundary arc of a state constraint of order ``q``: ``q``, the tangency conditions ``c, Dc, ...,
+    #: D^(q-1) c`` and the minimum conditions ``phi, D phi, ..., D^(q-1) phi`` (``phi = H_u`` at the boundary
+    #: control), whether H is affine in the boundary control, and ``c_x`` (the direction of the costate's jumps)
+    order: int = 0
+    tangency: list[ca.SX] = field(default_factory=list)
+    minimum: list[ca.SX] = field(default_factory=list)
+    affine: bool = False
+    cx: ca.SX | None = None
 
 
 class ArcFlows:
@@ -178,8 +199,9 @@ class ArcFlows:
             return ca.substitute(expr, ca.vertcat(*[u[i] for i in bang]), ca.vertcat(*[value[i] for i in bang]))
 
         boundary_control = None
+        state_arc: dict[str, Any] = {}
         if kind.constraint is not None:
-            value, mu, entry, boundary_control = self._boundary(kind, value, free, fixed)
+            value, mu, entry, boundary_control, state_arc = self._boundary(kind, value, free, fixed)
         sing = [i for i in free if kind.kinds[i] == "singular"]
         if kind.constraint is None and sing:
             if len(sing) > 1:
@@ -235,7 +257,10 @@ class ArcFlows:
                 "solution"
             )
         entry = [ca.substitute(e, u, control) for e in entry]
-        return _Flow(kind, control, w, wdot, mu, entry, boundary_control, implicit, singular)
+        for key in ("tangency", "minimum"):
+            if key in state_arc:
+                state_arc[key] = [ca.substitute(e, u, control) for e in state_arc[key]]
+        return _Flow(kind, control, w, wdot, mu, entry, boundary_control, implicit, singular, **state_arc)
 
     def _regular(
         self, reg: list[int], value: list[Any], fixed: Callable[[ca.SX], ca.SX]
@@ -272,8 +297,9 @@ class ArcFlows:
 
     def _boundary(
         self, kind: ArcType, value: list[Any], free: list[int], fixed: Callable[[ca.SX], ca.SX]
-    ) -> tuple[list[Any], ca.SX, list[ca.SX], int]:
-        """The control and the multiplier on a boundary arc of ``kind.constraint``, and the arc's entry conditions."""
+    ) -> tuple[list[Any], ca.SX, list[ca.SX], int, dict[str, Any]]:
+        """The control and the multiplier on a boundary arc of ``kind.constraint``, the arc's entry conditions, and
+        for a state constraint the fields of :class:`_Flow` that its junctions need (module docstring)."""
         names = self.problem.control_names
         q = self.ineq.get(cast(str, kind.constraint))  # (a boundary arc's)
         if q is None:
@@ -297,28 +323,45 @@ class ArcFlows:
             Hu = ca.jacobian(self.H, u[i])
             mu = fixed(-Hu / cu)
             mu = ca.substitute(mu, u[i], value[i])
-            return value, mu, [mu], i
-        c1 = fixed(self.D(c))
-        if not ca.depends_on(c1, u[i]):
+            return value, mu, [mu], i, {}
+        order = q.order
+        if order == 0 or i not in q.controls:
             raise ValueError(
-                f"{kind.constraint!r} is a state constraint of order two or more (its first derivative does not "
-                f"contain {names[i]!r}): boundary arcs of order one only"
+                f"no time derivative of {kind.constraint!r} up to order {MAX_ORDER} contains {names[i]!r}: its "
+                "boundary control is not derived"
             )
-        a = ca.jacobian(c1, u[i])
+        if order > 2:
+            raise ValueError(
+                f"{kind.constraint!r} is a state constraint of order {order}: boundary arcs of orders one and two "
+                "only are derived; keep the direct solution"
+            )
+        tangency = [c]
+        for _ in range(order):
+            tangency.append(fixed(self.D(tangency[-1])))
+        rate = tangency.pop()
+        a = ca.jacobian(rate, u[i])
         if ca.depends_on(a, u[i]):
-            raise ValueError(f"the derivative of {kind.constraint!r} is not affine in {names[i]!r}")
-        value[i] = -ca.substitute(c1, u[i], 0) / a
+            raise ValueError(f"the derivative of order {order} of {kind.constraint!r} is not affine in {names[i]!r}")
+        value[i] = -ca.substitute(rate, u[i], 0) / a
         phi = fixed(ca.jacobian(self.H, u[i]))
-        if self.depends(phi, u[i]):
+        affine = not self.depends(phi, u[i])
+        if affine and order > 1:
             raise ValueError(
-                f"H is not affine in {names[i]!r} on the boundary arc of the state constraint {kind.constraint!r}: "
-                "that arc's multiplier and junction conditions are not derived; keep the direct solution"
+                f"H is affine in {names[i]!r} and {kind.constraint!r} is a state constraint of order {order}: a "
+                "boundary arc is then met through infinitely many switchings (Robbins 1980), whose junctions are not "
+                "derived; keep the direct solution"
             )
-        # the switching function phi = H_u is kept at zero on the arc by the multiplier: D phi - mu phi_p . c_x = 0
-        phi = ca.substitute(phi, u[i], 0)
-        denominator = ca.dot(ca.gradient(phi, self.p), ca.gradient(c, x))
-        mu = ca.substitute(fixed(self.D(phi)), u[i], value[i]) / denominator
-        return value, mu, [c], i
+        # the minimum condition phi = H_u = 0 at the boundary control is kept on the arc by the multiplier mu of
+        # direct adjoining (p' = -H_x - mu c_x): phi, D phi, ..., D^(q-1) phi do not contain mu (phi_p . c_x = f_u . c_x
+        # = 0 below the order), D^q phi does, linearly: mu = D^q phi / ((D^(q-1) phi)_p . c_x)
+        minimum = [ca.substitute(phi, u[i], 0 if affine else value[i])]
+        for _ in range(order - 1):
+            minimum.append(ca.substitute(fixed(self.D(minimum[-1])), u[i], value[i]))
+        cx = ca.gradient(c, x)
+        denominator = ca.dot(ca.gradient(minimum[-1], self.p), cx)
+        mu = ca.substitute(fixed(self.D(minimum[-1])), u[i], value[i]) / denominator
+        fields = {"order": order, "tangency": tangency, "minimum": minimum, "affine": affine, "cx": cx}
+        return value, mu, [c], i, fields
 
     def rhs(self, kind: ArcType) -> tuple[ca.SX, ca.SX, _Flow]:
         """``(y, rhs, flow)``: ``y = (x, p, w, J)``, its time derivative on this arc, and the arc's :class:`_Flow`."""
@@ -348,6 +391,9 @@ class ArcResult(IndirectResult):
     times: np.ndarray
     multipliers: np.ndarray
     arcs: list[ArcType]
+    #: the costate's jumps, ``(time, constraint, nu)`` with ``p(t+) = p(t-) - nu c_x`` (``nu >= 0`` at an
+    #: extremal): at the junctions of state constraints of order two and their touch points
+    jumps: list[tuple[float, str, float]] = field(default_factory=list)
     #: the extremal as functions of time, None where the last iterate cannot be integrated (read :attr:`trajectory`)
     _trajectory: ArcTrajectory | None = field(default=None, repr=False)
 
@@ -436,8 +482,11 @@ class ArcShooting:
         nw = [self.rhs[k][2].w.numel() for k in range(K)]
         nfree = int(np.sum(self.free_initial))
         sizes = [("x0", nfree), ("p0", nx)]
+        self.jumps = self._jump_junctions()
         for k in range(1, K):
             sizes += [(f"t{k}", 1), (f"y{k}", 2 * nx)]
+            if k in self.jumps:
+                sizes.append((f"jump{k}", 1))
         if self.free_tf:
             sizes.append(("tf", 1))
         sizes.append(("nu", self.n_nu))
@@ -475,14 +524,19 @@ class ArcShooting:
             ends.append(out)
             costs.append(out[-1])
             if k + 1 < K:
-                rows.append(starts[k + 1] - out[: 2 * nx])
+                arrival = out[: 2 * nx]
+                if k + 1 in self.jumps:  # p(t+) = p(t-) - nu c_x at a state constraint's junction of order two
+                    Cx = ca.Function("cx", [fl.x, fl.t, fl.P], [self._cx(self.jumps[k + 1])])
+                    step = parts[f"jump{k + 1}"] * Cx(out[:nx], times[k + 1], P)
+                    arrival = ca.vertcat(out[:nx], out[nx : 2 * nx] - step)
+                rows.append(starts[k + 1] - arrival)
             # the arc's entry conditions at its start: an implicit regular arc's H_u = 0; a singular arc's (from its
             # start, t0 included); a boundary arc's at a junction (c = 0 for a state constraint, mu = 0 for a mixed)
             entry = list(flow.implicit)
             if flow.entry and (k > 0 or self.kinds[k].constraint is None):
-                self._check_entry(k)
-                continuous = self._continuous_control(k, k - 1) if k > 0 else None
-                entry += flow.entry if continuous is None else [continuous]
+                entry += self._entry(k)
+            if k > 0 and self.kinds[k].touch is not None:  # a touch point: tangency, the jump its unknown
+                entry += self._touch(k)
             if entry:
                 E = ca.Function("entry", [*sym_in, flow.w], [ca.vertcat(*entry)])
                 rows.append(E(starts[k][:nx], starts[k][nx:], times[k], P, w))
@@ -531,20 +585,67 @@ class ArcShooting:
         self.objective = ca.Function("objective", [z, P], [objective])
         self.nz = nz
 
-    def _check_entry(self, k: int) -> None:
-        """A state constraint's boundary arc is entered here from a singular arc only (H_u = 0 holds already, no
-        jump of the costate): entered from a bang arc the costate jumps, which is not derived."""
-        kind = self.kinds[k]
-        if kind.constraint is None or not self.flows.ineq[kind.constraint].pure:
-            return
-        i = cast(int, self.flows.flow(kind).boundary_control)  # (a boundary arc's)
-        before = self.kinds[k - 1].kinds[i]
-        if before != "singular":
-            raise ValueError(
-                f"the boundary arc of the state constraint {kind.constraint!r} is entered from a {before!r} arc of "
-                f"{self.problem.control_names[i]!r}: the costate's jump there is not derived (only the entry from a "
-                "singular arc is); keep the direct solution"
-            )
+    def _jump_junctions(self) -> dict[int, str]:
+        """The junctions where the costate jumps, ``{k: constraint}`` (the junction at the start of arc ``k``): the
+        entry into and the exit from a boundary arc of a state constraint of order two, and its touch points. At
+        the junctions of order one the costate is continuous (module docstring)."""
+        out: dict[int, str] = {}
+        for k in range(1, len(self.kinds)):
+            a, b = self.kinds[k - 1], self.kinds[k]
+            if b.touch is not None:
+                q = self.flows.ineq.get(b.touch)
+                if q is None or not q.pure or q.order < 2:
+                    raise ValueError(
+                        f"a touch point of {b.touch!r}: touch points of state constraints of order two or more only"
+                    )
+                out[k] = b.touch
+            elif b.constraint != a.constraint and self._second_order(b.constraint):
+                out[k] = cast(str, b.constraint)
+            elif a.constraint != b.constraint and self._second_order(a.constraint):
+                out[k] = cast(str, a.constraint)
+        return out
+
+    def _second_order(self, constraint: str | None) -> bool:
+        """Whether ``constraint`` is a state constraint of order two or more."""
+        q = self.flows.ineq.get(constraint) if constraint is not None else None
+        return q is not None and q.pure and q.order >= 2
+
+    def _cx(self, constraint: str) -> ca.SX:
+        """The gradient ``c_x`` of a state constraint, in ``(x, t, P)``: the direction of the costate's jumps."""
+        fl = self.flows
+        return ca.gradient(fl.ineq[constraint].function(fl.x, fl.u, fl.t, fl.P), fl.x)
+
+    def _entry(self, k: int) -> list[ca.SX]:
+        """The conditions at the start of arc ``k`` (a singular or boundary arc; in arc ``k``'s symbols): a singular
+        arc's; a mixed constraint's (module docstring); for a state constraint of order ``q`` entered here, the
+        tangency ``c = ... = D^(q-1) c = 0`` and the minimum condition ``phi = ... = D^(q-1) phi = 0`` after the
+        jump (of order one: the costate continuous, ``phi = 0`` the continuity of a regular control and the
+        switching function's zero for an affine one), except from a singular arc, where ``phi = 0`` holds already
+        (``c = 0`` only)."""
+        flow, kind = self.flows.flow(self.kinds[k]), self.kinds[k]
+        continuous = self._continuous_control(k, k - 1) if k > 0 else None
+        if continuous is not None:
+            return [continuous]
+        q = self.flows.ineq.get(kind.constraint) if kind.constraint is not None else None
+        if q is None or not q.pure or k == 0:
+            return list(flow.entry)
+        if self.kinds[k - 1].constraint == kind.constraint:
+            return []  # the same boundary arc, another control switching: entered before
+        i = cast(int, flow.boundary_control)  # (a boundary arc's)
+        if flow.order == 1 and self.kinds[k - 1].kinds[i] == "singular":
+            return list(flow.entry)
+        return [*flow.tangency, *flow.minimum]
+
+    def _touch(self, k: int) -> list[ca.SX]:
+        """The tangency conditions ``c = ... = D^(q-1) c = 0`` at the touch point at the start of arc ``k`` (the
+        costate's jump, an unknown, is what they determine with the junction's time)."""
+        fl = self.flows
+        name = cast(str, self.kinds[k].touch)
+        q = fl.ineq[name]
+        rows = [q.function(fl.x, fl.u, fl.t, fl.P)]
+        for _ in range(q.order - 1):
+            rows.append(fl.D(rows[-1]))
+        return [ca.substitute(r, fl.u, fl.flow(self.kinds[k]).control) for r in rows]
 
     def _continuous_control(self, k: int, neighbour: int) -> ca.SX | None:
         """For the boundary arc ``k`` of a mixed constraint on a control H is affine in, the condition at its junction
@@ -632,6 +733,19 @@ class ArcShooting:
         out: list[Any] = []
         X = trajectory.state(times)
         L = trajectory.costate(times)
+        # where the costate jumps, the arc starts from its value after the jump, the jump from the two sides
+        # (a direct solution's costate smears a jump over a mesh interval or so: read 2% of the horizon away)
+        reach = 0.02 * (times[-1] - times[0])
+        P = self._P(parameters)
+        jumps = {}
+        for k, name in self.jumps.items():
+            before = trajectory.costate(np.array([max(times[k] - reach, times[k - 1])]))[0]
+            after = trajectory.costate(np.array([min(times[k] + reach, times[k + 1])]))[0]
+            cx = np.asarray(
+                ca.Function("cx", [self.flows.x, self.flows.t, self.flows.P], [self._cx(name)])(X[k], times[k], P)
+            ).ravel()
+            L[k] = after
+            jumps[k] = float(-(after - before) @ cx / max(float(cx @ cx), 1e-300))
         for name, n in self.layout:
             if n == 0:
                 continue
@@ -646,6 +760,8 @@ class ArcShooting:
                 out.append(np.concatenate([X[k], L[k]]))
             elif name == "tf":
                 out.append([times[-1]])
+            elif name.startswith("jump"):
+                out.append([jumps[int(name[4:])]])
             elif name == "nu":
                 out.append(self._multiplier_guess(trajectory, parameters))
             elif name.startswith("w"):
@@ -777,6 +893,7 @@ class ArcShooting:
             times=times,
             multipliers=self._part(z, "nu"),
             arcs=list(self.kinds),
+            jumps=[(float(times[k]), name, float(self._part(z, f"jump{k}")[0])) for k, name in self.jumps.items()],
             noise=noise,
         )
         if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
@@ -834,6 +951,10 @@ class ArcTrajectory(Trajectory):
         ]
         fl = shooting.flows
         self.mu: list[Any] = []
+        #: the costate's jumps, ``(time, constraint, nu)`` (:attr:`ArcResult.jumps`)
+        self.jumps = [
+            (float(times[k]), name, float(shooting._part(z, f"jump{k}")[0])) for k, name in shooting.jumps.items()
+        ]
         for k in range(K):
             y, rhs, flow = shooting.rhs[k]
             w = shooting._part(z, f"w{k}")
