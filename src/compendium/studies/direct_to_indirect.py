@@ -22,6 +22,7 @@ import pandas as pd
 
 from ocpkit import HLGL, Program, Radau, Scheme, SolverError
 from ocpkit.indirect import to_extremal
+from ocpkit.structure import control_structure
 
 from ..paper import paper_table
 from ..problems import (
@@ -39,6 +40,7 @@ from ..problems import (
     rayleigh_mixed,
     tumour,
 )
+from ..problems.collection.classics import bryson_denham, bryson_denham_extremal, turnpike, turnpike_extremal
 from ..problems.entry_landing import entry_landing
 from ..problems.orbit_transfer import orbit_transfer_direct
 from .orbit_transfer import propellant_kg
@@ -71,6 +73,8 @@ class Case:
     #: the problem as posed, to shoot, where the direct one restates its controls (``to_extremal(problem=...)``)
     shoot: Callable | None = None
     control_set: str = "box"
+    #: the flows' tolerance (``to_extremal(integrator_tol=...)``; None: its default)
+    integrator_tol: float | None = None
 
     def transcription(self) -> Program:
         """The case's direct transcription of its problem: the program of its scheme."""
@@ -109,6 +113,13 @@ def _rayleigh_reference() -> dict:
     """No published optimum of the unconstrained Rayleigh problem was found: its reference is the direct method's
     own, Radau refined to a mesh tolerance of 1e-9 (a smooth optimum: the estimate is the error)."""
     return {"objective": Radau(rayleigh(), 4, 20).solve(mesh_tolerance=1e-9).objective}
+
+
+def _arcs_measure(e) -> dict:
+    """The arc method's junction times ``t1, t2, ...``, costate jumps ``jump1, ...`` (in time order) and cost."""
+    out = {f"t{k + 1}": t for k, t in enumerate(_junctions(e))}
+    out |= {f"jump{k + 1}": nu for k, (_, _, nu) in enumerate(e.shooting.jumps)}
+    return out | {"objective": e.objective}
 
 
 def _goddard_ct_measure(e) -> dict:
@@ -215,6 +226,38 @@ CASES = {
             miser3_state_constraint,
             Radau(nodes=4, intervals=30),
             {"mesh_tolerance": 1e-6},
+            lambda: {"objective": _published("beyond_the_seeds", "miser3_state_constraint", "objective")},
+            lambda e: {"objective": e.objective},
+        ),
+        Case(
+            "bryson_denham_boundary_arc",
+            "Bryson-Denham, x <= 0.1: a boundary arc of order two, the costate jumping at entry and exit",
+            lambda: bryson_denham("boundary_arc"),
+            Radau(nodes=4, intervals=20),
+            {"mesh_tolerance": 1e-6},
+            lambda: bryson_denham_extremal("boundary_arc"),
+            _arcs_measure,
+            integrator_tol=1e-14,
+        ),
+        Case(
+            "bryson_denham_touch_point",
+            "Bryson-Denham, x <= 0.2: a touch point of order two, the costate jumping there",
+            lambda: bryson_denham("touch_point"),
+            Radau(nodes=4, intervals=20),
+            {"mesh_tolerance": 1e-6},
+            lambda: bryson_denham_extremal("touch_point"),
+            _arcs_measure,
+            integrator_tol=1e-14,
+        ),
+        Case(
+            "turnpike",
+            "the turnpike (OptimalControl.jl): bang, singular, bang",
+            turnpike,
+            Radau(nodes=4, intervals=20),
+            {"mesh_tolerance": 1e-7},
+            turnpike_extremal,
+            _arcs_measure,
+            integrator_tol=1e-14,
         ),
         Case(
             "tumour_anti_angiogenesis",
@@ -322,12 +365,16 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     timings = {"problem": case.name, "direct_s": direct_s}
     try:
         shoot = case.shoot() if case.shoot is not None else None
-        extremal = to_extremal(direct, problem=shoot, control_set=case.control_set, tol=tol)
+        extremal = to_extremal(
+            direct, problem=shoot, control_set=case.control_set, tol=tol, integrator_tol=case.integrator_tol
+        )
     except (ValueError, SolverError) as exc:
         timings["chain_s"] = time.perf_counter() - start - direct_s
-        return [{**base, "verdict": "stopped", "reason": str(exc).split(";")[0]}], timings, None
+        words = _words(control_structure(direct), direct.problem.control_names)
+        return [{**base, "verdict": "stopped", "reason": str(exc).split(";")[0], "structure": words}], timings, None
     timings.update(extremal.timings)
     cert = extremal.certificate
+    verdict = cert.second_order
     common = {
         **base,
         "verdict": "certified",
@@ -337,6 +384,7 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
         "norm_S": extremal.shooting.norm,
         "hamiltonian_drift": cert["hamiltonian_constant"].value if _has(cert, "hamiltonian_constant") else np.nan,
         "objective_gap": cert["objective_gap"].value,
+        "second_order": verdict.verdict + (f" ({verdict.route})" if verdict.route else ""),
     }
     reference, measured = case.reference(), case.measure(extremal)
     rows = [{**common, "quantity": q, "reference": reference[q], "value": measured.get(q, np.nan)} for q in reference]
@@ -356,8 +404,15 @@ def _in_words(extremal) -> str:
         on = bool(np.linalg.norm(tr.control(np.array([tr.t0]))[0]) > 0.5 * law.radius)
         kinds = ["on" if (k % 2 == 0) == on else "off" for k in range(extremal.shooting.integration.switchings + 1)]
         return f"|u|: {', '.join(kinds)}"
-    lines = dict(line.split(": ", 1) for line in extremal.structure.describe(times=False).splitlines())
-    return "; ".join(f"{c}: {lines.get(c, 'regular')}" for c in extremal.direct.problem.control_names)
+    return _words(extremal.structure, extremal.direct.problem.control_names)
+
+
+def _words(structure, controls) -> str:
+    """Each control's arcs without times (a control with none is regular throughout), and the touch points."""
+    lines = structure.describe(times=False).splitlines()
+    arcs = dict(line.split(": ", 1) for line in lines if not line.startswith("touch point"))
+    words = "; ".join(f"{c}: {arcs.get(c, 'regular')}" for c in controls)
+    return "; ".join([words, *(line for line in lines if line.startswith("touch point"))])
 
 
 def _has(certificate, name: str) -> bool:

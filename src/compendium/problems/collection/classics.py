@@ -203,6 +203,29 @@ def bryson_denham_cost(regime: str) -> float:
     return c0**2 / 2 + c0 * c1 / 4 + c1**2 / 24
 
 
+def bryson_denham_extremal(regime: str) -> dict[str, float]:
+    """The closed form's junctions, costate jumps and cost (Bryson & Ho 1975, Sec. 3.11): on a boundary arc
+    (``l <= 1/6``) entered at ``3 l`` and left at ``1 - 3 l``, ``lambda_x`` jumps by ``2 / (9 l^2)`` at each; at the
+    touch point ``t = 1/2`` (``1/6 <= l <= 1/4``) by ``2 u' = 12 (4 - 16 l)`` (``u`` the cubic's second derivative,
+    :func:`bryson_denham_cost`)."""
+    limit = _constants("bryson_denham")[regime]
+    if limit <= 1 / 6:
+        jump = 2 / (9 * limit**2)
+        return {"t1": 3 * limit, "t2": 1 - 3 * limit, "jump1": jump, "jump2": jump, "objective": 4 / (9 * limit)}
+    return {"t1": 0.5, "jump1": 12 * (4 - 16 * limit), "objective": bryson_denham_cost(regime)}
+
+
+def turnpike_extremal() -> dict[str, float]:
+    """Full braking to ``x = 0`` at ``t1 = x0 / u_max``, the singular arc ``x = 0`` to ``t2 = tf - xf / u_max``, full
+    thrust to ``xf``: ``J = (x0^3 + xf^3) / (3 u_max)`` (3/8 for OptimalControl.jl's turnpike)."""
+    c = _constants("turnpike")
+    return {
+        "t1": c["x0"] / c["u_max"],
+        "t2": c["tf"] - c["xf"] / c["u_max"],
+        "objective": (c["x0"] ** 3 + c["xf"] ** 3) / (3 * c["u_max"]),
+    }
+
+
 def lqr_oscillator_cost() -> float:
     """``x0' p0 / 2``, the costate ``p0`` from the Hamiltonian flow's exponential and ``p(tf) = 0``."""
     c = _constants("lqr_oscillator")
