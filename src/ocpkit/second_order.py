@@ -88,6 +88,8 @@ def second_order(
     problem = trajectory.problem
     if problem.free_initial_time or isinstance(problem.tf, FreeFinalTime):
         return SecondOrder("not applicable", "", "a free initial or final time: its second variation is not derived")
+    if problem.nu == 0:
+        return SecondOrder("not applicable", "", "no control: the accessory problem has no variation to test")
     reason = _not_convex(problem, trajectory)
     if reason is None:
         return SecondOrder(
