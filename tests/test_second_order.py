@@ -100,3 +100,57 @@ def test_a_concave_kink_is_not_taken_for_convexity():
     result = zero_extremal(1.0)
     result.trajectory.problem = kinked
     assert _not_convex(kinked, result.trajectory) == "the running cost is not convex (the midpoint inequality fails)"
+
+
+def test_units_and_long_horizons_do_not_make_a_minimum_fail():
+    """The Jacobi fields are orthonormalised as they are integrated and dX's rows scaled: a slow control (x' = 1e-3
+    u) and a long horizon with a stiff weight (the fields' columns would all align with the fastest mode) pass."""
+    slow = OptimalControlProblem(
+        "slow",
+        [State("x1", initial=0.0, final=0.0), State("x2", initial=0.0, final=0.0)],
+        [Control("u1"), Control("u2")],
+        lambda x, u, t: [1e-3 * u[0] + x[0] ** 3, 1e-3 * u[1]],
+        tf=1.0,
+        lagrange=lambda x, u, t: (u[0] ** 2 + u[1] ** 2) / 2,
+    )
+    rotation = np.array([[math.cos(0.5), -math.sin(0.5)], [math.sin(0.5), math.cos(0.5)]])
+    Q = rotation @ np.diag([1.0, 100.0]) @ rotation.T
+    stiff = OptimalControlProblem(
+        "stiff",
+        [State("x1", initial=0.0, final=0.0), State("x2", initial=0.0, final=0.0)],
+        [Control("u1"), Control("u2")],
+        lambda x, u, t: [u[0] + x[0] ** 3, u[1]],
+        tf=15.0,
+        lagrange=lambda x, u, t: (
+            (Q[0, 0] * x[0] ** 2 + 2 * Q[0, 1] * x[0] * x[1] + Q[1, 1] * x[1] ** 2 + u[0] ** 2 + u[1] ** 2) / 2
+        ),
+    )
+    for problem in (slow, stiff):
+        shooting = ArcShooting(problem, [(ArcType(("regular", "regular")), 0.0, float(problem.tf))])
+        result = shooting.solve(np.zeros(shooting.nz))
+        verdict = second_order(result.trajectory, control_structure(result.trajectory))
+        assert verdict.verdict == "passed" and verdict.route == "jacobi", problem.name
+
+
+def test_a_singular_h_uu_is_not_a_failure_and_a_problem_without_controls_is_named():
+    """H_uu = 2 (1 - t) vanishes at t_f: the strengthened condition does not hold, which is no proof of a
+    non-minimum (x = u = 0 is the global minimum); a problem without controls has no variation to test."""
+    weighted = OptimalControlProblem(
+        "weighted",
+        [State("x", initial=0.0, final=0.0)],
+        [Control("u")],
+        lambda x, u, t: [u["u"] + x["x"] ** 3],
+        tf=1.0,
+        lagrange=lambda x, u, t: (1 - t) * u["u"] ** 2 + x["x"] ** 2,
+    )
+    shooting = ArcShooting(weighted, [(ArcType(("regular",)), 0.0, 1.0)])
+    result = shooting.solve(np.zeros(shooting.nz))
+    certificate = certify(result.trajectory, result)
+    assert certificate.passed and certificate.second_order.verdict == "not applicable"
+    assert "H_uu is singular at t = 1" in certificate.second_order.detail
+    still = OptimalControlProblem(
+        "still", [State("x", initial=1.0)], [], lambda x, u, t: [-x["x"]], tf=1.0, lagrange=lambda x, u, t: x["x"] ** 2
+    )
+    direct = Radau(still, 4, 5).solve(error_threshold=None)
+    with pytest.raises(ValueError, match="'still' has no control: to_extremal solves the maximum principle"):
+        to_extremal(direct)

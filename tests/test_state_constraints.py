@@ -115,3 +115,16 @@ def test_what_is_not_derived_is_named():
         ValueError, match=r"'x_max.upper' is a state constraint of order 3: boundary arcs of orders one"
     ):
         flows.flow(ArcType(("boundary",), "x_max.upper"))
+
+
+def test_two_touch_points_of_one_constraint_stay_two_junctions():
+    from ocpkit.shooting.arcs import arc_sequence
+    from ocpkit.structure import Structure, Touch
+
+    problem = bryson_denham("touch_point")
+    arcs = arc_sequence(Structure((), (Touch("x_max.upper", 0.3), Touch("x_max.upper", 0.7))), problem, 0.0, 1.0)
+    assert [(kind.touch, a, b) for kind, a, b in arcs] == [
+        (None, 0.0, 0.3),
+        ("x_max.upper", 0.3, 0.7),
+        ("x_max.upper", 0.7, 1.0),
+    ]

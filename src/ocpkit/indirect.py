@@ -212,6 +212,13 @@ class Extremal:
         """The solved free parameters by name."""
         return self.shooting.free_parameters
 
+    @property
+    def jumps(self) -> list[tuple[float, str, float]]:
+        """The costate's jumps ``(time, constraint, nu)``, ``p(t+) = p(t-) - nu c_x``, at the junctions and touch
+        points of state constraints of order two (:attr:`ArcResult.jumps <ocpkit.shooting.arcs.ArcResult.jumps>`;
+        none for the other routes)."""
+        return list(getattr(self.shooting, "jumps", []))
+
     def plot(
         self,
         which: str | Sequence[str] | None = None,
@@ -346,6 +353,11 @@ def to_extremal(
     detect_s = time.perf_counter() - start
     restated = problem is not None
     statement = _restatement(solution, problem) if problem is not None else _statement(solution)
+    if statement.nu == 0:
+        raise ValueError(
+            f"{statement.name!r} has no control: to_extremal solves the maximum principle for a control law and "
+            "there is none (the direct solution, the optimum of its parameters and initial values, stands)"
+        )
     base = statement
     budgets: list[str] = []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
@@ -1091,7 +1103,10 @@ def certify(
     drift = float(np.max(np.abs(H_star - H_star[0])) / np.max(scale))
     kelley, sign = _arc_conditions(trajectory, t, X, L, P)
     compared: list[Check] = []
-    found = control_structure(trajectory)
+    # an arc-shooting extremal's own arcs are exact (ocpkit.second_order reads them): detected again only to
+    # compare with the direct solution's
+    exact = isinstance(getattr(getattr(trajectory, "shooting", None), "kinds", None), list)
+    found = control_structure(trajectory) if structure is not None or not exact else Structure(())
     if structure is not None:
 
         def arcs(s: Structure, name: str) -> list[tuple[str, str | None]]:

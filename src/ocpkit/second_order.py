@@ -98,6 +98,7 @@ def second_order(
             "the dynamics are affine in (x, u) and the costs and constraints convex: a normal extremal with its "
             "multipliers' signs is a global minimum",
         )
+    structure = _exact(trajectory, structure)
     other = [a for a in structure.arcs if a.kind != "regular"]
     if other:
         a = other[0]
@@ -113,6 +114,27 @@ def second_order(
             "not applicable", "", f"not convex ({reason}), and {structure.touches[0]}: the Jacobi test takes none"
         )
     return _jacobi(trajectory, problem, reason, multipliers, steps)
+
+
+def _exact(trajectory: Trajectory, structure: Structure) -> Structure:
+    """An arc-shooting extremal's own arcs and touch points (its shooting's kinds and junction times), which a
+    detection's bands could miss; ``structure`` for another trajectory."""
+    from .structure import Arc, Touch
+    from .structure import Structure as Arcs
+
+    kinds = getattr(getattr(trajectory, "shooting", None), "kinds", None)
+    if kinds is None:
+        return structure
+    times = np.asarray(trajectory.breakpoints, dtype=float)
+    names = trajectory.problem.control_names
+    arcs = [
+        Arc(names[i], which, float(times[k]), float(times[k + 1]), kind.constraint if which == "boundary" else None)
+        for k, kind in enumerate(kinds)
+        for i, which in enumerate(kind.kinds)
+        if which != "regular" or kind.constraint is not None
+    ]
+    touches = [Touch(kind.touch, float(times[k])) for k, kind in enumerate(kinds) if kind.touch is not None]
+    return Arcs(tuple(arcs), tuple(touches))
 
 
 def _not_convex(problem: OptimalControlProblem, trajectory: Trajectory) -> str | None:
@@ -139,6 +161,8 @@ def _not_convex(problem: OptimalControlProblem, trajectory: Trajectory) -> str |
         hessian = ca.hessian(expr, symbols)[0]
         if ca.depends_on(hessian, symbols):
             return f"{what} is not quadratic in {'(x, u)' if symbols.numel() == z.numel() else 'its arguments'}"
+        if ca.depends_on(hessian, t):
+            return f"{what} has a Hessian that depends on time (its convexity is not established)"
         H = ca.Function("hessian", [t, P], [hessian])
         for tk in times:
             eig = np.linalg.eigvalsh(np.asarray(H(tk, P0), dtype=float))
@@ -176,9 +200,7 @@ def _not_convex(problem: OptimalControlProblem, trajectory: Trajectory) -> str |
 
     if problem.phi is not None:
         phi = at_times(problem.phi(X0, XF, T0, TF, P))
-        reason = convex(
-            ca.substitute(phi, t, 0), ends, np.concatenate([x_lo, x_lo]), np.concatenate([x_hi, x_hi]), "the Mayer term"
-        )
+        reason = convex(phi, ends, np.concatenate([x_lo, x_lo]), np.concatenate([x_hi, x_hi]), "the Mayer term")
         if reason:
             return reason
     bc = problem.functions.boundary
@@ -219,47 +241,43 @@ def _jacobi(
     Huus = np.asarray(Huus, dtype=float).T.reshape(grid.size, nu, nu)
     smallest = np.linalg.eigvalsh(Huus).min(axis=1)
     scale = max(1.0, float(np.abs(Huus).max()))
-    if smallest.min() <= 1e-12 * scale:
-        k = int(np.argmin(smallest))
+    k = int(np.argmin(smallest))
+    if smallest[k] < -1e-12 * scale:
         return SecondOrder(
             "failed",
             "jacobi",
-            f"H_uu is not positive definite at t = {grid[k]:.6g} (smallest eigenvalue {smallest[k]:.3g}): the "
-            "strengthened Legendre-Clebsch condition fails",
+            f"H_uu has the negative eigenvalue {smallest[k]:.3g} at t = {grid[k]:.6g}: the Legendre-Clebsch "
+            "condition fails (not a minimum)",
             margin=float(smallest[k]),
+        )
+    if smallest[k] <= 1e-12 * scale:
+        return SecondOrder(
+            "not applicable",
+            "",
+            f"not convex ({reason}), and H_uu is singular at t = {grid[k]:.6g}: the strengthened Legendre-Clebsch "
+            "condition does not hold, and the Jacobi test needs it",
         )
     start = _terminal_fields(trajectory, problem, multipliers)
     if isinstance(start, str):
         return SecondOrder("not applicable", "", f"not convex ({reason}), and {start}")
-    # backwards from tf: Y' = M Y, RK4 with the stages on the half-steps of the grid
-    Y = start
-    h = -(grid[1] - grid[0]) * 2
-    dets = np.empty(steps + 1)
-    dets[steps] = _scaled_det(Y, nx)
-    for k in range(steps, 0, -1):
-        M1, M2, M3 = Ms[2 * k], Ms[2 * k - 1], Ms[2 * k - 2]
-        k1 = M1 @ Y
-        k2 = M2 @ (Y + 0.5 * h * k1)
-        k3 = M2 @ (Y + 0.5 * h * k2)
-        k4 = M3 @ (Y + h * k3)
-        Y = Y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        Y = Y / np.maximum(np.linalg.norm(Y, axis=0), 1e-300)  # a column's scale is free: keep it near 1
-        dets[k - 1] = _scaled_det(Y, nx)
+    dets, bounds = _jacobi_determinants(Ms, start, grid, steps, nx)
     times = grid[::2]
-    # at tf, dX has a zero column for each terminal condition, and near tf |det dX| grows from 0 like a power of
-    # tf - t: the sign is read from the last time it is clearly away from 0, and the scan runs from t0 to there
-    clear = np.flatnonzero(np.abs(dets[:-1]) > 1e-9)
-    if clear.size == 0:
+    measure = np.divide(dets, bounds, out=np.zeros_like(dets), where=bounds > 0)  # in [-1, 1]
+    if np.max(np.abs(measure[:-1])) < 1e-8:
         return SecondOrder(
-            "failed", "jacobi", "det dX vanishes on the whole horizon: a degenerate accessory problem", margin=0.0
+            "not applicable",
+            "",
+            f"not convex ({reason}), and the Jacobi fields' dX is singular on the whole horizon (a degenerate "
+            "accessory problem): the test does not apply",
         )
-    scanned = dets[: int(clear[-1]) + 1]
-    margin = float(np.min(np.abs(dets[: max(int(0.95 * steps), 1)])))
-    crossed = np.flatnonzero(np.sign(scanned[:-1]) != np.sign(scanned[1:]))
+    # at tf, dX has a zero column for each terminal condition: the scan runs on [t0, tf)
+    scanned = dets[:-1]
+    margin = float(np.min(np.abs(measure[: max(int(0.95 * steps), 1)])))
+    crossed = np.flatnonzero(np.sign(scanned[:-1]) * np.sign(scanned[1:]) < 0)
     if crossed.size:
         k = int(crossed[-1])
         a, b = scanned[k], scanned[k + 1]
-        tc = float(times[k] - a * (times[k + 1] - times[k]) / (b - a)) if b != a else float(times[k])
+        tc = float(times[k] - a * (times[k + 1] - times[k]) / (b - a))
         return SecondOrder(
             "failed",
             "jacobi",
@@ -277,9 +295,33 @@ def _jacobi(
     )
 
 
-def _scaled_det(Y: np.ndarray, nx: int) -> float:
-    """``det dX`` with each column of ``Y = (dX, dP)`` scaled to unit norm."""
-    return float(np.linalg.det(Y[:nx] / np.maximum(np.linalg.norm(Y, axis=0), 1e-300)))
+def _jacobi_determinants(
+    Ms: np.ndarray, start: np.ndarray, grid: np.ndarray, steps: int, nx: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``det dX`` of the Jacobi fields ``Y = (dX, dP)`` at the times ``grid[::2]``, integrated backwards from
+    ``Y(tf) = start`` (``Y' = M Y``, RK4, the matrices ``Ms`` on ``grid``'s half-steps). After each step ``Y`` is
+    orthonormalised (QR, ``R`` with a positive diagonal: the span and the sign of ``det dX`` are kept, and no column
+    collapses onto the fastest mode); ``dX``'s rows are then scaled by their largest magnitude over the horizon, so
+    that the determinant is free of the states' units (its sign, and where it vanishes, are those of the unscaled
+    one). Returns the determinants and the products of the scaled columns' norms (Hadamard's bound: their ratio, in
+    [-1, 1], measures how far from singular ``dX`` is)."""
+    Y = np.array(start, dtype=float)
+    h = -(grid[1] - grid[0]) * 2
+    blocks = np.empty((steps + 1, nx, nx))
+    blocks[steps] = Y[:nx]
+    for k in range(steps, 0, -1):
+        M1, M2, M3 = Ms[2 * k], Ms[2 * k - 1], Ms[2 * k - 2]
+        k1 = M1 @ Y
+        k2 = M2 @ (Y + 0.5 * h * k1)
+        k3 = M2 @ (Y + 0.5 * h * k2)
+        k4 = M3 @ (Y + h * k3)
+        Q, R = np.linalg.qr(Y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
+        Y = Q * np.where(np.diag(R) < 0, -1.0, 1.0)
+        blocks[k - 1] = Y[:nx]
+    rows = np.maximum(np.abs(blocks).max(axis=(0, 2)), 1e-300)
+    scaled = blocks / rows[None, :, None]
+    norms = np.maximum(np.linalg.norm(scaled, axis=1), 1e-300)
+    return np.asarray(np.linalg.det(scaled)), np.prod(norms, axis=1)
 
 
 def _terminal_fields(

@@ -103,7 +103,7 @@ def arc_sequence(
             if arcs[0].constraint is not None:
                 constraint = arcs[0].constraint
         kind = ArcType(tuple(kinds), constraint, touches.get(a))
-        if out and out[-1][0] == kind:
+        if out and out[-1][0] == kind and kind.touch is None:
             out[-1] = (kind, out[-1][1], b)
         else:
             out.append((kind, a, b))
@@ -125,13 +125,10 @@ class _Flow:
     #: (control index, order q, d_u D^(2q) phi) for Legendre-Clebsch
     singular: list[tuple[int, int, ca.SX]] = field(default_factory=list)
     #: on a boundary arc of a state constraint of order ``q``: ``q``, the tangency conditions ``c, Dc, ...,
-    #: D^(q-1) c`` and the minimum conditions ``phi, D phi, ..., D^(q-1) phi`` (``phi = H_u`` at the boundary
-    #: control), whether H is affine in the boundary control, and ``c_x`` (the direction of the costate's jumps)
+    #: D^(q-1) c`` and the minimum conditions ``phi, D phi, ..., D^(q-1) phi`` (``phi = H_u`` at the boundary control)
     order: int = 0
     tangency: list[ca.SX] = field(default_factory=list)
     minimum: list[ca.SX] = field(default_factory=list)
-    affine: bool = False
-    cx: ca.SX | None = None
 
 
 class ArcFlows:
@@ -357,11 +354,9 @@ class ArcFlows:
         minimum = [ca.substitute(phi, u[i], 0 if affine else value[i])]
         for _ in range(order - 1):
             minimum.append(ca.substitute(fixed(self.D(minimum[-1])), u[i], value[i]))
-        cx = ca.gradient(c, x)
-        denominator = ca.dot(ca.gradient(minimum[-1], self.p), cx)
+        denominator = ca.dot(ca.gradient(minimum[-1], self.p), ca.gradient(c, x))
         mu = ca.substitute(fixed(self.D(minimum[-1])), u[i], value[i]) / denominator
-        fields = {"order": order, "tangency": tangency, "minimum": minimum, "affine": affine, "cx": cx}
-        return value, mu, [c], i, fields
+        return value, mu, [c], i, {"order": order, "tangency": tangency, "minimum": minimum}
 
     def rhs(self, kind: ArcType) -> tuple[ca.SX, ca.SX, _Flow]:
         """``(y, rhs, flow)``: ``y = (x, p, w, J)``, its time derivative on this arc, and the arc's :class:`_Flow`."""
@@ -637,15 +632,11 @@ class ArcShooting:
         return [*flow.tangency, *flow.minimum]
 
     def _touch(self, k: int) -> list[ca.SX]:
-        """The tangency conditions ``c = ... = D^(q-1) c = 0`` at the touch point at the start of arc ``k`` (the
-        costate's jump, an unknown, is what they determine with the junction's time)."""
+        """The conditions ``c = D c = 0`` at the touch point at the start of arc ``k`` (the constraint reaches its
+        bound there and turns back; of any order): they determine the junction's time and the costate's jump."""
         fl = self.flows
-        name = cast(str, self.kinds[k].touch)
-        q = fl.ineq[name]
-        rows = [q.function(fl.x, fl.u, fl.t, fl.P)]
-        for _ in range(q.order - 1):
-            rows.append(fl.D(rows[-1]))
-        return [ca.substitute(r, fl.u, fl.flow(self.kinds[k]).control) for r in rows]
+        c = fl.ineq[cast(str, self.kinds[k].touch)].function(fl.x, fl.u, fl.t, fl.P)
+        return [ca.substitute(r, fl.u, fl.flow(self.kinds[k]).control) for r in (c, fl.D(c))]
 
     def _continuous_control(self, k: int, neighbour: int) -> ca.SX | None:
         """For the boundary arc ``k`` of a mixed constraint on a control H is affine in, the condition at its junction
