@@ -41,6 +41,7 @@ CERTIFIED = [
     "bryson_denham_touch_point",
     "turnpike",
     "miser3_state_constraint",
+    "free_flying_robot",
 ]
 #: the rows whose goal is the same 2 s from the direct solve (state constraints of order two, issue 45)
 ALSO_UNDER_GOAL = ["bryson_denham_boundary_arc", "bryson_denham_touch_point"]
@@ -58,9 +59,7 @@ def main() -> None:
             direct = case.transcription().solve(**case.solve_options)
             t1 = time.perf_counter()
             shoot = case.shoot() if case.shoot is not None else None
-            extremal = to_extremal(
-                direct, problem=shoot, control_set=case.control_set, integrator_tol=case.integrator_tol
-            )
+            extremal = to_extremal(direct, problem=shoot, control_set=case.control_set, **case.options)
             t2 = time.perf_counter()
             timings = extremal.timings
             confirm_s = timings.get("confirm_s", 0.0)

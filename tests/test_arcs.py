@@ -10,10 +10,21 @@ from scipy.optimize import brentq
 from test_shooting import gain_problem
 from test_structure import saturated
 
-from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, Outcome, Radau, SolverError, State
+from ocpkit import (
+    HLGL,
+    Constraint,
+    Control,
+    FreeFinalTime,
+    OptimalControlProblem,
+    Outcome,
+    Program,
+    Radau,
+    SolverError,
+    State,
+)
 from ocpkit.indirect import _arc_conditions, certify, follow_extremal, to_extremal
 from ocpkit.shooting.arcs import ArcShooting, ArcType, arc_sequence
-from ocpkit.structure import control_structure
+from ocpkit.structure import Arc, Structure, control_structure
 
 from compendium.paper import paper_table
 from compendium.problems import (
@@ -22,6 +33,7 @@ from compendium.problems import (
     double_integrator_solution,
     double_integrator_thrusters,
     free_flying_robot,
+    free_flying_robot_net,
     goddard_constants,
     goddard_rocket,
     orbit_raising,
@@ -329,3 +341,44 @@ def test_arc_shooting_refuses_what_it_cannot_pose():
     assert info.value.result.norm > 1e-10 and info.value.outcome is info.value.result.status
     returned = shooting.solve(np.array([5.0, 1.9, 3.0, 0.0]), max_iterations=1, raise_on_failure=False)
     assert not returned.converged and returned.status is info.value.outcome and returned.iterations <= 1
+
+
+def test_the_free_flying_robot_on_its_net_thrusts_with_l1_singular_arcs():
+    """Solved directly as four nonnegative thrusts (smooth), shot on the net thrusts F = u1 - u2 with the cost |F|:
+    the arcs are read in the net thrusts; F2 has a singular arc (psi2 = -1) after its first burn and before its
+    last, each 0.7% of the horizon. The extremal's cost is below both published values (Betts' SOS 7.910154646 and
+    GPOPS-II's 7.9101902, discretised optima)."""
+    direct = Program(free_flying_robot(), HLGL(intervals=600)).solve(error_threshold=None)
+    extremal = to_extremal(direct, problem=free_flying_robot_net(), method="arcs", min_share=0.005)
+    assert extremal.structure.kinds("F2") == ["upper", "singular", "zero", "singular", "lower"]
+    assert extremal.structure.kinds("F1") == ["lower", "zero", "upper", "zero", "lower", "zero", "upper"]
+    assert extremal.certificate.passed and extremal.norm <= 1e-10
+    published = paper_table("beyond_the_seeds").set_index(["problem", "quantity"]).value
+    assert extremal.objective < published["free_flying_robot", "objective"]
+    assert extremal.objective < published["free_flying_robot", "objective_gpops2"]
+    assert extremal.objective == pytest.approx(direct.objective, rel=1e-6)
+    # read as a switch (the default shortest arc), the singular arcs are missed, and the extremal of that structure
+    # fails the H-minimum check where its switching function crosses -1 twice
+    with pytest.raises(SolverError, match=r"failed checks \['hamiltonian_minimum'"):
+        to_extremal(direct, problem=free_flying_robot_net(), method="arcs")
+
+
+def test_an_l1_singular_arc_needs_a_bang_neighbour_for_its_branch():
+    problem = free_flying_robot_net()
+    kinds = ArcType(("zero", "singular"))
+    arcs = arc_sequence(
+        Structure(
+            (
+                Arc("F1", "zero", 0.0, 12.0),
+                Arc("F2", "zero", 0.0, 1.0),
+                Arc("F2", "singular", 1.0, 2.0),
+                Arc("F2", "zero", 2.0, 12.0),
+            )
+        ),
+        problem,
+        0.0,
+        12.0,
+    )
+    assert arcs[1][0] == kinds  # no branch: neither neighbour is at a bound
+    with pytest.raises(ValueError, match=r"control 'F2' has an L1 cost and a singular arc with no bang arc"):
+        ArcShooting(problem, arcs)

@@ -53,6 +53,7 @@ from .second_order import SecondOrder, second_order
 from .shooting.continuation import ContinuationPath
 from .statement.symbols import readers
 from .structure import Structure, control_structure
+from .trajectory import Trajectory
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -63,7 +64,6 @@ if TYPE_CHECKING:
     from .shooting.result import IndirectResult
     from .solution import Solution
     from .statement import OptimalControlProblem
-    from .trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -293,6 +293,7 @@ def to_extremal(
     raise_on_failure: bool | None = None,
     strict: bool | None = None,
     integrator_tol: float | None = None,
+    min_share: float = 0.01,
 ) -> Extremal:
     """The extremal of the maximum principle that ``solution`` (a direct solution with costate estimates)
     approximates, solved by shooting to ``|S| <= tol`` and certified (module docstring).
@@ -328,7 +329,11 @@ def to_extremal(
     name of ``raise_on_failure``. ``switching``, ``jacobian`` and ``solver`` are the ``"switching"`` method's.
     ``integrator_tol``: the flows' relative and absolute tolerance (default: 1e-12 for the arc method, ``tol``
     within [1e-13, 1e-8] for the switching method); the objective and the junction times are as accurate as the
-    flows (1e-14 gives Bryson-Denham's cost within 4e-13, 1e-12 within 1.4e-11).
+    flows (1e-14 gives Bryson-Denham's cost within 4e-13, 1e-12 within 1.4e-11). ``min_share``: the shortest arc
+    read from the direct solution, as a fraction of the horizon (:func:`ocpkit.structure.control_structure`).
+    With ``problem`` and ``method="arcs"``, the arcs are read in the restatement's controls: those that give the
+    direct solution's dynamics and running cost at its states (a thrust pair ``u1 - u2`` as one net thrust with the
+    cost ``|F|``), and the certificate compares the extremal's arcs with that reading.
     """
     raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
     from .shooting.hamiltonian import CONTROL_SETS
@@ -348,9 +353,8 @@ def to_extremal(
             f"to_extremal needs the direct solution's costate estimates, which {type(solution).__name__} of "
             f"{getattr(solution, 'transcription', 'this scheme')!r} does not give: solve with Radau or HLGL"
         )
-    start = time.perf_counter()
-    structure = control_structure(solution)
-    detect_s = time.perf_counter() - start
+    if not 0 < min_share < 0.5:
+        raise ValueError(f"min_share must lie in (0, 0.5), got {min_share!r}")
     restated = problem is not None
     statement = _restatement(solution, problem) if problem is not None else _statement(solution)
     if statement.nu == 0:
@@ -358,6 +362,11 @@ def to_extremal(
             f"{statement.name!r} has no control: to_extremal solves the maximum principle for a control law and "
             "there is none (the direct solution, the optimum of its parameters and initial values, stands)"
         )
+    start = time.perf_counter()
+    # a restatement's arcs are read in its own controls, fitted to the direct solution's dynamics and running cost
+    read_in = restated and method == "arcs"
+    structure = control_structure(_ReadIn(solution, statement) if read_in else solution, min_share=min_share)
+    detect_s = time.perf_counter() - start
     base = statement
     budgets: list[str] = []
     if not restated:  # a state constraint only the final state can reach: its terminal condition (ocpkit.monotone)
@@ -381,6 +390,7 @@ def to_extremal(
             raise_on_failure,
             detect_s,
             integrator_tol,
+            min_share,
         )
     except ValueError as exc:
         if not outputs:
@@ -408,6 +418,7 @@ def _extremal(
     raise_on_failure: bool,
     detect_s: float,
     integrator_tol: float | None = None,
+    min_share: float = 0.01,
 ) -> Extremal:
     """The chain of :func:`to_extremal` from its statement and structure on: the shooting, its certificate, the
     re-solve from the extremal where only the comparisons with the direct solution fail."""
@@ -416,6 +427,7 @@ def _extremal(
 
     problem = statement
     radius = _ball_radius(statement) if control_set == "ball" else 1.0
+    read_in = restated and method == "arcs"  # the arcs read in the restatement's controls (to_extremal)
     if method == "auto":
         method = "switching" if control_set == "ball" else "arcs" if _needs_arcs(statement, structure) else "switching"
     start = time.perf_counter()
@@ -459,7 +471,8 @@ def _extremal(
     shoot_s = time.perf_counter() - start
     trajectory = cast("Trajectory", result.trajectory)  # (a converged run has one)
     terminal = _terminal_multipliers(result, budgets)
-    certificate = certify(trajectory, result, solution, None if restated else structure, tol=tol, terminal=terminal)
+    compared = structure if not restated or read_in else None
+    certificate = certify(trajectory, result, solution, compared, tol=tol, terminal=terminal, min_share=min_share)
     timings = {"structure_s": detect_s, "shooting_s": shoot_s}
     first = None
     if certificate.failed and set(certificate.failed) <= set(COMPARISONS):
@@ -468,11 +481,11 @@ def _extremal(
         timings["confirm_s"] = time.perf_counter() - start
         if again is not None:
             first, solution = solution, again
-            structure = control_structure(again)
+            structure = control_structure(_ReadIn(again, statement) if read_in else again, min_share=min_share)
             if budgets:  # read as the first one was
                 structure = as_terminal(base, structure, again)[1]
             certificate = certify(
-                trajectory, result, again, None if restated else structure, tol=tol, first=first, terminal=terminal
+                trajectory, result, again, compared, tol=tol, first=first, terminal=terminal, min_share=min_share
             )
     extremal = Extremal(
         trajectory=trajectory,
@@ -817,37 +830,85 @@ def _resolved_from(
 
 def _fitted_controls(solution: Solution, trajectory: Trajectory, t: np.ndarray, X: np.ndarray) -> np.ndarray:
     """The direct problem's controls (rows: the times ``t``) that give the extremal's dynamics and running cost at
-    its states ``X``: ``min sum |(f_d(x, v) - f(x, u)) / scale|^2 + (L_d(x, v) - L(x, u))^2`` within the controls'
-    bounds, one small least-squares problem per time (block-separable), from the first direct solution's controls
-    at the same fraction of the horizon."""
-    direct, ours = solution.problem, trajectory.problem
-    hd, hs = direct.functions.hamiltonian, ours.functions.hamiltonian
-    n = t.size
-    fs = ca.Function("fs", [hs.x, hs.u, hs.t, hs.P], [ca.vertcat(hs.f, hs.L)]).map(n)
-    P = np.repeat(np.asarray(ours.full_parameters, dtype=float).reshape(-1, 1), n, axis=1)
-    target = np.asarray(fs(X.T, trajectory.control(t).T, t[None, :], P))
-    scale = ca.DM([abs(v.scale) for v in direct.states] + [1.0])
-    y = ca.SX.sym("y", direct.nx + 1)
-    misfit = ca.sumsqr((ca.vertcat(hd.f, hd.L) - y) / scale)
-    term = ca.Function(
-        "misfit", [hd.u, hd.x, hd.t, y], [ca.substitute(misfit, hd.P, ca.DM(direct.full_parameters))]
-    ).map(n)
-    V = ca.MX.sym("V", direct.nu, n)
-    fit = ca.nlpsol(
-        "fit",
-        "ipopt",
-        {"x": ca.vec(V), "f": ca.sum2(term(V, X.T, t[None, :], target))},
-        {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12},
-    )
+    its states ``X`` (:func:`_fit`), from the first direct solution's controls at the same fraction of the
+    horizon."""
     from .statement import wrap_periodic
 
     s = (t - trajectory.t0) / (trajectory.tf - trajectory.t0)
     # a periodic control's continuous angle moved into its bounds by whole turns, where clipping would change it
-    start = wrap_periodic(solution.control(solution.t0 + s * (solution.tf - solution.t0)), direct.controls).T
-    lo = np.repeat([[c.lower] for c in direct.controls], n, axis=1)
-    hi = np.repeat([[c.upper] for c in direct.controls], n, axis=1)
-    out = fit(x0=np.clip(start, lo, hi).ravel(order="F"), lbx=lo.ravel(order="F"), ubx=hi.ravel(order="F"))
-    return np.asarray(out["x"]).reshape(direct.nu, n, order="F").T
+    start = wrap_periodic(solution.control(solution.t0 + s * (solution.tf - solution.t0)), solution.problem.controls)
+    return _fit(solution.problem, trajectory.problem, t, X, trajectory.control(t), start)
+
+
+def _fit(
+    target: OptimalControlProblem,
+    source: OptimalControlProblem,
+    t: np.ndarray,
+    X: np.ndarray,
+    U: np.ndarray,
+    start: np.ndarray,
+) -> np.ndarray:
+    """``target``'s controls (rows: the times ``t``) that give ``source``'s dynamics and running cost with its
+    controls ``U`` at the states ``X`` (the two problems have the same states):
+    ``min sum |(f_t(x, v) - f_s(x, u)) / scale|^2 + (L_t(x, v) - L_s(x, u))^2`` within ``target``'s control bounds,
+    one small least-squares problem per time (block-separable), from ``start``."""
+    ht, hs = target.functions.hamiltonian, source.functions.hamiltonian
+    n = t.size
+    fs = ca.Function("fs", [hs.x, hs.u, hs.t, hs.P], [ca.vertcat(hs.f, hs.L)]).map(n)
+    P = np.repeat(np.asarray(source.full_parameters, dtype=float).reshape(-1, 1), n, axis=1)
+    goal = np.asarray(fs(X.T, U.T, t[None, :], P))
+    scale = ca.DM([abs(v.scale) for v in target.states] + [1.0])
+    y = ca.SX.sym("y", target.nx + 1)
+    misfit = ca.sumsqr((ca.vertcat(ht.f, ht.L) - y) / scale)
+    term = ca.Function(
+        "misfit", [ht.u, ht.x, ht.t, y], [ca.substitute(misfit, ht.P, ca.DM(target.full_parameters))]
+    ).map(n)
+    V = ca.MX.sym("V", target.nu, n)
+    fit = ca.nlpsol(
+        "fit",
+        "ipopt",
+        {"x": ca.vec(V), "f": ca.sum2(term(V, X.T, t[None, :], goal))},
+        {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-12},
+    )
+    lo = np.repeat([[c.lower] for c in target.controls], n, axis=1)
+    hi = np.repeat([[c.upper] for c in target.controls], n, axis=1)
+    out = fit(
+        x0=np.clip(np.asarray(start).T, lo, hi).ravel(order="F"), lbx=lo.ravel(order="F"), ubx=hi.ravel(order="F")
+    )
+    return np.asarray(out["x"]).reshape(target.nu, n, order="F").T
+
+
+class _ReadIn(Trajectory):
+    """The direct solution's states and costates with its controls read in a restated problem's (:func:`_fit`, on
+    ``samples`` times, linear between them): the direct solution as the restatement's arc method reads its
+    structure. Its controls are a transcription's, one polynomial per mesh interval (``polynomial``: a switch that
+    the polynomial smears is not an arc, :func:`ocpkit.structure.control_structure`)."""
+
+    polynomial = True
+
+    def __init__(self, solution: Solution, problem: OptimalControlProblem, samples: int = 4001) -> None:
+        self.problem = problem
+        self.solution = solution
+        self.t0, self.tf = float(solution.t0), float(solution.tf)
+        self.objective = float(solution.objective)
+        self.breakpoints = np.asarray(solution.breakpoints, dtype=float)
+        self._t = np.linspace(self.t0, self.tf, samples)
+        U = solution.control(self._t)
+        self._V = _fit(problem, solution.problem, self._t, solution.state(self._t), U, np.zeros((samples, problem.nu)))
+
+    def _state(self, t: np.ndarray) -> np.ndarray:
+        return self.solution.state(t)
+
+    def _costate(self, t: np.ndarray) -> np.ndarray:
+        return self.solution.costate(t)
+
+    @property
+    def has_costates(self) -> bool:
+        return True
+
+    def _control(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        return np.stack([np.interp(t, self._t, self._V[:, i]) for i in range(self.problem.nu)], axis=-1)
 
 
 def _restatement(solution: Solution, problem: OptimalControlProblem) -> OptimalControlProblem:
@@ -985,8 +1046,10 @@ def certify(
     samples: int = 401,
     first: Solution | None = None,
     terminal: Mapping[str, float] | None = None,
+    min_share: float = 0.01,
 ) -> Certificate:
-    """The checks of an extremal (every one named; :class:`Certificate`):
+    """The checks of an extremal (every one named; :class:`Certificate`; ``min_share``: the shortest arc the
+    structure is read with, as ``structure`` was):
 
     * ``shooting_residual``: ``|S|`` at the solution, at most ``tol``;
     * ``hamiltonian_minimum``: on ``samples`` times, how much lower H gets than at the extremal's control over a
@@ -1106,7 +1169,7 @@ def certify(
     # an arc-shooting extremal's own arcs are exact (ocpkit.second_order reads them): detected again only to
     # compare with the direct solution's
     exact = isinstance(getattr(getattr(trajectory, "shooting", None), "kinds", None), list)
-    found = control_structure(trajectory) if structure is not None or not exact else Structure(())
+    found = control_structure(trajectory, min_share=min_share) if structure is not None or not exact else Structure(())
     if structure is not None:
 
         def arcs(s: Structure, name: str) -> list[tuple[str, str | None]]:

@@ -7,7 +7,8 @@ involves, is
 
 * ``"lower"`` or ``"upper"``: on that bound (within ``band`` of its range);
 * ``"zero"``: at zero, strictly inside its bounds, for a control with an L1 cost (``w |u|`` in H: an "off" arc);
-* ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`);
+* ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`),
+  or piecewise affine in (an L1 cost: ``psi = -w`` or ``+w`` on the arc);
 * ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control);
 * ``"boundary"``: inside its bounds where an inequality of the problem is active (:func:`inequalities`: a state
   on its bound, a pure state constraint, or a mixed state-control path constraint at its bound); the arc names it.
@@ -192,8 +193,9 @@ def control_structure(
     t = np.linspace(trajectory.t0, trajectory.tf, samples)
     U = np.asarray(trajectory.control(t), dtype=float).reshape(samples, problem.nu)
     affine = set(linear_controls(problem))
-    # a transcription's control is one polynomial per mesh interval; an extremal's (shooting) is exact
-    polynomial = isinstance(trajectory, (Solution, PhaseSolution))
+    # a transcription's control is one polynomial per mesh interval (also as read in a restated problem's controls,
+    # which say so); an extremal's (shooting) is exact
+    polynomial = isinstance(trajectory, (Solution, PhaseSolution)) or bool(getattr(trajectory, "polynomial", False))
     breaks = np.asarray(trajectory.breakpoints, dtype=float)
     switching = _switching_functions(trajectory)
     active, touches = _active(trajectory, t, U, band, min_share)
@@ -206,7 +208,9 @@ def control_structure(
         if not bounded and not mine:
             continue  # an unbounded control without an active inequality: regular throughout, no arcs
         u = U[:, i]
-        interior = "singular" if c.name in affine else "regular"
+        # H is affine in a control, or piecewise affine in one with an L1 cost (H0 + psi u + w |u|): inside its
+        # bounds and off zero, such a control is singular (psi = -w or +w)
+        interior = "singular" if c.name in affine or i in l1 else "regular"
         labels = np.full(samples, interior, dtype=object)
         if bounded:
             tol = band * (c.upper - c.lower)
@@ -375,8 +379,14 @@ def _junction(
     pair = {kind_a, kind_b}
     if any(k.startswith("boundary") for k in pair):
         return guess  # an inequality becomes active or inactive: no switching function decides it
-    if pair == {"lower", "upper"} or "singular" in pair:
+    if pair == {"lower", "upper"}:
         sign = 0.0
+    elif "singular" in pair:  # psi = 0 (H affine), psi = -w after or before "upper", +w by "lower" (an L1 cost)
+        rest = pair - {"singular"}
+        side = {"upper": -1.0, "lower": 1.0}.get(next(iter(rest)), None) if rest else 0.0
+        if side is None:
+            return guess  # an L1 control between zero and singular: psi = -w or +w, which the branch decides
+        sign = side
     elif pair == {"lower", "zero"}:
         sign = 1.0
     elif pair == {"zero", "upper"}:

@@ -5,6 +5,7 @@ from .attitude_ascent import attitude_ascent
 from .beyond_the_seeds import (
     catalyst_mixing,
     free_flying_robot,
+    free_flying_robot_net,
     miser3_state_constraint,
     orbit_raising,
     rayleigh,
@@ -40,6 +41,7 @@ __all__ = [
     "attitude_ascent",
     "catalyst_mixing",
     "free_flying_robot",
+    "free_flying_robot_net",
     "miser3_state_constraint",
     "orbit_raising",
     "rayleigh",

@@ -101,6 +101,31 @@ def free_flying_robot() -> OptimalControlProblem:
     )
 
 
+def free_flying_robot_net() -> OptimalControlProblem:
+    """The free-flying robot on its net thrusts ``F1 = u1 - u2``, ``F2 = u3 - u4`` in ``[-1, 1]`` with the cost
+    ``|F1| + |F2|``: the statement to shoot (the maximum principle's bang-off-bang and L1-singular arcs), the
+    four-control :func:`free_flying_robot` being the smooth one to solve directly (an optimum never fires both
+    thrusters of a pair, so ``u1 + u2 = |F1|``)."""
+    c = load_problem_data("beyond_the_seeds")["robot"]
+    names = ["x", "y", "theta", "vx", "vy", "omega"]
+
+    def dynamics(x, u, t):
+        F1, F2 = u[0], u[1]
+        return ca.vertcat(
+            x[3], x[4], x[5], (F1 + F2) * ca.cos(x[2]), (F1 + F2) * ca.sin(x[2]), c["alpha"] * F1 - c["beta"] * F2
+        )
+
+    return OptimalControlProblem(
+        "free_flying_robot_net",
+        states=[State(n, initial=a, final=b) for n, a, b in zip(names, c["initial"], c["final"])],
+        controls=[Control("F1", -1.0, 1.0), Control("F2", -1.0, 1.0)],
+        dynamics=dynamics,
+        tf=c["tf"],
+        lagrange=lambda x, u, t: ca.fabs(u[0]) + ca.fabs(u[1]),
+        description="Free-flying robot on its net thrusts, L1 cost (Sakawa 1999; Betts 2010, Ex. 6.13)",
+    )
+
+
 def miser3_state_constraint() -> OptimalControlProblem:
     c = load_problem_data("beyond_the_seeds")["miser3"]
     a, b, ceiling = c["ceiling"]

@@ -30,6 +30,7 @@ from ..problems import (
     double_integrator_solution,
     double_integrator_thrusters,
     free_flying_robot,
+    free_flying_robot_net,
     goddard_constants,
     goddard_rocket,
     miser3_state_constraint,
@@ -73,8 +74,8 @@ class Case:
     #: the problem as posed, to shoot, where the direct one restates its controls (``to_extremal(problem=...)``)
     shoot: Callable | None = None
     control_set: str = "box"
-    #: the flows' tolerance (``to_extremal(integrator_tol=...)``; None: its default)
-    integrator_tol: float | None = None
+    #: further keywords of ``to_extremal`` (``integrator_tol``, ``method``, ``min_share``)
+    options: dict = field(default_factory=dict)
 
     def transcription(self) -> Program:
         """The case's direct transcription of its problem: the program of its scheme."""
@@ -237,7 +238,7 @@ CASES = {
             {"mesh_tolerance": 1e-6},
             lambda: bryson_denham_extremal("boundary_arc"),
             _arcs_measure,
-            integrator_tol=1e-14,
+            options={"integrator_tol": 1e-14},
         ),
         Case(
             "bryson_denham_touch_point",
@@ -247,7 +248,7 @@ CASES = {
             {"mesh_tolerance": 1e-6},
             lambda: bryson_denham_extremal("touch_point"),
             _arcs_measure,
-            integrator_tol=1e-14,
+            options={"integrator_tol": 1e-14},
         ),
         Case(
             "turnpike",
@@ -257,7 +258,7 @@ CASES = {
             {"mesh_tolerance": 1e-7},
             turnpike_extremal,
             _arcs_measure,
-            integrator_tol=1e-14,
+            options={"integrator_tol": 1e-14},
         ),
         Case(
             "tumour_anti_angiogenesis",
@@ -272,10 +273,15 @@ CASES = {
         ),
         Case(
             "free_flying_robot",
-            "free-flying robot: two controls on one mixed constraint",
+            "free-flying robot: thruster pairs solved directly, shot on their net thrusts (L1-singular arcs)",
             free_flying_robot,
-            Radau(nodes=4, intervals=30),
+            HLGL(intervals=600),
             {"error_threshold": None},
+            lambda: {"objective": _published("beyond_the_seeds", "free_flying_robot", "objective")},
+            lambda e: {"objective": e.objective},
+            shoot=free_flying_robot_net,
+            # arcs read in the net thrusts; its singular arcs last 0.7% of the horizon each
+            options={"method": "arcs", "min_share": 0.005},
         ),
     ]
 }
@@ -365,9 +371,7 @@ def run_case(case: Case, tol: float = 1e-10) -> tuple[list[dict], dict, object]:
     timings = {"problem": case.name, "direct_s": direct_s}
     try:
         shoot = case.shoot() if case.shoot is not None else None
-        extremal = to_extremal(
-            direct, problem=shoot, control_set=case.control_set, tol=tol, integrator_tol=case.integrator_tol
-        )
+        extremal = to_extremal(direct, problem=shoot, control_set=case.control_set, tol=tol, **case.options)
     except (ValueError, SolverError) as exc:
         timings["chain_s"] = time.perf_counter() - start - direct_s
         words = _words(control_structure(direct), direct.problem.control_names)
@@ -404,7 +408,10 @@ def _in_words(extremal) -> str:
         on = bool(np.linalg.norm(tr.control(np.array([tr.t0]))[0]) > 0.5 * law.radius)
         kinds = ["on" if (k % 2 == 0) == on else "off" for k in range(extremal.shooting.integration.switchings + 1)]
         return f"|u|: {', '.join(kinds)}"
-    return _words(extremal.structure, extremal.direct.problem.control_names)
+    controls = extremal.direct.problem.control_names
+    if any(a.control not in controls for a in extremal.structure.arcs):  # read in a restatement's controls
+        controls = extremal.trajectory.problem.control_names
+    return _words(extremal.structure, controls)
 
 
 def _words(structure, controls) -> str:

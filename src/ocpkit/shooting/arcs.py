@@ -12,7 +12,8 @@ Hamiltonian ``H = L + p'f`` of the problem, written with the time derivative alo
   flow), its value at the arc's start an unknown and ``H_u = 0`` there a condition;
 * **singular**: ``phi = H_u`` does not depend on ``u``; its derivatives ``D^k phi`` are taken until ``u`` appears,
   in ``D^(2q) phi`` (order ``q``), which gives the feedback ``u = -D^(2q) phi|_(u=0) / d_u D^(2q) phi``; at the
-  arc's entry ``phi, D phi, ..., D^(2q-1) phi`` vanish;
+  arc's entry ``phi, D phi, ..., D^(2q-1) phi`` vanish. For a control with an L1 cost (``H = H0 + psi u + w |u|``)
+  ``phi = psi + s w`` on the branch ``s`` (the sign of the bang arc beside it, :attr:`ArcType.signs`);
 * **boundary** of an inequality ``c <= 0`` (:func:`ocpkit.structure.inequalities`): for a mixed constraint
   (``c_u != 0``) the control from ``c = 0``, the multiplier ``mu = -H_u / c_u`` and ``dp/dt = -H_x - mu c_x``; at
   each junction (not at t0 or tf) the control is continuous: ``mu = 0`` where H is regular in it, ``c = 0`` with
@@ -45,7 +46,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, cast
 
 import casadi as ca
@@ -53,7 +54,7 @@ import numpy as np
 
 from .._arrays import unique
 from ..errors import SolverError
-from ..hamiltonian_form import l1_controls, sample_value
+from ..hamiltonian_form import decompose, l1_controls, sample_value
 from ..nodes import cubic_hermite
 from ..outcome import Outcome
 from ..statement import FreeFinalTime
@@ -77,6 +78,9 @@ class ArcType:
     kinds: tuple[str, ...]
     constraint: str | None = None
     touch: str | None = None
+    #: per control, the branch of an L1 control's singular arc (``+1``: ``u > 0``, where ``H_u = psi + w``;
+    #: ``-1``: ``u < 0``), read from the bang arc next to it; 0 elsewhere (empty where there is none)
+    signs: tuple[int, ...] = ()
 
 
 def arc_sequence(
@@ -107,6 +111,33 @@ def arc_sequence(
             out[-1] = (kind, out[-1][1], b)
         else:
             out.append((kind, a, b))
+    return _l1_branches(out, problem)
+
+
+def _l1_branches(
+    arcs: list[tuple[ArcType, float, float]], problem: OptimalControlProblem
+) -> list[tuple[ArcType, float, float]]:
+    """Each singular arc of a control with an L1 cost given its branch (:attr:`ArcType.signs`): the sign of the
+    control on the arc of it just before or just after, where that one is at a bound (``"upper"`` or ``"lower"``;
+    none where neither is, or where they disagree)."""
+    l1 = l1_controls(problem)
+    if not l1 or not any("singular" in kind.kinds for kind, _, _ in arcs):
+        return arcs
+    out = []
+    for k, (kind, a, b) in enumerate(arcs):
+        signs = [0] * len(kind.kinds)
+        for i in l1:
+            if kind.kinds[i] != "singular":
+                continue
+            before = next(
+                (arcs[j][0].kinds[i] for j in range(k - 1, -1, -1) if arcs[j][0].kinds[i] != "singular"), None
+            )
+            after = next(
+                (arcs[j][0].kinds[i] for j in range(k + 1, len(arcs)) if arcs[j][0].kinds[i] != "singular"), None
+            )
+            bounds = {w for w in (before, after) if w in ("upper", "lower")}
+            signs[i] = {"upper": 1, "lower": -1}[bounds.pop()] if len(bounds) == 1 else 0
+        out.append((replace(kind, signs=tuple(signs)) if any(signs) else kind, a, b))
     return out
 
 
@@ -213,6 +244,15 @@ class ArcFlows:
                     f"control {names[i]!r} is singular while {[names[j] for j in other]} are not at a bound: this "
                     "combination is not derived; keep the direct solution"
                 )
+            if i in self.l1:  # H = H0 + psi u + w |u|: on the branch u = s |u|, H_u = psi + s w
+                sign = kind.signs[i] if kind.signs else 0
+                if sign == 0:
+                    raise ValueError(
+                        f"control {names[i]!r} has an L1 cost and a singular arc with no bang arc of it at a bound "
+                        "on either side: the branch of |u| (psi = -w or +w) is not determined; keep the direct solution"
+                    )
+                w_i = decompose(H, u, problem.nu)[2][i]
+                H = H - w_i * ca.fabs(u[i]) + sign * w_i * u[i]
             phi = fixed(ca.jacobian(H, u[i]))
             if self.depends(phi, u[i]):
                 raise ValueError(f"control {names[i]!r}: H is not affine in it, so it has no singular arc")
