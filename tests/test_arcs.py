@@ -382,3 +382,42 @@ def test_an_l1_singular_arc_needs_a_bang_neighbour_for_its_branch():
     assert arcs[1][0] == kinds  # no branch: neither neighbour is at a bound
     with pytest.raises(ValueError, match=r"control 'F2' has an L1 cost and a singular arc with no bang arc"):
         ArcShooting(problem, arcs)
+
+
+def test_a_restatement_is_read_in_its_controls_and_must_keep_the_dynamics():
+    """With the default method the robot's restatement is read in its net thrusts too (the arcs route, its
+    singular arcs kept by min_share); a restatement whose dynamics no controls of it reproduce is named."""
+    direct = Program(free_flying_robot(), HLGL(intervals=600)).solve(error_threshold=None)
+    extremal = to_extremal(direct, problem=free_flying_robot_net(), min_share=0.005)
+    assert extremal.route.startswith("arc shooting") and extremal.certificate.passed
+    wrong = free_flying_robot_net()
+    altered = OptimalControlProblem(
+        "altered",
+        states=wrong.states,
+        controls=wrong.controls,
+        dynamics=lambda x, u, t: [x[3], x[4], x[5], u[0] * ca.cos(x[2]), u[0] * ca.sin(x[2]), 0.5 * u[1]],
+        tf=wrong.tf,
+        lagrange=lambda x, u, t: ca.fabs(u[0]) + ca.fabs(u[1]),
+    )
+    with pytest.raises(ValueError, match=r"'altered' does not give the direct solution's dynamics"):
+        to_extremal(direct, problem=altered, method="arcs")
+
+
+def test_an_l1_cost_with_a_quadratic_term_stays_regular():
+    """lam |u| + (1 - lam) u^2: H is strictly convex in u off zero, so its interior arcs are regular, not singular
+    (the saturated law, which the switching method shoots)."""
+    from ocpkit.hamiltonian_form import l1_controls, piecewise_affine_controls
+
+    problem = double_integrator(0.5)
+    assert l1_controls(problem) and not piecewise_affine_controls(problem)
+    assert piecewise_affine_controls(free_flying_robot_net()) == {0, 1}
+    # a norm of several controls (a thrust bounded in a ball, |u| as its cost) is not piecewise affine either
+    ball = OptimalControlProblem(
+        "ball",
+        [State("x", initial=0.0, final=1.0), State("y", initial=0.0, final=1.0)],
+        [Control("ux", -1.0, 1.0), Control("uy", -1.0, 1.0)],
+        lambda x, u, t: [u[0], u[1]],
+        tf=2.0,
+        lagrange=lambda x, u, t: ca.sqrt(u[0] ** 2 + u[1] ** 2),
+    )
+    assert not piecewise_affine_controls(ball)

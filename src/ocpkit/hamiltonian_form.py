@@ -83,6 +83,36 @@ def l1_controls(problem: OptimalControlProblem) -> set[int]:
     return out
 
 
+def piecewise_affine_controls(problem: OptimalControlProblem) -> set[int]:
+    """The controls with an L1 cost (:func:`l1_controls`) in which H is affine on each side of zero, whatever the
+    other controls: no quadratic term (``b = 0``) and no norm of several controls. Inside their bounds and off
+    zero they are singular (``psi = -w`` or ``+w``). Checked at random points: the second difference of H in the
+    control at ``0, a, 2a`` vanishes for ``a`` of either sign, the other controls nonzero."""
+    l1 = l1_controls(problem)
+    if not l1:
+        return set()
+    ham = problem.functions.hamiltonian
+    Hf = ca.Function("H", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H])
+    rng = np.random.default_rng(5)
+    P = np.asarray(problem.full_parameters, dtype=float).ravel()
+    out = set()
+    for i in l1:
+        affine = True
+        for _ in range(3):
+            x, p, u = rng.normal(size=problem.nx), rng.normal(size=problem.nx), rng.uniform(0.2, 1.0, problem.nu)
+            for a in (0.3, -0.3):
+                values = []
+                for k in (0, 1, 2):
+                    v = u.copy()
+                    v[i] = k * a
+                    values.append(float(Hf(x, p, v, 0.3, P)))
+                second = values[2] - 2 * values[1] + values[0]
+                affine &= abs(second) <= 1e-9 * (1 + max(abs(h) for h in values))
+        if affine:
+            out.add(i)
+    return out
+
+
 def has_quadratic_term(problem: OptimalControlProblem) -> bool:
     """Whether some control has a quadratic term ``b u^2`` in H (then the saturated linear law, not bang-off-bang):
     ``b`` at three random points, with the problem's parameter values (free ones at their guesses)."""

@@ -8,7 +8,8 @@ involves, is
 * ``"lower"`` or ``"upper"``: on that bound (within ``band`` of its range);
 * ``"zero"``: at zero, strictly inside its bounds, for a control with an L1 cost (``w |u|`` in H: an "off" arc);
 * ``"singular"``: elsewhere inside, for a control the Hamiltonian is affine in (:func:`ocpkit.accuracy.linear_controls`),
-  or piecewise affine in (an L1 cost: ``psi = -w`` or ``+w`` on the arc);
+  or piecewise affine in (an L1 cost without a quadratic term,
+  :func:`ocpkit.hamiltonian_form.piecewise_affine_controls`: ``psi = -w`` or ``+w`` on the arc);
 * ``"regular"``: elsewhere inside otherwise (``H_u = 0`` gives the control);
 * ``"boundary"``: inside its bounds where an inequality of the problem is active (:func:`inequalities`: a state
   on its bound, a pure state constraint, or a mixed state-control path constraint at its bound); the arc names it.
@@ -36,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
-from .hamiltonian_form import decompose, l1_controls
+from .hamiltonian_form import decompose, l1_controls, piecewise_affine_controls
 from .statement import declared_turn
 
 if TYPE_CHECKING:
@@ -200,6 +201,7 @@ def control_structure(
     switching = _switching_functions(trajectory)
     active, touches = _active(trajectory, t, U, band, min_share)
     l1 = l1_controls(problem)
+    piecewise = piecewise_affine_controls(problem) if l1 else set()
     arcs = []
     for i, c in enumerate(problem.controls):
         # a periodic control's bounds a period apart or more hold no angle back (Control.period): not on them
@@ -210,7 +212,7 @@ def control_structure(
         u = U[:, i]
         # H is affine in a control, or piecewise affine in one with an L1 cost (H0 + psi u + w |u|): inside its
         # bounds and off zero, such a control is singular (psi = -w or +w)
-        interior = "singular" if c.name in affine or i in l1 else "regular"
+        interior = "singular" if c.name in affine or i in piecewise else "regular"
         labels = np.full(samples, interior, dtype=object)
         if bounded:
             tol = band * (c.upper - c.lower)

@@ -194,6 +194,18 @@ class ArcFlows:
                 return True
         return False
 
+    def _constant(self, expr: ca.SX) -> float | None:
+        """The value of ``expr`` (in x, p, t, P) where it is the same at random points (a weight that CasADi does not
+        simplify to a number), else None."""
+        f = ca.Function("value", [self.x, self.p, self.t, self.P], [expr])
+        rng = np.random.default_rng(11)
+        P = np.asarray(self.problem.full_parameters, dtype=float).ravel()
+        values = [
+            float(f(rng.normal(size=self.x.numel()), rng.normal(size=self.x.numel()), rng.uniform(), P))
+            for _ in range(4)
+        ]
+        return values[0] if max(values) - min(values) <= 1e-12 * (1 + abs(values[0])) else None
+
     def D(self, F: ca.SX) -> ca.SX:
         """``dF/dt = F_x f - F_p H_x + F_t`` along the Hamiltonian flow, the control symbolic."""
         x, p, t = self.x, self.p, self.t
@@ -251,8 +263,13 @@ class ArcFlows:
                         f"control {names[i]!r} has an L1 cost and a singular arc with no bang arc of it at a bound "
                         "on either side: the branch of |u| (psi = -w or +w) is not determined; keep the direct solution"
                     )
-                w_i = decompose(H, u, problem.nu)[2][i]
-                H = H - w_i * ca.fabs(u[i]) + sign * w_i * u[i]
+                weight = self._constant(decompose(H, u, problem.nu)[2][i])
+                if weight is None:
+                    raise ValueError(
+                        f"control {names[i]!r}: the weight of its L1 cost depends on the state or time: its singular "
+                        "arc is not derived; keep the direct solution"
+                    )
+                H = H - weight * ca.fabs(u[i]) + sign * weight * u[i]
             phi = fixed(ca.jacobian(H, u[i]))
             if self.depends(phi, u[i]):
                 raise ValueError(f"control {names[i]!r}: H is not affine in it, so it has no singular arc")
