@@ -94,9 +94,10 @@ def beyond_the_seeds() -> str:
 
 
 def direct_to_indirect() -> str:
-    """Each certified extremal's quantities against their closed form or published reference."""
+    """Each certified extremal's quantities against their closed form or published reference, and its
+    second-order verdict."""
     df = _read(DERIVED / "direct_to_indirect.csv")
-    df = df[["problem", "verdict", "route", "quantity", "reference", "value", "error"]]
+    df = df[["problem", "verdict", "route", "second_order", "quantity", "reference", "value", "error"]]
     formats = {"reference": ".10g", "value": ".10g", "error": ".1e"}
     return markdown_table(df, formats) + "\n\n" + _source(DERIVED / "direct_to_indirect.csv", PAPER)
 
