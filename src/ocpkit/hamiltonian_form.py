@@ -138,4 +138,11 @@ def sample_value(state: State) -> float:
     return 0.7
 
 
-__all__ = ["HamiltonianForm", "decompose", "has_quadratic_term", "l1_controls", "sample_value"]
+__all__ = [
+    "HamiltonianForm",
+    "decompose",
+    "has_quadratic_term",
+    "l1_controls",
+    "piecewise_affine_controls",
+    "sample_value",
+]
