@@ -70,14 +70,6 @@ def points(refs: Sequence[Reference], tolerances: Sequence[float] = TOLERANCES, 
     return out
 
 
-def _quiet():
-    caught = warnings.catch_warnings()
-    caught.__enter__()
-    warnings.simplefilter("ignore", AccuracyWarning)  # the rows say how each refinement ended
-    warnings.simplefilter("ignore", SolutionNote)
-    return caught
-
-
 def _mesh_rows(solution: Any) -> list[dict]:
     rows = []
     for m in solution.mesh_history:
@@ -202,15 +194,14 @@ def collection_point(problem: str, scheme: str, tolerance: str) -> dict:
     ``problem`` on ``scheme`` (``"HLGL"``, ``"Radau"``) to the tolerances ``tolerance`` (space-separated; its rows as
     JSON in ``chain``), its solve at defaults (``"defaults"``) or its indirect cross-check (``"indirect"``)."""
     ref = reference(problem)
-    caught = _quiet()
-    try:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)  # the rows say how each refinement ended
+        warnings.simplefilter("ignore", SolutionNote)
         if scheme == "indirect":
             return _indirect(ref)
         if scheme == "defaults":
             return _refined(ref, Radau(), float(tolerance), defaults=True)
         return {"chain": json.dumps(chain(ref, scheme, [float(t) for t in tolerance.split()]))}
-    finally:
-        caught.__exit__(None, None, None)
 
 
 def expand(swept: pd.DataFrame) -> pd.DataFrame:

@@ -30,6 +30,7 @@ import pandas as pd
 from ocpkit import HLGL, Program, Radau
 
 from ...paper import paper_table
+from .._data import load_problem_data
 
 #: What a problem exercises, the gallery's groups (a problem has one or more)
 EXERCISES: dict[str, str] = {
@@ -52,7 +53,8 @@ EXERCISES: dict[str, str] = {
 #: The modules that register problems, by source
 MODULES = ("seeds", "classics", "cops", "betts", "mintoc", "psopt", "gpops", "ocpjl", "dymos", "opty")
 
-#: The collection's published values are compared at most this closely: beyond the digits printed, ``reach``
+#: What a published value is: the continuous problem's optimum, or the optimum of its source's discretisation (the
+#: mesh named in ``Reference.mesh``)
 KINDS = ("continuous", "discretised")
 
 
@@ -108,7 +110,6 @@ class Reference:
     tightest: float | None = None
     indirect: bool = True
     fast: bool = False
-    tags: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         unknown = set(self.exercises) - set(EXERCISES)
@@ -189,6 +190,11 @@ class Reference:
 REFERENCES: dict[str, Reference] = {}
 
 
+def constants(table: str, key: str) -> dict:
+    """A problem's constants: the entry ``key`` of ``data/problems/<table>.toml`` (each family module's table)."""
+    return load_problem_data(table)[key]
+
+
 def register(*references: Reference) -> None:
     """Add references to :data:`REFERENCES` (a name is registered once)."""
     for reference in references:
@@ -219,4 +225,14 @@ def relative(a: float, b: float) -> float:
 for _module in MODULES:
     importlib.import_module(f"{__name__}.{_module}")
 
-__all__ = ["EXERCISES", "KINDS", "REFERENCES", "Reference", "reference", "references", "register", "relative"]
+__all__ = [
+    "EXERCISES",
+    "KINDS",
+    "REFERENCES",
+    "Reference",
+    "constants",
+    "reference",
+    "references",
+    "register",
+    "relative",
+]

@@ -11,20 +11,15 @@ import numpy as np
 
 from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
 
-from .._data import load_problem_data
 from ..flat_moon import LinearTangentSolution
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_betts"
 
 
-def _data(key: str) -> dict:
-    return load_problem_data(TABLE)[key]
-
-
 def van_der_pol() -> OptimalControlProblem:
     """Van der Pol oscillator brought to rest, its velocity bounded below (Betts 2020, Ex. 10.144)."""
-    c = _data("van_der_pol")
+    c = constants(TABLE, "van_der_pol")
     return OptimalControlProblem(
         "betts_van_der_pol_state_constraint",
         states=[
@@ -41,7 +36,7 @@ def van_der_pol() -> OptimalControlProblem:
 
 def linear_tangent_steering() -> OptimalControlProblem:
     """Linear tangent steering: reach a height and a horizontal speed in minimum time (Betts 2020, Ex. 10.73)."""
-    c = _data("linear_tangent_steering")
+    c = constants(TABLE, "linear_tangent_steering")
     a, (y_f, vx_f, vy_f) = c["a"], c["final"]
     return OptimalControlProblem(
         "betts_linear_tangent_steering",
@@ -64,7 +59,7 @@ def linear_tangent_steering_time() -> float:
     conditions fix ``(tan u0, c, t_f)``."""
     from scipy.optimize import root  # here, not at import: posing the problem needs no SciPy
 
-    c = _data("linear_tangent_steering")
+    c = constants(TABLE, "linear_tangent_steering")
     target = np.array(c["final"])
 
     def residual(z):
@@ -79,7 +74,7 @@ def linear_tangent_steering_time() -> float:
 def pendulum_dae() -> OptimalControlProblem:
     """A pendulum steered to the bottom of its swing with least effort (Betts 2020, Ex. 10.103): an index-one DAE,
     its algebraic variable ``y5`` (the tension) eliminated, its bounds a path constraint."""
-    c = _data("pendulum_dae")
+    c = constants(TABLE, "pendulum_dae")
     g, box = c["g"], c["box"]
 
     def tension(x):
@@ -110,7 +105,7 @@ def pendulum_dae() -> OptimalControlProblem:
 def delay() -> OptimalControlProblem:
     """x'(t) = x(t - 1) u(t - 2) by the method of steps, x + u >= 0.3 (Göllmann, Kern & Maurer; Betts 2020,
     Ex. 10.50)."""
-    c = _data("delay")
+    c = constants(TABLE, "delay")
     n = c["steps"]
 
     def dynamics(x, u, t):
@@ -135,7 +130,7 @@ def delay() -> OptimalControlProblem:
 
 def nonconvex_delay() -> OptimalControlProblem:
     """x'(t) = x(t - 0.5)^2 - u(t) by the method of steps, x >= 0.7 (Maurer 2009; Betts 2020, Ex. 10.90)."""
-    c = _data("nonconvex_delay")
+    c = constants(TABLE, "nonconvex_delay")
     n, lag = c["steps"], c["lag"]
 
     def dynamics(x, u, t):
@@ -160,7 +155,7 @@ def nonconvex_delay() -> OptimalControlProblem:
 def tuberculosis() -> OptimalControlProblem:
     """Two-strain tuberculosis: case finding and treatment that minimise the resistant strain's latent and infectious
     (Jung, Lenhart & Feng 2002; Betts 2020, Ex. 10.133)."""
-    c = _data("tuberculosis")
+    c = constants(TABLE, "tuberculosis")
     N, mu = c["N"], c["mu"]
 
     b1, b2, bs, k1, k2, r1, r2, p, q = (c[k] for k in ("beta1", "beta2", "beta_star", "k1", "k2", "r1", "r2", "p", "q"))

@@ -11,20 +11,15 @@ import casadi as ca
 
 from ocpkit import Control, FreeFinalTime, FreeParameter, OptimalControlProblem, Program, State
 
-from .._data import load_problem_data
 from ..cops_gasoil import least_squares
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_cops"
 
 
-def _data(name: str) -> dict:
-    return load_problem_data(TABLE)[name]
-
-
 def robot_arm() -> OptimalControlProblem:
     """Move a robot arm (length rho, angles theta, phi) between two rests in minimum time (COPS 3.0, robot arm)."""
-    c = _data("robot")
+    c = constants(TABLE, "robot")
     L, u, rho, pi = c["L"], c["u_max"], c["rho"], c["pi"]  # pi as COPS' AMPL model rounds it, 3.14159
     theta_f, phi = c["theta_final_over_pi"] * pi, c["phi_over_pi"] * pi
 
@@ -60,7 +55,7 @@ def robot_arm() -> OptimalControlProblem:
 def particle_steering() -> OptimalControlProblem:
     """Steer a particle by the direction u of a thrust a to a height, speed and level flight in minimum time
     (COPS 3.0, particle steering: the linear tangent law)."""
-    c = _data("steering")
+    c = constants(TABLE, "steering")
     a, u_max = c["a"], c["u_max_over_pi"] * math.pi
     y, vx, vy = c["final"]
     return OptimalControlProblem(
@@ -94,7 +89,7 @@ def _fit(problem: OptimalControlProblem, c: dict, scheme, **options) -> Program:
 
 def pinene_fit(scheme) -> Program:
     """Fit the five rate constants of alpha-pinene's isomerization to eight measurements (COPS 3.0, pinene)."""
-    c = _data("pinene")
+    c = constants(TABLE, "pinene")
     first, last = c["initial"], c["z"][-1]
 
     def dynamics(x, u, t, p):
@@ -122,7 +117,7 @@ def pinene_fit(scheme) -> Program:
 def methanol_fit(scheme) -> Program:
     """Fit the five rate constants of the conversion of methanol to hydrocarbons to 17 measurements (COPS 3.0,
     methanol to hydrocarbons)."""
-    c = _data("methanol")
+    c = constants(TABLE, "methanol")
     first, last = c["initial"], c["z"][-1]
 
     def dynamics(x, u, t, p):
@@ -149,7 +144,7 @@ def methanol_fit(scheme) -> Program:
 def marine_fit(scheme) -> Program:
     """Fit the growth and mortality rates of eight stages of a marine population, and its initial state, to 21
     counts (COPS 3.0, marine population dynamics)."""
-    c = _data("marine")
+    c = constants(TABLE, "marine")
     first, last, n = c["z"][0], c["z"][-1], len(c["z"][0])
 
     def dynamics(x, u, t, p):

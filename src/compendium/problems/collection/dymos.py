@@ -21,19 +21,14 @@ from ocpkit import (
     State,
 )
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_dymos"
 
 
-def _data(key: str) -> dict:
-    return load_problem_data(TABLE)[key]
-
-
 def double_integrator() -> OptimalControlProblem:
     """Go as far as possible in 1 s from rest to rest with |u| <= 1 (Dymos' double integrator; x(1) = 1/4)."""
-    c = _data("double_integrator")
+    c = constants(TABLE, "double_integrator")
     return OptimalControlProblem(
         "dymos_double_integrator",
         states=[State("x", initial=0.0, guess=(0.0, 0.25)), State("v", initial=0.0, final=0.0, guess=0.25)],
@@ -46,7 +41,7 @@ def double_integrator() -> OptimalControlProblem:
 
 def hull() -> OptimalControlProblem:
     """Minimise c x(5)^2/2 + int_0^5 u^2/2 dt, x' = u from x(0) = 1.5, u one constant parameter (Dymos' Hull problem)."""
-    c = _data("hull")
+    c = constants(TABLE, "hull")
     return OptimalControlProblem(
         "dymos_hull",
         states=[State("x", initial=c["x0"], guess=(c["x0"], 1.0))],
@@ -61,13 +56,13 @@ def hull() -> OptimalControlProblem:
 
 def hull_final_state() -> float:
     """The exact x(t_f) = x0 - c x0 t_f / (1 + c t_f), as Dymos' test states it (TestHull.solution)."""
-    c = _data("hull")
+    c = constants(TABLE, "hull")
     return c["x0"] - c["c"] * c["x0"] * c["tf"] / (1 + c["c"] * c["tf"])
 
 
 def orbit_raise() -> MultiPhaseProblem:
     """Raise a circular orbit from r = 1 to r = 3 with two finite burns and a coast, least Delta v (Dymos)."""
-    c = _data("orbit_raise")
+    c = constants(TABLE, "orbit_raise")
     ve, tb, tc, names = c["c"], c["burn_time"], c["coast_time"], ["r", "theta", "vr", "vt", "deltav"]
 
     def phase(name, t0, tf, thrust, ends, u_max=None):
@@ -105,7 +100,7 @@ def orbit_raise() -> MultiPhaseProblem:
 
 def cannonball() -> MultiPhaseProblem:
     """Fire a steel ball of a radius to choose (launch energy <= 400 kJ) as far as possible through the air (Dymos)."""
-    c = _data("cannonball")
+    c = constants(TABLE, "cannonball")
     h_k = [a * c["ft"] for a in c["alt_ft"]]
     rho_k = [r * c["slug_per_ft3"] for r in c["rho_slug_ft3"]]
     slopes = [(rho_k[k + 1] - rho_k[k]) / (h_k[k + 1] - h_k[k]) for k in range(len(h_k) - 1)]

@@ -21,20 +21,15 @@ from ocpkit import (
     State,
 )
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_gpops"
-
-
-def _data(key: str) -> dict:
-    return load_problem_data(TABLE)[key]
 
 
 def goddard_three_phase() -> MultiPhaseProblem:
     """Goddard rocket, maximum altitude, in three phases: full thrust, the singular arc imposed as a path
     constraint (thrust free in 1-99 % of its maximum), then coast to the dry mass (yapss goddard_problem_3_phase)."""
-    c = _data("goddard_three_phase")
+    c = constants(TABLE, "goddard_three_phase")
     Tm = c["T_max"]
 
     def drag(x):
@@ -77,7 +72,7 @@ def goddard_three_phase() -> MultiPhaseProblem:
 def dynamic_soaring() -> OptimalControlProblem:
     """Dynamic soaring: the least wind gradient beta (W = beta h) sustaining a closed 360-degree loop of a glider
     with a load-factor limit (Zhao 2004; yapss dynamic_soaring)."""
-    c = _data("dynamic_soaring")
+    c = constants(TABLE, "dynamic_soaring")
     m, g, deg = c["m"], c["g"], math.pi / 180
 
     def dynamics(x, u, t, p):
@@ -136,7 +131,7 @@ def newton_nose_drag() -> float:
     """Newton's solution: with p = -y' >= 1 along the curve, r = r0 (1 + p^2)^2 / (4p) and
     y = y_max - r0 (p^2 + 3p^4/4 - ln p - 7/4) / 4 from the tip (p = 1) to the base (r = 1, y = 0), which fix r0
     and the base's slope; C_D = 4 r0^2 + r0^2 / 2 [ln p + 5p^2/2 + 3p^4/4 + 1/(2p^2)] from 1 to that slope."""
-    h = _data("newton_nose")["y_max"]
+    h = constants(TABLE, "newton_nose")["y_max"]
 
     def ends(z):
         r0, p = z
@@ -153,7 +148,7 @@ def newton_nose_drag() -> float:
 def newton_nose() -> OptimalControlProblem:
     """Newton's minimal-resistance nose of height y_max: the profile y(r), concave, from a flat tip of free radius r0
     to the base r = 1, minimising its drag coefficient (yapss newton, second formulation)."""
-    c = _data("newton_nose")
+    c = constants(TABLE, "newton_nose")
     return OptimalControlProblem(
         "newton_nose",
         states=[
@@ -172,7 +167,7 @@ def newton_nose() -> OptimalControlProblem:
 def isoperimetric() -> OptimalControlProblem:
     """The isoperimetric problem: the closed curve of unit length enclosing the largest area, its centroid pinned
     near the origin (yapss isoperimetric); the circle, area 1 / (4 pi)."""
-    c = _data("isoperimetric")
+    c = constants(TABLE, "isoperimetric")
     box = c["xy_max"]
     return OptimalControlProblem(
         "isoperimetric",

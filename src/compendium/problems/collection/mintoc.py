@@ -15,15 +15,14 @@ import casadi as ca
 
 from ocpkit import Control, OptimalControlProblem, State
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_mintoc"
 
 
 def batch_reactor() -> OptimalControlProblem:
     """Batch reactor A -> B -> C: the temperature profile maximising B at t = 1 (mintOC; Dynopt, Example 6)."""
-    c = load_problem_data(TABLE)["batch_reactor"]
+    c = constants(TABLE, "batch_reactor")
     (a1, b1), (a2, b2) = c["k1"], c["k2"]
 
     def dynamics(x, u, t):

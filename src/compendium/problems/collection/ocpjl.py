@@ -11,19 +11,14 @@ import casadi as ca
 
 from ocpkit import Control, FreeFinalTime, OptimalControlProblem, State
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_ocpjl"
 
 
-def _data(name: str) -> dict:
-    return load_problem_data(TABLE)[name]
-
-
 def vanderpol() -> OptimalControlProblem:
     """The controlled Van der Pol oscillator, quadratic cost on a fixed horizon (OptimalControlProblems.jl, BOCOP)."""
-    c = _data("vanderpol")
+    c = constants(TABLE, "vanderpol")
     w, e = c["omega"], c["epsilon"]
     return OptimalControlProblem(
         "ocpjl_vanderpol",
@@ -37,7 +32,7 @@ def vanderpol() -> OptimalControlProblem:
 
 def double_oscillator() -> OptimalControlProblem:
     """Two masses, springs and a controlled damper under a periodic force (OptimalControlProblems.jl; CLP 2018)."""
-    c = _data("double_oscillator")
+    c = constants(TABLE, "double_oscillator")
     m1, m2, k1, k2, damping, T = c["m1"], c["m2"], c["k1"], c["k2"], c["c"], 2 * math.pi
 
     def dynamics(x, u, t):
@@ -63,7 +58,7 @@ def double_oscillator() -> OptimalControlProblem:
 
 def dielectrophoretic_particle() -> OptimalControlProblem:
     """A particle steered by a dielectrophoretic field from x = 1 to x = 2 in minimum time (OptimalControlProblems.jl)."""
-    c = _data("dielectrophoretic_particle")
+    c = constants(TABLE, "dielectrophoretic_particle")
     return OptimalControlProblem(
         "ocpjl_dielectrophoretic_particle",
         states=[
@@ -79,7 +74,7 @@ def dielectrophoretic_particle() -> OptimalControlProblem:
 
 def mountain_car() -> OptimalControlProblem:
     """An underpowered car rocking out of a valley to the hilltop in minimum time (OptimalControlProblems.jl; Dymos)."""
-    c = _data("mountain_car")
+    c = constants(TABLE, "mountain_car")
     lo, hi = c["pos_bounds"]
     return OptimalControlProblem(
         "ocpjl_mountain_car",

@@ -18,20 +18,15 @@ from ocpkit import (
     State,
 )
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_opty"
-
-
-def _data(key: str) -> dict:
-    return load_problem_data(TABLE)[key]
 
 
 def sliding_mass() -> MultiPhaseProblem:
     """A unit mass slid from x = 0 to x = 1, at rest at both ends, in minimum time with |f| <= 20, in four phases
     of equal distance (pycollo, tests/integration/test_multiphase.py)."""
-    c = _data("sliding_mass")
+    c = constants(TABLE, "sliding_mass")
     n, f_max, v_max, t_max = c["phases"], c["f_max"], c["v_max"], c["t_max"]
 
     def segment(k: int) -> OptimalControlProblem:
@@ -53,13 +48,13 @@ def sliding_mass() -> MultiPhaseProblem:
 
 def sliding_mass_time() -> float:
     """Its exact minimum time: full thrust to x = 1/2, full braking after, t_f = 2 sqrt(1 / f_max)."""
-    return 2 * math.sqrt(1 / _data("sliding_mass")["f_max"])
+    return 2 * math.sqrt(1 / constants(TABLE, "sliding_mass")["f_max"])
 
 
 def hyper_sensitive() -> OptimalControlProblem:
     """The hyper-sensitive problem as Betts states it (Ex. 10.7; opty's port): y' = -y^3 + u from y = 1 to 1.5 over
     t_f = 10000, minimising int y^2 + u^2."""
-    c = _data("hyper_sensitive")
+    c = constants(TABLE, "hyper_sensitive")
     return OptimalControlProblem(
         "opty_betts_hyper_sensitive",
         states=[State("y", initial=c["y0"], final=c["yf"], guess=0.0)],
@@ -74,7 +69,7 @@ def hyper_sensitive_limit() -> float:
     """Its optimum as t_f -> infinity (exact here to e^(-2 t_f)): the two boundary layers' costs, from the
     Hamilton-Jacobi equation of the infinite-horizon problem, int_0^(y^2) sqrt(1 + w^2) dw -+ y^4 / 2 for the layer
     leaving y0 (-) and the layer reaching yf (+)."""
-    c = _data("hyper_sensitive")
+    c = constants(TABLE, "hyper_sensitive")
 
     def area(a: float) -> float:  # int_0^a sqrt(1 + w^2) dw
         return (a * math.sqrt(1 + a * a) + math.asinh(a)) / 2
@@ -87,7 +82,7 @@ def vdp_piecewise_constant() -> MultiPhaseProblem:
     """Van der Pol brought near rest over 10 s by a control constant on each of six intervals, x1 >= -0.25 at the
     interval ends (Rockit, tests/problems.py vdp, whose exact optimum tests/test_misc.py quotes): one phase per
     interval, its control a parameter of its own."""
-    c = _data("vdp_piecewise_constant")
+    c = constants(TABLE, "vdp_piecewise_constant")
     n, h = c["pieces"], c["T"] / c["pieces"]
 
     def floor(k: int) -> list[Constraint]:  # at the grid points: every phase's start, and the last one's end

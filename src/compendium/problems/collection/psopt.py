@@ -12,19 +12,14 @@ from scipy.optimize import brentq
 
 from ocpkit import Constraint, Control, FreeFinalTime, Link, MultiPhaseProblem, OptimalControlProblem, State
 
-from .._data import load_problem_data
-from . import Reference, register
+from . import Reference, constants, register
 
 TABLE = "collection_psopt"
 
 
-def _data(key: str) -> dict:
-    return load_problem_data(TABLE)[key]
-
-
 def interior_point() -> MultiPhaseProblem:
     """Minimise int_0^1 (x^2 + u^2) dt, x' = u, from 1 to 0.75 through x(0.75) = 0.9 (PSOPT interior_point)."""
-    c = _data("interior_point")
+    c = constants(TABLE, "interior_point")
 
     def phase(name, t0, tf, initial, final):
         return OptimalControlProblem(
@@ -45,7 +40,7 @@ def interior_point() -> MultiPhaseProblem:
 def interior_point_cost() -> float:
     """The exact optimum: on each phase x = A cosh t + B sinh t, whose cost from x_a to x_b over a time T is
     (x_a^2 + x_b^2) coth T - 2 x_a x_b / sinh T."""
-    c = _data("interior_point")
+    c = constants(TABLE, "interior_point")
 
     def arc(a: float, b: float, T: float) -> float:
         return (a * a + b * b) / math.tanh(T) - 2 * a * b / math.sinh(T)
@@ -56,7 +51,7 @@ def interior_point_cost() -> float:
 
 def isoperimetric() -> OptimalControlProblem:
     """Minimise int_0^1 x dt, x' = -sin x + u, x: 1 -> 0, with int_0^1 u^2 dt = 10 (PSOPT isoperimetric)."""
-    c = _data("isoperimetric")
+    c = constants(TABLE, "isoperimetric")
     return OptimalControlProblem(
         "psopt_isoperimetric",
         states=[
@@ -72,7 +67,7 @@ def isoperimetric() -> OptimalControlProblem:
 
 def bryson_max_range() -> OptimalControlProblem:
     """Maximise x(2) of a particle accelerated by a - g u2 along the unit direction (u1, u2), with y(2) = 0.1."""
-    c = _data("bryson_max_range")
+    c = constants(TABLE, "bryson_max_range")
     return OptimalControlProblem(
         "psopt_bryson_max_range",
         states=[
@@ -90,7 +85,7 @@ def bryson_max_range() -> OptimalControlProblem:
 
 def obstacle_avoidance() -> OptimalControlProblem:
     """Steer a particle at constant speed V from (0, 0) to (1.2, 1.6) in t_f = 1 around two discs (PSOPT obstacle)."""
-    c = _data("obstacle")
+    c = constants(TABLE, "obstacle")
     V, (x0, y0), (x1, y1) = c["V"], c["initial"], c["final"]
     discs = [
         Constraint(f"disc_{k}", lambda x, u, t, a=a, b=b: (x["x"] - a) ** 2 + (x["y"] - b) ** 2, lower=c["clearance"])
@@ -112,13 +107,13 @@ def obstacle_avoidance() -> OptimalControlProblem:
 
 def obstacle_cost() -> float:
     """The cost is the constant V^2 t_f: the speed is fixed, only the path is chosen."""
-    c = _data("obstacle")
+    c = constants(TABLE, "obstacle")
     return c["V"] ** 2 * c["tf"]
 
 
 def singular_double_integrator() -> OptimalControlProblem:
     """Minimise int_0^tf (1 + v^2)/2 dt from (2, 0) to rest at 5 with |u| <= 1, t_f free (Locatelli 2017, 11.2-1a)."""
-    c = _data("singular_double_integrator")
+    c = constants(TABLE, "singular_double_integrator")
     (x0, v0), (x1, v1) = c["initial"], c["final"]
     return OptimalControlProblem(
         "psopt_singular_double_integrator",
@@ -135,7 +130,7 @@ def singular_double_integrator() -> OptimalControlProblem:
 
 def moon_lander() -> OptimalControlProblem:
     """Land softly from h = 1, v = -0.783 with the least fuel, thrust 0 <= T <= 1.227, t_f free (PSOPT moon)."""
-    c = _data("moon_lander")
+    c = constants(TABLE, "moon_lander")
     return OptimalControlProblem(
         "psopt_moon_lander",
         states=[
@@ -153,7 +148,7 @@ def moon_lander() -> OptimalControlProblem:
 def moon_lander_fuel() -> float:
     """The exact optimum: coast, then full thrust T_max to touch down at rest; the coast time t_s and the burn time
     s solve v(s) = 0 and h(s) = 0, and the fuel is T_max s."""
-    c = _data("moon_lander")
+    c = constants(TABLE, "moon_lander")
     g, ve, T, h0, v0 = c["g"], c["exhaust_velocity"], c["T_max"], c["h0"], c["v0"]
 
     def burn(ts: float) -> tuple[float, float]:  # (height where the burn stops the lander, burn time)
@@ -167,7 +162,7 @@ def moon_lander_fuel() -> float:
 
 def analytic_x1() -> OptimalControlProblem:
     """Minimise int_0^{pi/2} (y^2 + u cos t) dt, y' = y^2/2 + u, y(0) = 0: singular throughout (Neuenhofen & Kerrigan)."""
-    c = _data("analytic_x1")
+    c = constants(TABLE, "analytic_x1")
     return OptimalControlProblem(
         "psopt_analytic_x1",
         states=[State("y", initial=c["y0"], guess=(0.0, -0.5))],
