@@ -280,7 +280,7 @@ CASES = {
             lambda: {"objective": _published("beyond_the_seeds", "free_flying_robot", "objective")},
             lambda e: {"objective": e.objective},
             shoot=free_flying_robot_net,
-            # arcs read in the net thrusts; its singular arcs last 0.7% of the horizon each
+            # arcs read in the net thrusts; its singular arcs are shorter than the default shortest arc
             options={"method": "arcs", "min_share": 0.005},
         ),
     ]

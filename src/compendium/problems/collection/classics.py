@@ -16,20 +16,16 @@ from scipy.optimize import brentq, fsolve
 
 from ocpkit import Constraint, Control, FreeFinalTime, OptimalControlProblem, State
 
-from .._data import load_problem_data
-from . import Reference, register
+from ..bryson_denham import bryson_denham_solution
+from . import Reference, constants, register
 
 TABLE = "collection_classics"
-
-
-def _constants(name: str) -> dict:
-    return load_problem_data(TABLE)[name]
 
 
 # -- the statements -------------------------------------------------------------------------------------------------
 def brachistochrone() -> OptimalControlProblem:
     """Slide from rest at (0, 10) to (10, 5) in the least time (Dymos' brachistochrone, theta from the vertical)."""
-    c = _constants("brachistochrone")
+    c = constants(TABLE, "brachistochrone")
     (x0, y0), (x1, y1), g = c["start"], c["end"], c["g"]
     return OptimalControlProblem(
         "classic_brachistochrone",
@@ -47,7 +43,7 @@ def brachistochrone() -> OptimalControlProblem:
 
 def min_time_double_integrator() -> OptimalControlProblem:
     """Bring the double integrator from (-1, 0) to rest at the origin in the least time, |u| <= 1 (CTProblems.jl)."""
-    c = _constants("min_time_double_integrator")
+    c = constants(TABLE, "min_time_double_integrator")
     (q0, v0), (q1, v1) = c["x0"], c["xf"]
     return OptimalControlProblem(
         "classic_min_time_double_integrator",
@@ -61,7 +57,7 @@ def min_time_double_integrator() -> OptimalControlProblem:
 
 def bryson_denham(regime: str) -> OptimalControlProblem:
     """Minimise 1/2 int u^2 from (0, 1) to (0, -1) in unit time under x <= l (Bryson & Ho 1975, Sec. 3.11)."""
-    c = _constants("bryson_denham")
+    c = constants(TABLE, "bryson_denham")
     limit = c[regime]
     return OptimalControlProblem(
         f"classic_bryson_denham_{regime}",
@@ -79,7 +75,7 @@ def bryson_denham(regime: str) -> OptimalControlProblem:
 
 def turnpike() -> OptimalControlProblem:
     """Minimise int x^2 with x' = u, |u| <= 1, from x(0) = 1 to x(2) = 1/2 (OptimalControl.jl's turnpike)."""
-    c = _constants("turnpike")
+    c = constants(TABLE, "turnpike")
     return OptimalControlProblem(
         "classic_turnpike",
         states=[State("x", initial=c["x0"], final=c["xf"], guess=(c["x0"], c["xf"]))],
@@ -92,7 +88,7 @@ def turnpike() -> OptimalControlProblem:
 
 def lqr_oscillator() -> OptimalControlProblem:
     """Regulate the harmonic oscillator from (0, 1): minimise 1/2 int |x|^2 + u^2 over [0, 5] (CTProblems.jl)."""
-    c = _constants("lqr_oscillator")
+    c = constants(TABLE, "lqr_oscillator")
     return OptimalControlProblem(
         "classic_lqr_oscillator",
         states=[State("x1", initial=c["x0"][0], guess=0.0), State("x2", initial=c["x0"][1], guess=0.0)],
@@ -105,7 +101,7 @@ def lqr_oscillator() -> OptimalControlProblem:
 
 def lqr_free_time() -> OptimalControlProblem:
     """Steer x' = u from 0 to 1 minimising tf + 1/2 int x^2 + u^2, the final time free (CTProblems.jl)."""
-    c = _constants("lqr_free_time")
+    c = constants(TABLE, "lqr_free_time")
     return OptimalControlProblem(
         "classic_lqr_free_time",
         states=[State("x", initial=c["x0"], final=c["xf"], guess=(c["x0"], c["xf"]))],
@@ -119,7 +115,7 @@ def lqr_free_time() -> OptimalControlProblem:
 
 def energy_free_time() -> OptimalControlProblem:
     """Steer x' = u from 0 to x(tf) = tf + 10 minimising 1/2 int u^2, the final time free (CTProblems.jl)."""
-    c = _constants("energy_free_time")
+    c = constants(TABLE, "energy_free_time")
     return OptimalControlProblem(
         "classic_energy_free_time",
         states=[State("x", initial=c["x0"], guess=(c["x0"], c["tf_guess"] + c["offset"]), scale=10.0)],
@@ -136,7 +132,7 @@ def energy_free_time() -> OptimalControlProblem:
 
 def zermelo() -> OptimalControlProblem:
     """Steer at unit speed through the current ``c y`` from (3.5, -1.8) to the origin in the least time (Betts)."""
-    c = _constants("zermelo")
+    c = constants(TABLE, "zermelo")
     (x0, y0), speed, shear = c["start"], c["speed"], c["shear"]
     return OptimalControlProblem(
         "classic_zermelo",
@@ -150,7 +146,7 @@ def zermelo() -> OptimalControlProblem:
 
 def rayleigh() -> OptimalControlProblem:
     """Minimise int x1^2 + u^2 over [0, 2.5] for the Rayleigh oscillator from (-5, -5), the end free (PROPT)."""
-    c = _constants("rayleigh")
+    c = constants(TABLE, "rayleigh")
     (a, b), gain = c["damping"], c["gain"]
     return OptimalControlProblem(
         "classic_rayleigh",
@@ -165,7 +161,7 @@ def rayleigh() -> OptimalControlProblem:
 # -- their closed forms ---------------------------------------------------------------------------------------------
 def brachistochrone_time() -> float:
     """The cycloid's descent time: ``x = R (phi - sin phi)``, drop ``R (1 - cos phi)``, ``t = phi sqrt(R / g)``."""
-    c = _constants("brachistochrone")
+    c = constants(TABLE, "brachistochrone")
     (x0, y0), (x1, y1), g = c["start"], c["end"], c["g"]
     ratio = (x1 - x0) / (y0 - y1)
     phi = brentq(lambda p: p - math.sin(p) - ratio * (1 - math.cos(p)), 1e-6, 2 * math.pi - 1e-9, xtol=1e-15)
@@ -176,7 +172,7 @@ def brachistochrone_time() -> float:
 def zermelo_time() -> float:
     """Bryson & Ho's linear-current solution: ``tan(theta) = tan(theta_0) - c t / V``, so that ``y`` and ``x`` are
     integrals of ``sec(theta)`` and ``sec(theta)^3`` over ``theta``; ``(theta_0, t_f)`` put the end at the origin."""
-    c = _constants("zermelo")
+    c = constants(TABLE, "zermelo")
     (x0, y0), speed, shear = c["start"], c["speed"], c["shear"]
     sec = lambda a: 1 / math.cos(a)  # noqa: E731
     log_sec = lambda a: math.log(abs(sec(a) + math.tan(a)))  # noqa: E731  (the integral of sec)
@@ -196,7 +192,7 @@ def zermelo_time() -> float:
 def bryson_denham_cost(regime: str) -> float:
     """``4 / (9 l)`` on a boundary arc (``l <= 1/6``); with a touch point at ``t = 1/2`` (``1/6 <= l <= 1/4``), the
     cubic ``x = t + a t^2 + b t^3`` with ``v(1/2) = 0``, ``x(1/2) = l``: ``a = 12 l - 4``, ``b = 4 - 16 l``."""
-    limit = _constants("bryson_denham")[regime]
+    limit = constants(TABLE, "bryson_denham")[regime]
     if limit <= 1 / 6:
         return 4 / (9 * limit)
     c0, c1 = 2 * (12 * limit - 4), 6 * (4 - 16 * limit)  # u = c0 + c1 t on [0, 1/2], mirrored on [1/2, 1]
@@ -208,17 +204,18 @@ def bryson_denham_extremal(regime: str) -> dict[str, float]:
     (``l <= 1/6``) entered at ``3 l`` and left at ``1 - 3 l``, ``lambda_x`` jumps by ``2 / (9 l^2)`` at each; at the
     touch point ``t = 1/2`` (``1/6 <= l <= 1/4``) by ``2 u' = 12 (4 - 16 l)`` (``u`` the cubic's second derivative,
     :func:`bryson_denham_cost`)."""
-    limit = _constants("bryson_denham")[regime]
-    if limit <= 1 / 6:
-        jump = 2 / (9 * limit**2)
-        return {"t1": 3 * limit, "t2": 1 - 3 * limit, "jump1": jump, "jump2": jump, "objective": 4 / (9 * limit)}
+    limit = constants(TABLE, "bryson_denham")[regime]
+    if limit <= 1 / 6:  # the seeds' closed form (compendium.problems.bryson_denham)
+        exact = bryson_denham_solution(np.zeros(1), limit)
+        (t1, t2), jump = exact["junctions"], exact["atom"]
+        return {"t1": t1, "t2": t2, "jump1": jump, "jump2": jump, "objective": exact["J"]}
     return {"t1": 0.5, "jump1": 12 * (4 - 16 * limit), "objective": bryson_denham_cost(regime)}
 
 
 def turnpike_extremal() -> dict[str, float]:
     """Full braking to ``x = 0`` at ``t1 = x0 / u_max``, the singular arc ``x = 0`` to ``t2 = tf - xf / u_max``, full
     thrust to ``xf``: ``J = (x0^3 + xf^3) / (3 u_max)`` (3/8 for OptimalControl.jl's turnpike)."""
-    c = _constants("turnpike")
+    c = constants(TABLE, "turnpike")
     return {
         "t1": c["x0"] / c["u_max"],
         "t2": c["tf"] - c["xf"] / c["u_max"],
@@ -228,7 +225,7 @@ def turnpike_extremal() -> dict[str, float]:
 
 def lqr_oscillator_cost() -> float:
     """``x0' p0 / 2``, the costate ``p0`` from the Hamiltonian flow's exponential and ``p(tf) = 0``."""
-    c = _constants("lqr_oscillator")
+    c = constants(TABLE, "lqr_oscillator")
     a, b = np.array([[0.0, 1.0], [-1.0, 0.0]]), np.array([[0.0], [1.0]])
     flow = expm(np.block([[a, -b @ b.T], [-np.eye(2), -a.T]]) * c["tf"])
     x0 = np.array(c["x0"])
@@ -238,7 +235,7 @@ def lqr_oscillator_cost() -> float:
 
 def lqr_free_time_cost() -> float:
     """``tf + coth(tf) / 2`` at ``sinh(tf)^2 = 1/2`` (``x(tf) = 1``)."""
-    c = _constants("lqr_free_time")
+    c = constants(TABLE, "lqr_free_time")
     tf = math.atanh(math.sqrt(c["xf"] ** 2 / (2 + c["xf"] ** 2)))
     return tf + c["xf"] ** 2 / (2 * math.tanh(tf))
 
