@@ -136,15 +136,25 @@ def test_to_extremal_certifies_a_problem_cut_into_phases():
     assert direct.problem.name == whole.name and direct.statement.source is whole
 
 
-def test_to_extremal_names_what_it_cannot_shoot_in_several_phases():
-    with pytest.raises(ValueError, match=r"the phases \['leg_0.0_0.5', 'leg_0.5_1.0'\] are not one problem cut"):
-        to_extremal(two_legs().solve())
+def test_to_extremal_shoots_stated_phases_as_one_boundary_value_problem():
+    """Two stated legs of (0, 0) to (1, 0) in t = 1: J = 6 and lambda = (-12, 12 t - 6), the costate continuous
+    across the link (both ends equal its multiplier); with a jump of 0.1 in v at t = 1/2 the costate stays
+    continuous, so u = a + b t still, and v(1) = 0, x(1) = 1 give u = 5.9 - 12 t, J = 6.005."""
+    extremal = to_extremal(two_legs().solve(), integrator_tol=1e-14)
+    assert extremal.route.startswith("multi-phase arc shooting (2 phases")
+    assert extremal.objective == pytest.approx(6.0, abs=1e-11) and extremal.certificate.passed
+    t = np.array([0.1, 0.5, 0.9])
+    assert np.allclose(extremal.trajectory.costate(t), np.column_stack([np.full(3, -12.0), 12 * t - 6]), atol=1e-9)
+    assert extremal.certificate.second_order.route == "convexity"
     staged = Program.from_phases(
         [Radau(leg(0.0, 0.5, initial=(0.0, 0.0)), 5, 2), Radau(leg(0.5, 1.0, final=(1.0, 0.0)), 5, 2)],
         [Link(0, 1, jumps={"v": 0.1})],
     ).solve()
-    with pytest.raises(ValueError, match=r"link 'leg_0.0_0.5' -> 'leg_0.5_1.0' jumps in \['v'\]"):
-        to_extremal(staged)
+    jumped = to_extremal(staged, integrator_tol=1e-14)
+    assert jumped.objective == pytest.approx(6.005, abs=1e-11)
+    assert np.allclose(jumped.trajectory.control(t).ravel(), 5.9 - 12 * t, atol=1e-9)
+    before, after = jumped.phase(0).trajectory, jumped.phase(1).trajectory
+    assert after.state(0.5)[1] - before.state(0.5)[1] == pytest.approx(0.1, abs=1e-12)
     no_costates = Program.split(
         double_integrator(Control("u", -0.5, 0.5)), [1.0], MultiRateHLGL(intervals=4, ratio=2, fast=["v"])
     ).solve(error_threshold=None)
@@ -342,10 +352,17 @@ def test_a_problem_cut_into_phases_takes_one_guess_of_its_whole_horizon():
 
 
 def test_a_cut_problem_with_a_cost_at_its_cuts_is_not_shot_as_the_whole():
-    """A cost at a cut time (a measurement) is not the problem cut: to_extremal refuses it by name instead of
-    shooting the problem without it."""
+    """A cost at a cut time (a measurement) is not the problem cut: to_extremal shoots the phases with that cost
+    (the costate jumps at the cut by its gradient), not the problem without it, and certifies the extremal, a
+    global minimum (every phase convex, the cost at the cut convex)."""
     whole = double_integrator(Control("u", -0.5, 0.5))
     fit = Program.split(whole, [1.5], Radau(nodes=4, intervals=5), cost=lambda e: (e.at(1.5)["x"] - 0.5) ** 2)
     assert fit.phased.source is None
-    with pytest.raises(ValueError, match="not one problem cut at fixed times"):
-        to_extremal(fit.solve(error_threshold=None))
+    direct = fit.solve(error_threshold=None)
+    extremal = to_extremal(direct)
+    assert extremal.route.startswith("multi-phase") and extremal.certificate.passed
+    assert extremal.objective == pytest.approx(direct.objective, rel=1e-5)
+    assert extremal.certificate.second_order.route == "convexity"
+    x_cut = float(extremal.phase(0).trajectory.state(1.5)[0])
+    jump = extremal.phase(1).trajectory.costate(1.5)[0] - extremal.phase(0).trajectory.costate(1.5)[0]
+    assert jump == pytest.approx(-2 * (x_cut - 0.5), abs=1e-8)  # p+ = p- - d/dx (x - 1/2)^2

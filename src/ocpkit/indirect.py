@@ -61,8 +61,9 @@ if TYPE_CHECKING:
     from .program import Program
     from .shooting import MultipleShooting, MultipleShootingResult, Shooting, ShootingResult
     from .shooting.arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType
+    from .shooting.phases import PhasedArcResult
     from .shooting.result import IndirectResult
-    from .solution import Solution
+    from .solution import PhaseSolution, Solution
     from .statement import OptimalControlProblem
 
 
@@ -123,7 +124,7 @@ class Extremal:
     with and, where that is a re-solve from the extremal, the ``first_direct`` one."""
 
     trajectory: Trajectory
-    shooting: ArcResult | ShootingResult | MultipleShootingResult
+    shooting: ArcResult | ShootingResult | MultipleShootingResult | PhasedArcResult
     structure: Structure
     certificate: Certificate
     timings: dict[str, float] = field(default_factory=dict)
@@ -138,6 +139,20 @@ class Extremal:
     #: the terminal equalities :func:`ocpkit.monotone.as_terminal` added for budgets (their multipliers' signs are
     #: certified)
     budgets: list[str] = field(default_factory=list)
+    #: of a multi-phase boundary value problem (:mod:`ocpkit.phased_extremal`), each phase's extremal by name (its
+    #: trajectory, run, structure and certificate; empty for one phase): :meth:`phase`
+    phases: dict[str, Extremal] = field(default_factory=dict)
+
+    def phase(self, key: str | int) -> Extremal:
+        """A phase's extremal by name or index (of a multi-phase extremal)."""
+        names = list(self.phases)
+        if not names:
+            raise KeyError("this extremal has one phase: it is its own (no phase(name))")
+        if isinstance(key, str):
+            if key not in self.phases:
+                raise KeyError(f"unknown phase {key!r}; the phases are {names}")
+            return self.phases[key]
+        return self.phases[names[key]]
 
     # -- the indirect result contract (ocpkit.shooting.result.IndirectResult), read from the run and the certificate
     @property
@@ -234,6 +249,10 @@ class Extremal:
         extremal's own junction times; the title names the problem, the route, the objective and ``|S|``."""
         from .plotting import trajectory_figure
 
+        if self.phases:
+            raise ValueError(
+                f"plot each phase of a multi-phase extremal: phase(name).plot(); the phases are {list(self.phases)}"
+            )
         tr = self.trajectory
         title = f"extremal of {tr.problem.name}, {self.route or 'shooting'}: objective {self.objective:.8g}, "
         title += f"|S| = {self.norm:.1e}"
@@ -347,7 +366,18 @@ def to_extremal(
     if integrator_tol is not None and not 1e-15 <= integrator_tol <= 1e-3:
         raise ValueError(f"integrator_tol must lie in [1e-15, 1e-3], got {integrator_tol!r}")
 
-    _one_problem(solution)
+    if not _one_problem(solution):
+        from .phased_extremal import phased_extremal
+
+        if problem is not None or control_set != "box" or method == "switching":
+            raise ValueError(
+                "a multi-phase boundary value problem is shot by the arc method over each phase's own controls: "
+                "problem=, control_set='ball' and method='switching' are for one phase (shoot a phase alone, "
+                "phase(name))"
+            )
+        return phased_extremal(
+            solution, tol=tol, raise_on_failure=raise_on_failure, integrator_tol=integrator_tol, min_share=min_share
+        )
     if not getattr(solution, "has_costates", False):
         raise ValueError(
             f"to_extremal needs the direct solution's costate estimates, which {type(solution).__name__} of "
@@ -441,7 +471,7 @@ def _extremal(
                 f"{problem.name!r} has free parameters: the arc method does not take them yet; "
                 "use method='switching' (free parameters as states) where the structure allows"
             )
-        flows = {} if integrator_tol is None else {"rtol": integrator_tol, "atol": integrator_tol}
+        flows: dict[str, Any] = {} if integrator_tol is None else {"rtol": integrator_tol, "atol": integrator_tol}
         shooting = ArcShooting(statement, arc_sequence(structure, statement, solution.t0, solution.tf), **flows)
         result = shooting.solve(shooting.guess(solution), tol=tol)
         route = f"arc shooting ({len(shooting.kinds)} arcs)"
@@ -738,35 +768,23 @@ def _statement(solution: Solution) -> OptimalControlProblem:
     return statement.replace(parameters=values) if values != dict(statement.parameters) else statement
 
 
-def _one_problem(solution: Any) -> None:
-    """A solution of several phases is shot as the one problem its phases were cut from; anything else is refused,
-    naming what the shooting does not take (a jump across a link, a link of some states only, phases not cut from
-    one problem, a phase without costate estimates)."""
+def _one_problem(solution: Any) -> bool:
+    """Whether ``solution`` is shot as one problem: a single phase's, or phases cut from one problem at fixed times
+    (:meth:`~ocpkit.MultiPhaseProblem.split`, every state continuous across the cuts). Any other solution of
+    several phases is a multi-phase boundary value problem (:mod:`ocpkit.phased_extremal`)."""
     from .solution import Solution
 
     if not isinstance(solution, Solution) or solution.single:
-        return  # a single-phase problem's (or another trajectory)
+        return True  # a single-phase problem's (or another trajectory)
     phased = solution.program.phased
-    for linked in phased.links:
-        label = f"link {phased.names[linked.before]!r} -> {phased.names[linked.after]!r}"
-        jumps = [name for _, _, name, jump in linked.states if jump != 0.0]
-        if jumps:
-            raise ValueError(
-                f"{label} jumps in {jumps}: the shooting flows the states continuously, it takes no interior jump "
-                "(shoot each phase, phase(name), or state the jump as a state)"
-            )
-        if len(linked.states) != phased.problems[linked.before].nx or linked.time != "consistent":
-            raise ValueError(
-                f"{label} joins {[s for _, _, s, _ in linked.states]} at a time that is "
-                f"{'free' if linked.time == 'constraint' else 'not joined'}: the shooting takes phases cut from one "
-                "problem at fixed times (Program.split), every state continuous"
-            )
     if phased.source is None:
-        raise ValueError(
-            f"the phases {phased.names} are not one problem cut at fixed times (Program.split, with no cost, "
-            "constraints or local parameters at the cuts): the shooting derives no multi-phase boundary value problem "
-            "(each phase's own dynamics and costs, conditions at interior times); shoot a phase alone, phase(name)"
-        )
+        return False
+    return all(
+        len(linked.states) == phased.problems[linked.before].nx
+        and linked.time == "consistent"
+        and all(jump == 0.0 for *_, jump in linked.states)
+        for linked in phased.links
+    )
 
 
 def _ball_radius(problem: OptimalControlProblem) -> float:
@@ -1065,13 +1083,14 @@ def _unknowns(shooting: Shooting, solution: Solution) -> np.ndarray:
 def certify(
     trajectory: Trajectory,
     result: IndirectResult,
-    direct: Solution | None = None,
+    direct: Solution | PhaseSolution | None = None,
     structure: Structure | None = None,
     tol: float = 1e-10,
     samples: int = 401,
     first: Solution | None = None,
     terminal: Mapping[str, float] | None = None,
     min_share: float = 0.01,
+    second: bool = True,
 ) -> Certificate:
     """The checks of an extremal (every one named; :class:`Certificate`; ``min_share``: the shortest arc the
     structure is read with, as ``structure`` was):
@@ -1110,7 +1129,9 @@ def certify(
     * ``terminal_multiplier_sign`` (where :func:`to_extremal` read a state constraint only the final state can
       reach as its terminal condition, :mod:`ocpkit.monotone`; ``terminal`` maps each such equality's name to its
       multiplier): how negative the multiplier of ``c(x(tf)) <= 0`` gets, relative to ``1 + |nu|`` (a negative
-      one would gain from spending less than the budget: not an extremal of the inequality).
+      one would gain from spending less than the budget: not an extremal of the inequality);
+    * ``second_order`` where it applies (:func:`ocpkit.second_order.second_order`; ``second=False`` leaves it out, for
+      a phase of a multi-phase extremal, whose verdict is the whole trajectory's).
     """
     from .structure import inequalities
 
@@ -1229,8 +1250,8 @@ def certify(
         compared.append(
             Check("first_direct_objective", max(worse, 0.0), 1e-2, "no worse than the first direct solution")
         )
-    verdict = second_order(trajectory, found, getattr(result, "multipliers", None))
-    if verdict.applicable:
+    verdict = second_order(trajectory, found, getattr(result, "multipliers", None)) if second else None
+    if verdict is not None and verdict.applicable:
         compared.append(Check("second_order", 0.0 if verdict.passed else 1.0, 0.0, str(verdict)))
     checks = (
         Check("shooting_residual", float(result.norm), tol, "|S| at the solution"),

@@ -481,8 +481,12 @@ class ArcShooting:
         *,
         rtol: float = 1e-12,
         atol: float = 1e-12,
+        phase: bool = False,
     ) -> None:
-        if problem.free_initial_time:
+        #: a phase of a multi-phase boundary value problem (:class:`~ocpkit.shooting.phases.PhasedArcShooting`):
+        #: its times are inputs and its ends' conditions the trajectory's, :attr:`interior` the arcs' conditions
+        self.phase = phase
+        if problem.free_initial_time and not phase:
             raise ValueError(f"{problem.name!r}: arc shooting integrates from a fixed t0")
         if problem.free_parameters:
             raise ValueError(
@@ -539,9 +543,10 @@ class ArcShooting:
             sizes += [(f"t{k}", 1), (f"y{k}", 2 * nx)]
             if k in self.jumps:
                 sizes.append((f"jump{k}", 1))
-        if self.free_tf:
+        if self.free_tf and not self.phase:
             sizes.append(("tf", 1))
-        sizes.append(("nu", self.n_nu))
+        if not self.phase:
+            sizes.append(("nu", self.n_nu))
         for k in range(K):
             sizes.append((f"w{k}", nw[k]))
         self.layout = sizes
@@ -553,9 +558,13 @@ class ArcShooting:
             parts[name] = z[offset : offset + n] if n else ca.MX(0, 1)
             offset += n
         P = ca.MX.sym("P", fl.P.numel())
-        t0 = float(problem.t0)
-        tf = parts["tf"] if self.free_tf else ca.MX(float(cast(float, problem.tf)))
-        times = [ca.MX(t0)] + [parts[f"t{k}"] for k in range(1, K)] + [tf]
+        if self.phase:
+            t0: Any = ca.MX.sym("t0")
+            tf: Any = ca.MX.sym("tf")
+        else:
+            t0 = float(problem.t0)
+            tf = parts["tf"] if self.free_tf else ca.MX(float(cast(float, problem.tf)))
+        times = [ca.MX(t0) if isinstance(t0, float) else t0] + [parts[f"t{k}"] for k in range(1, K)] + [tf]
         xs: list[ca.MX] = []
         it = iter(range(nx))
         free_iter = iter(range(nfree))
@@ -594,9 +603,25 @@ class ArcShooting:
                 rows.append(E(starts[k][:nx], starts[k][nx:], times[k], P, w))
             if k > 0:
                 rows += self._junction(k, ends[k - 1], starts[k], w, times[k], P)
-        # the end: fixed final states, transversality, boundary equalities, free tf
         yf = ends[-1]
         xf, pf = yf[:nx], yf[nx : 2 * nx]
+        self.nz = nz
+        if self.phase:  # the trajectory's conditions at the ends are PhasedArcShooting's
+            ends_H = [
+                ca.Function("H", [*sym_in, flow.w], [ca.substitute(fl.H, fl.u, flow.control)])
+                for flow in (self.rhs[0][2], self.rhs[-1][2])
+            ]
+            H_start = ends_H[0](x0, parts["p0"], times[0], P, parts["w0"])
+            H_end = ends_H[1](xf, pf, tf, P, yf[2 * nx : 2 * nx + nw[-1]])
+            self.interior = ca.Function(
+                "interior",
+                [z, P, times[0], tf],
+                [ca.vertcat(*rows), x0, parts["p0"], xf, pf, H_start, H_end, sum(costs), ca.vertcat(*times)],
+                ["z", "P", "t0", "tf"],
+                ["rows", "x0", "p0", "xf", "pf", "H0", "Hf", "cost", "times"],
+            )
+            return
+        # the end: fixed final states, transversality, boundary equalities, free tf
         X0, XF, T0, TF, Pm = ca.SX.sym("x0", nx), ca.SX.sym("xf", nx), ca.SX.sym("t0"), ca.SX.sym("tf"), fl.P
         nu = ca.SX.sym("nu", self.n_nu)
         Phi = problem.phi(X0, XF, T0, TF, Pm) if problem.phi is not None else ca.SX(0)
@@ -635,7 +660,6 @@ class ArcShooting:
         self.SJ = ca.Function("SJ", [z, P], [S, ca.jacobian(S, z)])
         self.times = ca.Function("times", [z, P], [ca.vertcat(*times)])
         self.objective = ca.Function("objective", [z, P], [objective])
-        self.nz = nz
 
     def _jump_junctions(self) -> dict[int, str]:
         """The junctions where the costate jumps, ``{k: constraint}`` (the junction at the start of arc ``k``): the
@@ -864,8 +888,6 @@ class ArcShooting:
         if z.size != self.nz:
             raise ValueError(f"z0 must have {self.nz} entries (layout {self.layout})")
         start = time.process_time()
-        n_S = n_J = 0
-        message, claimed = "maximum number of iterations", Outcome.MAX_ITERATIONS
 
         def residual(z: np.ndarray) -> np.ndarray:
             try:
@@ -873,46 +895,10 @@ class ArcShooting:
             except RuntimeError:  # CVODES failed on this iterate
                 return np.full(self.nz, np.inf)
 
-        S = residual(z)
-        n_S += 1
-        norms: list[float] = []
-        for _ in range(max_iterations):
-            norm = float(np.linalg.norm(S))
-            norms.append(norm)
-            if len(norms) > 6 and norm > 0.5 * norms[-7]:
-                message = "stalled: |S| not halved in six Newton iterations (far from a solution, or another structure)"
-                claimed = Outcome.STALLED
-                break
-            if not np.isfinite(norm):
-                message, claimed = "the arcs' integration failed at the starting point", Outcome.INTEGRATION_FAILED
-                break
-            try:
-                Sv, J = self.SJ(z, P)
-            except RuntimeError:
-                message = "the arcs' sensitivities could not be integrated at this iterate"
-                claimed = Outcome.INTEGRATION_FAILED
-                break
-            n_J += 1
-            step = np.linalg.lstsq(np.asarray(J), -np.asarray(Sv).ravel(), rcond=None)[0]
-            a = 1.0
-            while a >= 2.0**-12:
-                trial = z + a * step
-                times = np.asarray(self.times(trial, P)).ravel()
-                if np.all(np.diff(times) > 0):
-                    St = residual(trial)
-                    n_S += 1
-                    if np.linalg.norm(St) < (1 - 1e-4 * a) * norm or (norm <= tol and np.linalg.norm(St) <= norm):
-                        break
-                a *= 0.5
-            else:
-                message = "no step decreases |S| (the integrator's noise, or far from a solution)"
-                claimed = Outcome.STALLED
-                break
-            gain = np.linalg.norm(St) / max(norm, 1e-300)
-            z, S = trial, St
-            if np.linalg.norm(S) <= tol and gain > 0.1 or np.linalg.norm(S) <= 1e-15:
-                message, claimed = "converged", Outcome.CONVERGED
-                break
+        def ordered(z: np.ndarray) -> bool:
+            return bool(np.all(np.diff(np.asarray(self.times(z, P)).ravel()) > 0))
+
+        z, S, message, claimed, n_J, n_S = newton(residual, lambda z: self.SJ(z, P), ordered, z, tol, max_iterations)
         norm = float(np.linalg.norm(S))
         if norm <= tol:
             message = "converged"
@@ -968,6 +954,62 @@ class ArcShooting:
                 return np.asarray(z[offset : offset + n])
             offset += n
         raise KeyError(name)
+
+
+def newton(
+    residual: Callable[[np.ndarray], np.ndarray],
+    jacobian: Callable[[np.ndarray], tuple[Any, Any]],
+    ordered: Callable[[np.ndarray], bool],
+    z: np.ndarray,
+    tol: float,
+    max_iterations: int,
+) -> tuple[np.ndarray, np.ndarray, str, Outcome, int, int]:
+    """Newton's method on ``S(z) = 0`` (:meth:`ArcShooting.solve`): least-squares steps with the exact Jacobian
+    (``jacobian(z)`` gives ``(S, dS/dz)``), halved until ``|S|`` decreases and the arcs' times stay ``ordered``.
+    Returns the last iterate, S there, the solver's words, its claimed :class:`~ocpkit.Outcome`, and the Jacobian
+    and residual evaluations."""
+    n_S = n_J = 0
+    message, claimed = "maximum number of iterations", Outcome.MAX_ITERATIONS
+    S = residual(z)
+    n_S += 1
+    norms: list[float] = []
+    for _ in range(max_iterations):
+        norm = float(np.linalg.norm(S))
+        norms.append(norm)
+        if len(norms) > 6 and norm > 0.5 * norms[-7]:
+            message = "stalled: |S| not halved in six Newton iterations (far from a solution, or another structure)"
+            claimed = Outcome.STALLED
+            break
+        if not np.isfinite(norm):
+            message, claimed = "the arcs' integration failed at the starting point", Outcome.INTEGRATION_FAILED
+            break
+        try:
+            Sv, J = jacobian(z)
+        except RuntimeError:
+            message = "the arcs' sensitivities could not be integrated at this iterate"
+            claimed = Outcome.INTEGRATION_FAILED
+            break
+        n_J += 1
+        step = np.linalg.lstsq(np.asarray(J), -np.asarray(Sv).ravel(), rcond=None)[0]
+        a = 1.0
+        while a >= 2.0**-12:
+            trial = z + a * step
+            if ordered(trial):
+                St = residual(trial)
+                n_S += 1
+                if np.linalg.norm(St) < (1 - 1e-4 * a) * norm or (norm <= tol and np.linalg.norm(St) <= norm):
+                    break
+            a *= 0.5
+        else:
+            message = "no step decreases |S| (the integrator's noise, or far from a solution)"
+            claimed = Outcome.STALLED
+            break
+        gain = np.linalg.norm(St) / max(norm, 1e-300)
+        z, S = trial, St
+        if np.linalg.norm(S) <= tol and gain > 0.1 or np.linalg.norm(S) <= 1e-15:
+            message, claimed = "converged", Outcome.CONVERGED
+            break
+    return z, S, message, claimed, n_J, n_S
 
 
 class ArcTrajectory(Trajectory):
@@ -1076,4 +1118,4 @@ class ArcTrajectory(Trajectory):
         return self._control_and_mu(self._check_times(t))[1]
 
 
-__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "arc_sequence"]
+__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "arc_sequence", "newton"]

@@ -1,0 +1,156 @@
+"""The direct-to-indirect chain of :func:`ocpkit.indirect.to_extremal` for a multi-phase boundary value problem: a
+direct solution of a :class:`~ocpkit.MultiPhaseProblem` whose phases have their own dynamics, costs and
+constraints, joined by links (with jumps, at free times) and linkage constraints.
+
+Each phase's arcs are read from its direct solution (:func:`~ocpkit.structure.control_structure`), the phases are
+shot together (:class:`~ocpkit.shooting.phases.PhasedArcShooting`: each phase's flows and junctions, the
+trajectory's transversality conditions at the phases' ends), and the extremal is certified phase by phase
+(:func:`~ocpkit.indirect.certify`: H minimal, feasible, constant, the arcs' conditions, the direct phase's arcs,
+cost and states) and as a whole (``|S|``, the objective against the direct solution's, and the second-order
+verdict: by convexity, where every phase has fixed times and is convex, the trajectory's cost convex (a constant
+positive semidefinite Hessian) and the equalities at the ends affine; otherwise not applicable, with the reason).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+import casadi as ca
+import numpy as np
+
+from .errors import SolverError
+from .indirect import Certificate, Check, Extremal, certify
+from .outcome import Outcome
+from .second_order import SecondOrder, _not_convex
+from .structure import Structure, control_structure
+
+if TYPE_CHECKING:
+    from .shooting.phases import PhasedArcResult, PhasedArcShooting
+    from .solution import Solution
+    from .statement.phases import MultiPhaseProblem
+
+
+def phased_extremal(
+    solution: Solution,
+    *,
+    tol: float = 1e-10,
+    raise_on_failure: bool = True,
+    integrator_tol: float | None = None,
+    min_share: float = 0.01,
+) -> Extremal:
+    """The certified extremal of the multi-phase problem ``solution`` (a direct solution of several phases, with
+    costate estimates) approximates (module docstring; the arguments are :func:`~ocpkit.indirect.to_extremal`'s).
+    Its :attr:`~ocpkit.indirect.Extremal.phases` are the phases' extremals; its ``trajectory`` joins them where
+    they make one (:class:`~ocpkit.shooting.phases.PhasedTrajectory`)."""
+    from .shooting.arcs import arc_sequence
+    from .shooting.phases import PhasedArcShooting
+
+    statement = solution.program.phased
+    names = list(statement.names)
+    free = [n for n, pr in zip(names, statement.problems) if pr.free_parameters]
+    if free:
+        raise ValueError(
+            f"the phases {free} have free parameters: the multi-phase arc shooting does not take them (their "
+            "transversality conditions are not derived); fixed at their solved values (fix_parameters), the "
+            "extremal it certifies is that of those values"
+        )
+    phases = [solution.phase(n) for n in names]
+    without = [n for n, ph in zip(names, phases) if not ph.has_costates]
+    if without:
+        raise ValueError(
+            f"to_extremal needs every phase's costate estimates, which {without} do not have: solve with Radau or HLGL"
+        )
+    problem = statement.with_problems([ph.problem for ph in phases])  # at the parameter values solved with
+    start = time.perf_counter()
+    structures = [control_structure(ph, min_share=min_share) for ph in phases]
+    detect_s = time.perf_counter() - start
+    start = time.perf_counter()
+    flows: dict[str, Any] = {} if integrator_tol is None else {"rtol": integrator_tol, "atol": integrator_tol}
+    arcs = [arc_sequence(st, pr, ph.t0, ph.tf) for st, pr, ph in zip(structures, problem.problems, phases)]
+    shooting = PhasedArcShooting(problem, arcs, **flows)
+    result = shooting.solve(shooting.guess(phases), tol=tol)
+    shoot_s = time.perf_counter() - start
+    each: dict[str, Extremal] = {}
+    checks = [Check("shooting_residual", float(result.norm), tol, "|S| at the solution")]
+    for name, ph, st in zip(names, phases, structures):
+        run = result.phases[name]
+        certificate = certify(run.trajectory, run, ph, st, tol=tol, min_share=min_share, second=False)
+        checks += [
+            Check(f"{name}: {c.name}", c.value, c.tolerance, c.meaning)
+            for c in certificate.checks
+            if c.name != "shooting_residual"
+        ]
+        each[name] = Extremal(
+            trajectory=run.trajectory,
+            shooting=run,
+            structure=st,
+            certificate=certificate,
+            direct=None,
+            route=f"arc shooting ({len(run.arcs)} arcs) of phase {name!r}",
+        )
+    gap = abs(result.objective - float(solution.objective)) / (1.0 + abs(result.objective))
+    checks.append(Check("objective_gap", gap, 1e-2, "indirect against direct, the whole trajectory"))
+    verdict = _second_order(problem, shooting, result)
+    if verdict.applicable:
+        checks.append(Check("second_order", 0.0 if verdict.passed else 1.0, 0.0, str(verdict)))
+    certificate = Certificate(tuple(checks), verdict)
+    extremal = Extremal(
+        trajectory=result.trajectory,
+        shooting=result,
+        structure=Structure(
+            tuple(a for st in structures for a in st.arcs), tuple(p for st in structures for p in st.touches)
+        ),
+        certificate=certificate,
+        timings={"structure_s": detect_s, "shooting_s": shoot_s},
+        direct=solution,
+        route=f"multi-phase arc shooting ({len(names)} phases, {sum(len(a) for a in arcs)} arcs)",
+        phases=each,
+    )
+    if raise_on_failure and not certificate.passed:
+        raise SolverError(
+            "certificate",
+            f"failed checks {certificate.failed}",
+            result.evaluations,
+            f"phases {names}:\n{certificate.describe()}",
+            unit="shooting-function evaluations",
+            result=extremal,
+            outcome=Outcome.CERTIFICATE_FAILED,
+        )
+    return extremal
+
+
+def _second_order(problem: MultiPhaseProblem, shooting: PhasedArcShooting, result: PhasedArcResult) -> SecondOrder:
+    """The whole trajectory's second-order verdict: passed by convexity where every phase has fixed times and is
+    convex (:func:`ocpkit.second_order.second_order`'s test, phase by phase), the trajectory's
+    cost convex and its equalities at the ends (links, linkage constraints, its phases' boundary equalities) affine; a
+    normal extremal is then a global minimum. Otherwise not applicable, with the reason (a Jacobi test across
+    phases is not derived)."""
+    for name, pr in zip(problem.names, problem.problems):
+        if pr.free_initial_time or pr.free_final_time:
+            return SecondOrder(
+                "not applicable", "", f"phase {name!r} has a free time: its second variation is not derived"
+            )
+        reason = _not_convex(pr, result.phases[name].trajectory)
+        if reason is not None:
+            return SecondOrder(
+                "not applicable",
+                "",
+                f"phase {name!r} is not convex ({reason}); a Jacobi test across phases is not derived",
+            )
+    E = shooting._E
+    hessian = ca.hessian(shooting._trajectory_cost, E)[0]
+    if ca.depends_on(hessian, E) or np.linalg.eigvalsh(np.asarray(ca.evalf(hessian))).min(initial=0.0) < -1e-12:
+        return SecondOrder("not applicable", "", "the trajectory's cost is not convex in the phases' ends")
+    for label, row in zip(shooting.psi_labels, ca.vertsplit(shooting._psi)):
+        if ca.depends_on(ca.jacobian(row, E), E):
+            return SecondOrder("not applicable", "", f"{label} is not affine in the phases' ends")
+    return SecondOrder(
+        "passed",
+        "convexity",
+        "every phase's dynamics are affine in (x, u), its costs and constraints convex, the trajectory's cost convex "
+        "and the links and linkage constraints affine: a normal extremal is a global minimum",
+    )
+
+
+__all__ = ["phased_extremal"]
