@@ -22,6 +22,11 @@ The chain (Martinon & Gergaud's hybrid: the direct method's robustness, then the
    (:func:`ocpkit.second_order.second_order`: a global minimum where the problem is convex, the conjugate-point
    test where every arc is regular, else not applicable with the reason).
 
+A solution of several phases cut from one problem at fixed times (:meth:`~ocpkit.MultiPhaseProblem.split`) is shot
+as that problem; any other multi-phase solution (each phase its own dynamics, costs and constraints; links with
+jumps, at free times; linkage constraints) as a multi-phase boundary value problem over each phase's arcs
+(:mod:`ocpkit.phased_extremal`), its extremal's :attr:`Extremal.phases` certified one by one and as a whole.
+
 What the chain does not treat yet stops it with a named error: a solution without costate estimates (Radau and
 HLGL give them), an arc or junction whose flow is not derived (named with what to do), a free t0, free parameters in
 the arc method. An extremal of a wrong structure (the shooting can converge to one) fails its certificate, by name: no
@@ -353,6 +358,10 @@ def to_extremal(
     With ``problem`` and ``method="arcs"``, the arcs are read in the restatement's controls: those that give the
     direct solution's dynamics and running cost at its states (a thrust pair ``u1 - u2`` as one net thrust with the
     cost ``|F|``), and the certificate compares the extremal's arcs with that reading.
+
+    A direct solution of several phases that are not one problem cut at fixed times is shot as a multi-phase
+    boundary value problem (:func:`ocpkit.phased_extremal.phased_extremal`: the arc method, box controls, no
+    ``problem=``).
     """
     raise_on_failure = renamed_argument("strict", "raise_on_failure", strict, raise_on_failure, True, "to_extremal")
     from .shooting.hamiltonian import CONTROL_SETS
@@ -583,9 +592,19 @@ def follow_extremal(
     from .shooting.arcs import ArcShooting, arc_sequence
     from .shooting.continuation import Schedule, follow
 
+    if extremal.phases:
+        raise ValueError(
+            f"follow_extremal continues an extremal of one phase; this one has the phases {list(extremal.phases)} "
+            "(a multi-phase continuation is not built: solve the direct problem at each value and call to_extremal)"
+        )
     if not isinstance(getattr(extremal.shooting, "arcs", None), list):
         raise ValueError("follow_extremal continues an extremal of the arc method (to_extremal(..., method='arcs'))")
     first = cast("ArcTrajectory", extremal.shooting.trajectory)  # (the arc method's)
+    if first.shooting.phase:
+        raise ValueError(
+            "follow_extremal continues a whole extremal: this is one phase of a multi-phase extremal, which the "
+            "other phases' conditions hold; a multi-phase continuation is not built"
+        )
     statement = first.shooting.problem
     if parameter not in statement.parameters:
         raise KeyError(f"unknown parameter {parameter!r}; {statement.name!r} has {sorted(statement.parameters)}")

@@ -23,11 +23,12 @@ from .errors import SolverError
 from .indirect import Certificate, Check, Extremal, certify
 from .outcome import Outcome
 from .second_order import SecondOrder, _not_convex
+from .statement.times import Duration, FreeFinalTime
 from .structure import Structure, control_structure
 
 if TYPE_CHECKING:
     from .shooting.phases import PhasedArcResult, PhasedArcShooting
-    from .solution import Solution
+    from .solution import PhaseSolution, Solution
     from .statement.phases import MultiPhaseProblem
 
 
@@ -62,6 +63,7 @@ def phased_extremal(
             f"to_extremal needs every phase's costate estimates, which {without} do not have: solve with Radau or HLGL"
         )
     problem = statement.with_problems([ph.problem for ph in phases])  # at the parameter values solved with
+    _inactive_time_bounds(problem, phases)
     start = time.perf_counter()
     structures = [control_structure(ph, min_share=min_share) for ph in phases]
     detect_s = time.perf_counter() - start
@@ -118,6 +120,25 @@ def phased_extremal(
             outcome=Outcome.CERTIFICATE_FAILED,
         )
     return extremal
+
+
+def _inactive_time_bounds(problem: MultiPhaseProblem, phases: list[PhaseSolution]) -> None:
+    """A ValueError naming a phase whose free time (or duration) the direct solution ends on a bound of: the
+    shooting's condition there is H's transversality, which holds only where the bound is inactive."""
+    for name, pr, ph in zip(problem.names, problem.problems, phases):
+        ends = [("initial time", pr.t0, ph.t0), ("final time", pr.tf, ph.tf)]
+        if isinstance(pr.tf, Duration):
+            ends[1] = ("duration", pr.tf, ph.tf - ph.t0)
+        for what, declared, value in ends:
+            if not isinstance(declared, FreeFinalTime):  # FreeInitialTime and Duration are kinds of it
+                continue
+            for side, bound in (("lower", declared.lower), ("upper", declared.upper)):
+                if abs(value - bound) <= 1e-7 * (1.0 + abs(bound)):
+                    raise ValueError(
+                        f"phase {name!r}: its {what} {value:.10g} lies on its {side} bound {bound:g}: the shooting "
+                        "takes free times whose bounds are inactive (H's transversality condition holds only "
+                        "there); widen the bound, or fix the time"
+                    )
 
 
 def _second_order(problem: MultiPhaseProblem, shooting: PhasedArcShooting, result: PhasedArcResult) -> SecondOrder:

@@ -52,6 +52,8 @@ class PhasedArcResult(IndirectResult):
     own cost, its ``norm`` the whole system's)."""
 
     multipliers: np.ndarray
+    #: what each of ``multipliers`` belongs to (:attr:`PhasedArcShooting.psi_labels`: ``"link burn -> coast: r"``)
+    labels: list[str] = field(default_factory=list)
     phases: dict[str, ArcResult] = field(default_factory=dict)
 
     @property
@@ -370,6 +372,7 @@ class PhasedArcShooting:
             cpu_s=time.process_time() - start,
             objective=objective,
             multipliers=nu,
+            labels=list(self.psi_labels),
             noise=noise,
         )
         if np.isfinite(norm) and np.isfinite(objective) and self._ordered(z):
