@@ -484,7 +484,8 @@ class ArcShooting:
         phase: bool = False,
     ) -> None:
         #: a phase of a multi-phase boundary value problem (:class:`~ocpkit.shooting.phases.PhasedArcShooting`):
-        #: its times are inputs and its ends' conditions the trajectory's, :attr:`interior` the arcs' conditions
+        #: its times are inputs and its ends' conditions the trajectory's; ``interior`` (a CasADi function of
+        #: ``(z, P, t0, tf)``) gives the arcs' conditions, the phase's ends and H there, its cost and its times
         self.phase = phase
         if problem.free_initial_time and not phase:
             raise ValueError(f"{problem.name!r}: arc shooting integrates from a fixed t0")
