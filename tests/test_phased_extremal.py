@@ -200,3 +200,30 @@ def test_a_multi_phase_extremal_is_not_continued_as_one_phase(waypoint_extremal)
         follow_extremal(extremal, "anything", [1.0])
     with pytest.raises(ValueError, match="one phase of a multi-phase extremal"):
         follow_extremal(extremal.phase("out"), "anything", [1.0])
+
+
+def test_a_bound_met_at_a_link_only_is_named():
+    """x <= 0.8 on the first phase, which the second's reward for x drives the link onto: the first phase's x is
+    linear and meets its bound at its end only, where x is free (a link). The structure has no arc of it, and the
+    shooting would leave it out: the chain names it instead of returning an extremal that violates it."""
+    first = OptimalControlProblem(
+        "rise",
+        states=[State("x", upper=0.8, initial=0.0, guess=(0.0, 0.8))],
+        controls=[Control("u", guess=0.8)],
+        dynamics=lambda x, u, t: [u["u"]],
+        tf=1.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2,
+    )
+    second = OptimalControlProblem(
+        "reward",
+        states=[State("x", final=0.0, guess=(0.8, 0.0))],
+        controls=[Control("u", guess=0.0)],
+        dynamics=lambda x, u, t: [u["u"]],
+        t0=1.0,
+        tf=2.0,
+        lagrange=lambda x, u, t: u["u"] ** 2 / 2 - 4 * x["x"],
+    )
+    direct = Program(MultiPhaseProblem([first, second]), Radau(nodes=4, intervals=10)).solve(error_threshold=None)
+    assert direct.phase("rise").state(1.0)[0] == pytest.approx(0.8, abs=1e-6)
+    with pytest.raises(ValueError, match=r"phase 'rise': the direct solution reaches 'x.upper' at the phase's end"):
+        to_extremal(direct)

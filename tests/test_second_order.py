@@ -87,7 +87,7 @@ def test_where_neither_route_applies_it_says_why():
 
 def test_a_concave_kink_is_not_taken_for_convexity():
     """-|u| has a zero Hessian wherever it has one: the midpoint inequality catches it."""
-    from ocpkit.second_order import _not_convex
+    from ocpkit.second_order import not_convex
 
     kinked = OptimalControlProblem(
         "kinked",
@@ -99,7 +99,7 @@ def test_a_concave_kink_is_not_taken_for_convexity():
     )
     result = zero_extremal(1.0)
     result.trajectory.problem = kinked
-    assert _not_convex(kinked, result.trajectory) == "the running cost is not convex (the midpoint inequality fails)"
+    assert not_convex(kinked, result.trajectory) == "the running cost is not convex (the midpoint inequality fails)"
 
 
 def test_units_and_long_horizons_do_not_make_a_minimum_fail():

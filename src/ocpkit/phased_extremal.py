@@ -5,45 +5,62 @@ constraints, joined by links (with jumps, at free times) and linkage constraints
 Each phase's arcs are read from its direct solution (:func:`~ocpkit.structure.control_structure`), the phases are
 shot together (:class:`~ocpkit.shooting.phases.PhasedArcShooting`: each phase's flows and junctions, the
 trajectory's transversality conditions at the phases' ends), and the extremal is certified phase by phase
-(:func:`~ocpkit.indirect.certify`: H minimal, feasible, constant, the arcs' conditions, the direct phase's arcs,
+(:func:`~ocpkit.certificate.certify`: H minimal, feasible, constant, the arcs' conditions, the direct phase's arcs,
 cost and states) and as a whole (``|S|``, the objective against the direct solution's, and the second-order
 verdict: by convexity, where every phase has fixed times and is convex, the trajectory's cost convex (a constant
 positive semidefinite Hessian) and the equalities at the ends affine; otherwise not applicable, with the reason).
+
+Stopped by name: free parameters (their transversality conditions are not derived), inequalities at the ends, a
+free time the direct solution ends on a bound of, and a state constraint the direct solution meets at a phase's
+start or end only where a state it reads is free (a mass spent down to a stage's dry mass at a link: its multiplier
+would enter the costate there). Unlike the one-phase chain, it does not re-solve the direct problem from the
+extremal where only the comparisons with the direct solution fail.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
 
-from .errors import SolverError
-from .indirect import Certificate, Check, Extremal, certify
-from .outcome import Outcome
-from .second_order import SecondOrder, _not_convex
+from .certificate import Certificate, Check, certify
+from .second_order import SecondOrder, not_convex
 from .statement.times import Duration, FreeFinalTime
-from .structure import Structure, control_structure
+from .structure import Structure, control_structure, inequalities
 
 if TYPE_CHECKING:
     from .shooting.phases import PhasedArcResult, PhasedArcShooting
     from .solution import PhaseSolution, Solution
+    from .statement import OptimalControlProblem
     from .statement.phases import MultiPhaseProblem
 
 
-def phased_extremal(
-    solution: Solution,
-    *,
-    tol: float = 1e-10,
-    raise_on_failure: bool = True,
-    integrator_tol: float | None = None,
-    min_share: float = 0.01,
-) -> Extremal:
-    """The certified extremal of the multi-phase problem ``solution`` (a direct solution of several phases, with
-    costate estimates) approximates (module docstring; the arguments are :func:`~ocpkit.indirect.to_extremal`'s).
-    Its :attr:`~ocpkit.indirect.Extremal.phases` are the phases' extremals; its ``trajectory`` joins them where
-    they make one (:class:`~ocpkit.shooting.phases.PhasedTrajectory`)."""
+@dataclass
+class PhasedChain:
+    """What the chain found for a multi-phase solution (:func:`shoot_phases`), from which
+    :func:`~ocpkit.indirect.to_extremal` makes the :class:`~ocpkit.indirect.Extremal`: the shooting run
+    (``result``), each phase's ``structures`` read from its direct solution, ``directs`` (those direct phases) and
+    ``certificates``, the whole trajectory's ``certificate``, the wall times of the stages (``timings``) and the
+    ``route`` in words."""
+
+    result: PhasedArcResult
+    structures: dict[str, Structure]
+    directs: dict[str, PhaseSolution]
+    certificates: dict[str, Certificate]
+    certificate: Certificate
+    timings: dict[str, float] = field(default_factory=dict)
+    route: str = ""
+
+
+def shoot_phases(
+    solution: Solution, *, tol: float = 1e-10, integrator_tol: float | None = None, min_share: float = 0.01
+) -> PhasedChain:
+    """The multi-phase chain (module docstring) from ``solution``, a direct solution of several phases with costate
+    estimates (the arguments are :func:`~ocpkit.indirect.to_extremal`'s). A failed shooting raises its
+    :class:`~ocpkit.SolverError`; what the chain does not take raises a ValueError naming it."""
     from .shooting.arcs import arc_sequence
     from .shooting.phases import PhasedArcShooting
 
@@ -66,60 +83,74 @@ def phased_extremal(
     _inactive_time_bounds(problem, phases)
     start = time.perf_counter()
     structures = [control_structure(ph, min_share=min_share) for ph in phases]
+    for name, pr, ph, st in zip(names, problem.problems, phases, structures):
+        _no_bound_at_an_end_only(name, pr, ph, st)
     detect_s = time.perf_counter() - start
     start = time.perf_counter()
     flows: dict[str, Any] = {} if integrator_tol is None else {"rtol": integrator_tol, "atol": integrator_tol}
-    arcs = [arc_sequence(st, pr, ph.t0, ph.tf) for st, pr, ph in zip(structures, problem.problems, phases)]
+    arcs = []
+    for name, st, pr, ph in zip(names, structures, problem.problems, phases):
+        try:
+            arcs.append(arc_sequence(st, pr, ph.t0, ph.tf))
+        except ValueError as exc:
+            raise ValueError(f"phase {name!r}: {exc}") from exc
     shooting = PhasedArcShooting(problem, arcs, **flows)
     result = shooting.solve(shooting.guess(phases), tol=tol)
     shoot_s = time.perf_counter() - start
-    each: dict[str, Extremal] = {}
+    certificates: dict[str, Certificate] = {}
     checks = [Check("shooting_residual", float(result.norm), tol, "|S| at the solution")]
     for name, ph, st in zip(names, phases, structures):
         run = result.phases[name]
         certificate = certify(run.trajectory, run, ph, st, tol=tol, min_share=min_share, second=False)
+        certificates[name] = certificate
         checks += [
             Check(f"{name}: {c.name}", c.value, c.tolerance, c.meaning)
             for c in certificate.checks
             if c.name != "shooting_residual"
         ]
-        each[name] = Extremal(
-            trajectory=run.trajectory,
-            shooting=run,
-            structure=st,
-            certificate=certificate,
-            direct=None,
-            route=f"arc shooting ({len(run.arcs)} arcs) of phase {name!r}",
-        )
     gap = abs(result.objective - float(solution.objective)) / (1.0 + abs(result.objective))
     checks.append(Check("objective_gap", gap, 1e-2, "indirect against direct, the whole trajectory"))
     verdict = _second_order(problem, shooting, result)
     if verdict.applicable:
         checks.append(Check("second_order", 0.0 if verdict.passed else 1.0, 0.0, str(verdict)))
-    certificate = Certificate(tuple(checks), verdict)
-    extremal = Extremal(
-        trajectory=result.trajectory,
-        shooting=result,
-        structure=Structure(
-            tuple(a for st in structures for a in st.arcs), tuple(p for st in structures for p in st.touches)
-        ),
-        certificate=certificate,
+    return PhasedChain(
+        result=result,
+        structures=dict(zip(names, structures)),
+        directs=dict(zip(names, phases)),
+        certificates=certificates,
+        certificate=Certificate(tuple(checks), verdict),
         timings={"structure_s": detect_s, "shooting_s": shoot_s},
-        direct=solution,
         route=f"multi-phase arc shooting ({len(names)} phases, {sum(len(a) for a in arcs)} arcs)",
-        phases=each,
     )
-    if raise_on_failure and not certificate.passed:
-        raise SolverError(
-            "certificate",
-            f"failed checks {certificate.failed}",
-            result.evaluations,
-            f"phases {names}:\n{certificate.describe()}",
-            unit="shooting-function evaluations",
-            result=extremal,
-            outcome=Outcome.CERTIFICATE_FAILED,
-        )
-    return extremal
+
+
+def _no_bound_at_an_end_only(name: str, problem: OptimalControlProblem, phase: PhaseSolution, found: Structure) -> None:
+    """A ValueError naming a state constraint of a phase that its direct solution reaches at the phase's start or
+    end only, where a state it reads is free (a bound met at a link): the structure has no arc of it, so the
+    shooting would leave it out, and the extremal would violate it."""
+    ham = problem.functions.hamiltonian
+    P = np.asarray(problem.full_parameters, dtype=float).ravel()
+    t = np.linspace(phase.t0, phase.tf, 201)
+    X, U = phase.state(t), phase.control(t)
+    held = {a.constraint for a in found.arcs if a.constraint is not None} | {p.constraint for p in found.touches}
+    for q in inequalities(problem):
+        if not q.pure or q.name in held:
+            continue
+        c = np.asarray(q.function.map(t.size)(X.T, U.T, t[None, :], np.repeat(P[:, None], t.size, axis=1))).ravel()
+        expr = q.function(ham.x, ham.u, ham.t, ham.P)
+        for k, (when, fixed) in enumerate((("start", "fixed_initial"), ("end", "fixed_final"))):
+            free = [
+                s.name
+                for i, s in enumerate(problem.states)
+                if ca.depends_on(expr, ham.x[i]) and getattr(s, fixed) is None
+            ]
+            value = c[0] if k == 0 else c[-1]
+            if free and abs(value) <= 1e-6 * max(1.0, float(np.ptp(c))):
+                raise ValueError(
+                    f"phase {name!r}: the direct solution reaches {q.name!r} at the phase's {when} only (t = "
+                    f"{t[0] if k == 0 else t[-1]:.10g}), where {free} are free: the structure has no arc of it, and "
+                    "the shooting would leave it out; state it as the phase's boundary value (a bound met at a link)"
+                )
 
 
 def _inactive_time_bounds(problem: MultiPhaseProblem, phases: list[PhaseSolution]) -> None:
@@ -152,18 +183,18 @@ def _second_order(problem: MultiPhaseProblem, shooting: PhasedArcShooting, resul
             return SecondOrder(
                 "not applicable", "", f"phase {name!r} has a free time: its second variation is not derived"
             )
-        reason = _not_convex(pr, result.phases[name].trajectory)
+        reason = not_convex(pr, result.phases[name].trajectory)
         if reason is not None:
             return SecondOrder(
                 "not applicable",
                 "",
                 f"phase {name!r} is not convex ({reason}); a Jacobi test across phases is not derived",
             )
-    E = shooting._E
-    hessian = ca.hessian(shooting._trajectory_cost, E)[0]
+    E = shooting.ends
+    hessian = ca.hessian(shooting.trajectory_cost, E)[0]
     if ca.depends_on(hessian, E) or np.linalg.eigvalsh(np.asarray(ca.evalf(hessian))).min(initial=0.0) < -1e-12:
         return SecondOrder("not applicable", "", "the trajectory's cost is not convex in the phases' ends")
-    for label, row in zip(shooting.psi_labels, ca.vertsplit(shooting._psi)):
+    for label, row in zip(shooting.psi_labels, ca.vertsplit(shooting.psi)):
         if ca.depends_on(ca.jacobian(row, E), E):
             return SecondOrder("not applicable", "", f"{label} is not affine in the phases' ends")
     return SecondOrder(
@@ -174,4 +205,4 @@ def _second_order(problem: MultiPhaseProblem, shooting: PhasedArcShooting, resul
     )
 
 
-__all__ = ["phased_extremal"]
+__all__ = ["PhasedChain", "shoot_phases"]

@@ -1,6 +1,6 @@
 """The second-order check of an extremal: a minimum, not only a point where the first variation vanishes.
 
-The first-order checks of a certificate (:func:`ocpkit.indirect.certify`) say that an extremal satisfies the
+The first-order checks of a certificate (:func:`ocpkit.certificate.certify`) say that an extremal satisfies the
 maximum principle; a maximum or a saddle of the cost can satisfy it too. :func:`second_order` tries two routes, the
 first that applies:
 
@@ -90,7 +90,7 @@ def second_order(
         return SecondOrder("not applicable", "", "a free initial or final time: its second variation is not derived")
     if problem.nu == 0:
         return SecondOrder("not applicable", "", "no control: the accessory problem has no variation to test")
-    reason = _not_convex(problem, trajectory)
+    reason = not_convex(problem, trajectory)
     if reason is None:
         return SecondOrder(
             "passed",
@@ -137,7 +137,7 @@ def _exact(trajectory: Trajectory, structure: Structure) -> Structure:
     return Arcs(tuple(arcs), tuple(touches))
 
 
-def _not_convex(problem: OptimalControlProblem, trajectory: Trajectory) -> str | None:
+def not_convex(problem: OptimalControlProblem, trajectory: Trajectory) -> str | None:
     """Why convexity (module docstring, route 1) is not established for ``problem``, or None where it is."""
     ham = problem.functions.hamiltonian
     x, u, t, P = ham.x, ham.u, ham.t, ham.P
@@ -369,4 +369,4 @@ def _terminal_fields(
     return np.vstack([top, bottom])
 
 
-__all__ = ["VERDICTS", "SecondOrder", "second_order"]
+__all__ = ["VERDICTS", "SecondOrder", "not_convex", "second_order"]

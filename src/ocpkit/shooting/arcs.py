@@ -471,7 +471,8 @@ class ArcShooting:
     layout : list[tuple[str, int]]
         The unknowns ``z`` block by block, as ``[(name, size), ...]`` in order: ``x0`` the free initial states,
         ``p0`` the initial costates, ``t<k>`` and ``y<k>`` the time and ``(x, p)`` at junction ``k``, ``tf`` where
-        free, ``nu`` the boundary multipliers, ``w<k>`` the starting values of arc ``k``'s implicit regular controls.
+        free, ``nu`` the boundary multipliers, ``w<k>`` the starting values of arc ``k``'s implicit regular controls
+        (of a phase, ``phase=True``: neither ``tf`` nor ``nu``, which are the trajectory's).
     """
 
     def __init__(
@@ -884,6 +885,11 @@ class ArcShooting:
         a factor ten, or at the integrator's noise. A failure raises a :class:`~ocpkit.SolverError` naming it and its
         :class:`~ocpkit.Outcome`, the last iterate's result attached (``raise_on_failure=False``: returns it, with
         ``converged=False`` and its ``status``)."""
+        if self.phase:
+            raise ValueError(
+                f"{self.problem.name!r} is shot as a phase of a multi-phase problem, whose conditions at its ends are "
+                "the trajectory's: solve the PhasedArcShooting of its phases"
+            )
         P = self._P(parameters)
         z = np.asarray(z0, dtype=float).copy()
         if z.size != self.nz:

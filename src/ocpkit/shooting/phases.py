@@ -79,6 +79,13 @@ class PhasedArcShooting:
         (``"burn.t0"``, ``"burn.tf"``), then ``nu``.
     psi_labels : list[str]
         What each endpoint equality is, in the order of ``nu``.
+    ends : casadi.SX
+        The symbols of every phase's ``[x0, xf, t0, tf, P]``, in the phases' order (``e``; the layout of
+        :meth:`~ocpkit.MultiPhaseProblem.ends_layout`).
+    psi : casadi.SX
+        The endpoint equalities ``psi(e)`` kept (those the fixed end values do not settle).
+    mayer, trajectory_cost : casadi.SX
+        Every phase's Mayer term with the trajectory's cost, and the trajectory's cost alone, in ``e``.
     """
 
     def __init__(
@@ -99,9 +106,12 @@ class PhasedArcShooting:
             )
         self.problem = problem
         self.names = list(problem.names)
-        self.phases = [
-            ArcShooting(pr, seq, rtol=rtol, atol=atol, phase=True) for pr, seq in zip(problem.problems, arcs)
-        ]
+        self.phases = []
+        for name, pr, seq in zip(self.names, problem.problems, arcs):
+            try:
+                self.phases.append(ArcShooting(pr, seq, rtol=rtol, atol=atol, phase=True))
+            except ValueError as exc:
+                raise ValueError(f"phase {name!r}: {exc}") from exc
         self._build()
 
     # -- the shooting function ---------------------------------------------------------------------------------
@@ -126,8 +136,8 @@ class PhasedArcShooting:
             parts[name] = z[offset : offset + n] if n else ca.MX(0, 1)
             offset += n
         # every phase's interior, at its times
-        E, nu = self._E, ca.SX.sym("nu", len(labels))
-        ell = self._mayer + (ca.dot(nu, psi) if labels else 0)
+        E, nu = self.ends, ca.SX.sym("nu", len(labels))
+        ell = self.mayer + (ca.dot(nu, psi) if labels else 0)
         G = ca.Function("endpoint", [E, nu], [ca.gradient(ell, E), psi])
         out: list[dict[str, ca.MX]] = []
         ends: list[ca.MX] = []
@@ -170,19 +180,18 @@ class PhasedArcShooting:
                 f"the phases' arcs give {S.numel()} conditions for {nz} unknowns: a structure the derived junction "
                 "conditions do not close; keep the direct solution"
             )
-        trajectory_cost = ca.Function("trajectory_cost", [E], [self._trajectory_cost])
+        trajectory_cost = ca.Function("trajectory_cost", [E], [self.trajectory_cost])
         objective = trajectory_cost(ca.vertcat(*ends)) + sum(res["cost"] for res in out)
         self.S = ca.Function("S", [z], [S])
         self.SJ = ca.Function("SJ", [z], [S, ca.jacobian(S, z)])
-        self.times = ca.Function("times", [z], [ca.vertcat(*times)])
         self._phase_out = ca.Function("phases", [z], [v for res, t in zip(out, times) for v in (t, res["cost"])])
         self._phase_times = ca.Function("phase_times", [z], times)
         self.objective = ca.Function("objective", [z], [objective])
         self.nz = nz
 
     def _endpoint_equalities(self) -> tuple[ca.SX, list[str]]:
-        """``psi(e)`` (module docstring) and its rows' labels; stores ``e`` (``_E``), the phases' Mayer terms with the
-        trajectory's cost (``_mayer``), the trajectory's cost alone (``_trajectory_cost``) and ``psi`` (``_psi``).
+        """``psi(e)`` (module docstring) and its rows' labels; stores ``e`` (:attr:`ends`), :attr:`mayer`,
+        :attr:`trajectory_cost` and :attr:`psi`.
         Rows constant at the fixed end values (fixed states and times, the parameters) are dropped, or named where
         they do not vanish."""
         problem = self.problem
@@ -242,9 +251,9 @@ class PhasedArcShooting:
             labels += [f"linkage: {label}" for label in linkage.labels]
         psi = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         keep = self._informative(psi, labels, E, fixed)
-        self._E, self._mayer, self._trajectory_cost = E, mayer, trajectory_cost
-        self._psi = ca.vertcat(*[psi[i] for i in keep]) if keep else ca.SX(0, 1)
-        return self._psi, [labels[i] for i in keep]
+        self.ends, self.mayer, self.trajectory_cost = E, mayer, trajectory_cost
+        self.psi = ca.vertcat(*[psi[i] for i in keep]) if keep else ca.SX(0, 1)
+        return self.psi, [labels[i] for i in keep]
 
     @staticmethod
     def _informative(psi: ca.SX, labels: list[str], E: ca.SX, fixed: dict[int, float]) -> list[int]:
@@ -253,13 +262,15 @@ class PhasedArcShooting:
             return []
         idx = sorted(fixed)
         at = ca.substitute(psi, ca.vertcat(*[E[i] for i in idx]), ca.DM([fixed[i] for i in idx]))
+        rows, cols = ca.jacobian(psi, E).sparsity().get_triplet()
         keep = []
         for r in range(psi.numel()):
             if ca.depends_on(at[r], E):
                 keep.append(r)
                 continue
             value = float(ca.evalf(at[r]))
-            if abs(value) > 1e-9 * (1.0 + max((abs(v) for v in fixed.values()), default=0.0)):
+            size = max((abs(fixed[c]) for r_, c in zip(rows, cols) if r_ == r and c in fixed), default=0.0)
+            if abs(value) > 1e-9 * (1.0 + size):
                 raise ValueError(f"{labels[r]}: the fixed values at the phases' ends violate it by {value:.3g}")
         return keep
 
@@ -300,9 +311,9 @@ class PhasedArcShooting:
         n = len(self.psi_labels)
         if n == 0:
             return np.zeros(0)
-        E = self._E
-        grad_mayer = ca.Function("gm", [E], [ca.gradient(self._mayer, E)])
-        A = np.asarray(ca.Function("A", [E], [ca.jacobian(self._psi, E)])(e))
+        E = self.ends
+        grad_mayer = ca.Function("gm", [E], [ca.gradient(self.mayer, E)])
+        A = np.asarray(ca.Function("A", [E], [ca.jacobian(self.psi, E)])(e))
         g = np.asarray(grad_mayer(e)).ravel()
         rows: list[np.ndarray] = []
         rhs: list[float] = []
@@ -439,6 +450,15 @@ class PhasedArcShooting:
         raise KeyError(name)
 
 
+def phase_name(names: Sequence[str], key: str | int) -> str:
+    """The name of the phase ``key`` (a name or an index) among ``names``; a KeyError names the phases."""
+    if isinstance(key, str) and key in names:
+        return key
+    if isinstance(key, (int, np.integer)) and not isinstance(key, bool) and -len(names) <= key < len(names):
+        return names[int(key)]
+    raise KeyError(f"unknown phase {key!r}; the phases are {list(names)} (or indices 0 to {len(names) - 1})")
+
+
 def _npar(problem: OptimalControlProblem) -> int:
     """The length of a phase's parameter vector (its ends' ``P``)."""
     return int(np.asarray(problem.full_parameters, dtype=float).size)
@@ -464,12 +484,7 @@ class PhasedTrajectory(Trajectory):
 
     def phase(self, key: str | int) -> Trajectory:
         """A phase's extremal by name or index."""
-        names = list(self.phases)
-        if isinstance(key, str):
-            if key not in self.phases:
-                raise KeyError(f"unknown phase {key!r}; the phases are {names}")
-            return self.phases[key]
-        return self.phases[names[key]]
+        return self.phases[phase_name(list(self.phases), key)]
 
     def _only(self, what: str) -> list[Trajectory]:
         if not self.joined:
@@ -513,4 +528,4 @@ class PhasedTrajectory(Trajectory):
         return self._dispatch(t, "costate")
 
 
-__all__ = ["PhasedArcResult", "PhasedArcShooting", "PhasedTrajectory"]
+__all__ = ["PhasedArcResult", "PhasedArcShooting", "PhasedTrajectory", "phase_name"]
