@@ -16,6 +16,7 @@ from ocpkit import (
     FreeFinalTime,
     FreeInitialTime,
     FreeParameter,
+    Link,
     MultiPhaseProblem,
     OptimalControlProblem,
     Radau,
@@ -227,3 +228,55 @@ def test_a_bound_met_at_a_link_only_is_named():
     assert direct.phase("rise").state(1.0)[0] == pytest.approx(0.8, abs=1e-6)
     with pytest.raises(ValueError, match=r"phase 'rise': the direct solution reaches 'x.upper' at the phase's end"):
         to_extremal(direct)
+
+
+def test_a_jump_a_free_link_time_a_phase_mayer_term_and_a_cost_at_the_ends_together():
+    """Three phases of x' = u, 2 u, u with costs u^2/2, u^2/2, u^2 on [0, T1], [T1, 2], [2, 3]; x jumps by 1/2 at the
+    free T1, the first phase's Mayer term is -0.3 T1, the trajectory's cost (x(3) - 3)^2 / 2. The costate p is one
+    constant (the links are plain; a jump does not move it), u = -p, -2 p, -p/2; H's jump at T1 pays the Mayer
+    term, -p^2/2 + 2 p^2 = 0.3, so p = -sqrt(0.2); p = x(3) - 3 gives T1 = (9.5 + 2.5 / p) / 3 and
+    J = 0.95 - 0.6 T1 (the derivation of a review of this change)."""
+    a = OptimalControlProblem(
+        "a",
+        states=[State("x", initial=0.0, guess=(0.0, 0.5))],
+        controls=[Control("u", -10.0, 10.0, guess=0.5)],
+        dynamics=lambda x, u, t: [u["u"]],
+        lagrange=lambda x, u, t: 0.5 * u["u"] ** 2,
+        mayer=lambda x0, xf, t0, tf: -0.3 * tf,
+        tf=FreeFinalTime(0.5, 1.9, 1.0),
+    )
+    b = OptimalControlProblem(
+        "b",
+        states=[State("x", guess=(1.0, 2.0))],
+        controls=[Control("u", -10.0, 10.0, guess=0.5)],
+        dynamics=lambda x, u, t: [2 * u["u"]],
+        lagrange=lambda x, u, t: 0.5 * u["u"] ** 2,
+        t0=FreeInitialTime(0.5, 1.9, 1.0),
+        tf=2.0,
+    )
+    c = OptimalControlProblem(
+        "c",
+        states=[State("x", guess=(2.0, 3.0))],
+        controls=[Control("u", -10.0, 10.0, guess=0.5)],
+        dynamics=lambda x, u, t: [u["u"]],
+        lagrange=lambda x, u, t: u["u"] ** 2,
+        t0=2.0,
+        tf=3.0,
+    )
+    mp = MultiPhaseProblem(
+        [a, b, c], [Link(0, 1, jumps={"x": 0.5}), Link(1, 2)], cost=lambda e: 0.5 * (e["c"].xf["x"] - 3.0) ** 2
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        direct = Program(mp, Radau(nodes=4, intervals=20)).solve(mesh_tolerance=1e-8)
+    extremal = to_extremal(direct, integrator_tol=1e-14)
+    p = -math.sqrt(0.2)
+    T1 = (9.5 + 2.5 / p) / 3
+    assert extremal.phase("a").shooting.times[-1] == pytest.approx(T1, abs=1e-10)
+    assert extremal.objective == pytest.approx(0.95 - 0.6 * T1, abs=1e-12)
+    for name in "abc":
+        tr = extremal.phase(name).trajectory
+        assert tr.costate(np.array([tr.t0, tr.tf])).ravel() == pytest.approx([p, p], abs=1e-10)
+    jump = extremal.phase("b").trajectory.state(T1)[0] - extremal.phase("a").trajectory.state(T1)[0]
+    assert jump == pytest.approx(0.5, abs=1e-12)
+    assert "link a -> b: time" in extremal.shooting.labels
