@@ -22,7 +22,8 @@ from ocpkit import (
     SolverError,
     State,
 )
-from ocpkit.indirect import _arc_conditions, certify, follow_extremal, to_extremal
+from ocpkit.certificate import _arc_conditions, certify
+from ocpkit.indirect import follow_extremal, to_extremal
 from ocpkit.shooting.arcs import ArcShooting, ArcType, arc_sequence
 from ocpkit.structure import Arc, Structure, control_structure
 
