@@ -302,7 +302,8 @@ class PhasedArcShooting:
         H = ca.Function("H", [ham.x, ham.p, ham.u, ham.t, ham.P], [ham.H])
         t = np.array([tr.t0, tr.tf])
         X, L, U = tr.state(t), tr.costate(t), tr.control(t)
-        return tuple(float(H(X[i], L[i], U[i], t[i], P)) for i in range(2))  # type: ignore[return-value]
+        start, end = (float(H(X[i], L[i], U[i], t[i], P)) for i in range(2))
+        return start, end
 
     def _multiplier_guess(
         self, e: np.ndarray, costates: list[tuple[np.ndarray, np.ndarray, float, float]]
@@ -495,6 +496,7 @@ class PhasedTrajectory(Trajectory):
         return list(self.phases.values())
 
     @property
+    # a property where Trajectory declares an attribute: the phases' problem is read, never set
     def problem(self) -> OptimalControlProblem:  # type: ignore[override]
         """The first phase's problem, whose states and controls every phase has (where the phases make one)."""
         return self._only("problem")[0].problem
