@@ -2,6 +2,7 @@
 #   make reproduce   set up, execute every notebook headless, regenerate figures/ data/derived/ and the HTML report
 #   make test        set up, lint, run the unit tests and nbval over the notebooks, compare their outputs with the
 #                    published record (figures/, data/derived/), and build the documentation site (make docs)
+#   make check       the library's own tests, the fast tier (no Lab, browser, kernel, Sphinx or venv): a change's loop
 #   make lab         JupyterLab on the repository, on the compendium's kernel (as root too)
 #   make docs        the documentation site (build/docs/index.html)
 #   make bench       timing benchmarks (tables in build/bench/)
@@ -19,7 +20,7 @@ NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
-.PHONY: setup reproduce notebooks report test lint unit nbval guard docs lab bench store dist clean
+.PHONY: setup reproduce notebooks report test check lint unit nbval guard docs lab bench store dist clean
 
 # -- setup ---------------------------------------------------------------------------------------------------------
 # environment.txt is resolved for Python 3.11. PYTHON_MIN is the oldest 3.11 it is installed and tested on: Debian
@@ -173,6 +174,11 @@ mathjax: setup
 
 # tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above); tests/test_report.py
 # builds the report of the stored notebooks (nbval keeps no executed notebooks to build it from) and opens it there
+# the fast tier of the tests (tests/conftest.py): the library's own tests, and the compendium's modules called as
+# functions; the integration tier (Lab, Chromium, notebook kernels, Sphinx, pip) runs under make unit
+check: setup
+	$(PY) -m pytest tests/ -m "not integration" -q -p no:cacheprovider
+
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: setup chromium mathjax
 	$(PY) -m pytest tests/
