@@ -175,9 +175,10 @@ mathjax: setup
 # tests/test_lab.py's browser tests fail rather than skip without Chromium (see chromium above); tests/test_report.py
 # builds the report of the stored notebooks (nbval keeps no executed notebooks to build it from) and opens it there
 # the fast tier of the tests (tests/conftest.py): the library's own tests, and the compendium's modules called as
-# functions; the integration tier (Lab, Chromium, notebook kernels, Sphinx, pip) runs under make unit
+# functions, but those marked slow (several seconds each); the integration tier (Lab, Chromium, notebook kernels,
+# Sphinx, pip) and the slow tests run under make unit
 check: setup
-	$(PY) -m pytest tests/ -m "not integration" -q -p no:cacheprovider
+	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider
 
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: setup chromium mathjax

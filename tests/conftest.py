@@ -2,7 +2,8 @@
 
 The tests run in two tiers (markers registered in pyproject.toml):
 
-* the fast tier, ``make check``: the library's own tests and the compendium's modules called as functions;
+* the fast tier, ``make check``: the library's own tests and the compendium's modules called as functions, but
+  those marked ``slow`` (a refinement through many meshes, a continuation: several seconds each);
 * ``integration``: what starts JupyterLab, Chromium, a notebook kernel, Sphinx, pip or a fresh virtual environment,
   or reads the whole published record (the modules in :data:`INTEGRATION`). ``make unit`` (and so ``make test``
   and CI) runs both.

@@ -15,7 +15,9 @@ from ocpkit.verdict import SolutionNote
 from compendium.problems import catenary, hanging_chain
 
 
-@pytest.mark.parametrize("scheme", [lambda p: HLGL(p, 50), lambda p: Radau(p, nodes=4, intervals=50)])
+@pytest.mark.parametrize(
+    "scheme", [lambda p: HLGL(p, 50), pytest.param(lambda p: Radau(p, nodes=4, intervals=50), marks=pytest.mark.slow)]
+)
 def test_the_hanging_chain_as_published_refines_to_the_catenary(scheme):
     """COPS's statement and start, u free: the refinement reaches the closed-form catenary within 1e-6, with the
     control off its box (max |u| 18.35 at t = 1, the box 5 x 6 = 30)."""

@@ -347,6 +347,7 @@ def transfer():
     return systems, study.solve_robustly(shooting, start, maxfev=300)
 
 
+@pytest.mark.slow
 def test_the_transfer_followed_along_the_thrust_reaches_the_slides_one_newton_extremal(transfer):
     from compendium.paper import paper_table
     from compendium.problems.orbit_transfer import final_longitude

@@ -93,6 +93,7 @@ def test_a_budget_too_small_gives_no_estimate_rather_than_a_huge_factorisation()
     assert least_squares_multipliers(J, g, budget=100) is None
 
 
+@pytest.mark.slow
 def test_hang_glider_refinement_from_radau_4x50_reaches_the_published_range():
     # from 4 x 50 the first solve is wrong (x on its bound 1500 m, estimate 0.23); refinement used to die in SuperLU
     # on the 4th mesh. Betts (2020, Ex. 10.54) in data/paper/beyond_the_seeds.csv.
@@ -117,6 +118,7 @@ def test_tumour_refined_by_hlgl_from_ten_segments_reaches_the_published_volume()
     assert sol.objective == pytest.approx(published("tumour_anti_angiogenesis", "final_tumour_volume"), rel=1e-6)
 
 
+@pytest.mark.slow
 def test_a_singular_arc_that_ipopt_cannot_finish_fails_loudly_with_the_best_mesh():
     # catalyst mixing: finer meshes end at IPOPT's acceptable level (singular arc): a SolverError, never a crash
     with warnings.catch_warnings():
@@ -269,6 +271,7 @@ def test_refinement_stops_only_when_every_part_meets_the_tolerance():
     assert all(h.error_estimate > 1e-6 or h.failing for h in sol.mesh_history[:-1])
 
 
+@pytest.mark.slow
 def test_a_singular_arc_is_named_with_the_regularisation_to_try():
     from ocpkit.accuracy import linear_controls, singular_arcs
 
@@ -295,6 +298,7 @@ def test_a_singular_arc_is_named_with_the_regularisation_to_try():
     assert linear_controls(bang_bang) == ["u"] and singular_arcs(sol) == []
 
 
+@pytest.mark.slow
 def test_a_refinement_that_stalls_on_a_singular_arc_stops_and_says_why():
     """Goddard from HLGL 20 at 1e-6 used to run past 170 s: the estimate stays near 4e-4 on a singular arc."""
     from compendium.problems import goddard_rocket
@@ -378,6 +382,7 @@ def test_a_refinement_whose_next_mesh_would_be_this_one_stops_and_says_so(monkey
     assert "next mesh would be this one" in sol.refinement_reason and sol.program is tr.program
 
 
+@pytest.mark.slow
 def test_a_refinement_says_how_it_ended():
     from compendium.problems import bryson_denham, goddard_rocket
 
@@ -509,6 +514,7 @@ def test_the_cops_hang_glider_is_copss_statement():
     assert table["hang_glider_cops", "final_range_m"] == 1247.98
 
 
+@pytest.mark.slow
 def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
     """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
     solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the
