@@ -180,8 +180,11 @@ mathjax: setup
 check: setup
 	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider
 
+# the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE): make test builds
+# it once
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
-unit: setup chromium mathjax
+unit: export OCPKIT_SITE = $(CURDIR)/build/docs
+unit: setup chromium mathjax docs
 	$(PY) -m pytest tests/
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones
