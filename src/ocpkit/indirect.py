@@ -485,17 +485,25 @@ def _extremal(
         route=route,
         budgets=budgets,
     )
-    if raise_on_failure and not certificate.passed:
+    if raise_on_failure:
+        _raise_unless_certified(extremal, repr(problem.name))
+    return extremal
+
+
+def _raise_unless_certified(extremal: Extremal, what: str) -> None:
+    """The :class:`~ocpkit.SolverError` of an extremal whose certificate fails (outcome
+    :attr:`~ocpkit.Outcome.CERTIFICATE_FAILED`, the extremal its ``.result``), ``what`` naming the problem."""
+    certificate = extremal.certificate
+    if not certificate.passed:
         raise SolverError(
             "certificate",
             f"failed checks {certificate.failed}",
-            result.evaluations,
-            f"{problem.name!r}:\n{certificate.describe()}",
+            extremal.shooting.evaluations,
+            f"{what}:\n{certificate.describe()}",
             unit="shooting-function evaluations",
             result=extremal,
             outcome=Outcome.CERTIFICATE_FAILED,
         )
-    return extremal
 
 
 def _phased_extremal(
@@ -532,16 +540,8 @@ def _phased_extremal(
         route=chain.route,
         phases=phases,
     )
-    if raise_on_failure and not chain.certificate.passed:
-        raise SolverError(
-            "certificate",
-            f"failed checks {chain.certificate.failed}",
-            result.evaluations,
-            f"phases {list(phases)}:\n{chain.certificate.describe()}",
-            unit="shooting-function evaluations",
-            result=extremal,
-            outcome=Outcome.CERTIFICATE_FAILED,
-        )
+    if raise_on_failure:
+        _raise_unless_certified(extremal, f"phases {list(phases)}")
     return extremal
 
 

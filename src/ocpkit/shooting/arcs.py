@@ -896,24 +896,11 @@ class ArcShooting:
             raise ValueError(f"z0 must have {self.nz} entries (layout {self.layout})")
         start = time.process_time()
 
-        def residual(z: np.ndarray) -> np.ndarray:
-            try:
-                return np.asarray(self.S(z, P)).ravel()
-            except RuntimeError:  # CVODES failed on this iterate
-                return np.full(self.nz, np.inf)
-
         def ordered(z: np.ndarray) -> bool:
             return bool(np.all(np.diff(np.asarray(self.times(z, P)).ravel()) > 0))
 
-        z, S, message, claimed, n_J, n_S = newton(residual, lambda z: self.SJ(z, P), ordered, z, tol, max_iterations)
-        norm = float(np.linalg.norm(S))
-        if norm <= tol:
-            message = "converged"
-        converged, status = settled(norm, tol, claimed)
-        noise, advice = None, ""
-        if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
-            noise = noise_floor(residual, z)
-            advice = stall_advice(norm, tol, noise)
+        run = newton(lambda z: self.S(z, P), lambda z: self.SJ(z, P), ordered, z, tol, max_iterations)
+        z, norm = run.z, run.norm
         times = np.asarray(self.times(z, P)).ravel()
         try:
             objective = np.asarray(self.objective(z, P)).ravel()
@@ -921,37 +908,29 @@ class ArcShooting:
             objective = np.array([np.nan])
         result = ArcResult(
             z=z,
-            residual=S,
+            residual=run.S,
             norm=norm,
             tol=tol,
-            converged=converged,
-            status=status,
-            detail=message,
-            iterations=n_J,
-            evaluations=n_S,
+            converged=run.converged,
+            status=run.status,
+            detail=run.detail,
+            iterations=run.iterations,
+            evaluations=run.evaluations,
             cpu_s=time.process_time() - start,
             objective=float(objective[0]),
             times=times,
             multipliers=self._part(z, "nu"),
             arcs=list(self.kinds),
             jumps=[(float(times[k]), name, float(self._part(z, f"jump{k}")[0])) for k, name in self.jumps.items()],
-            noise=noise,
+            noise=run.noise,
         )
         if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
             problem = self.problem
             if parameters is not None:  # the trajectory's problem has the parameter values it was solved at
                 problem = problem.replace(parameters=dict(zip(problem.parameters, P[: len(problem.parameters)])))
             result._trajectory = ArcTrajectory(self, z, P, times, result.objective, problem=problem)
-        if not result.converged and raise_on_failure:
-            raise SolverError(
-                "arc shooting",
-                message,
-                n_J,
-                f"|S| = {norm:.3e} > {tol:g}" + (f"; {advice}" if advice else ""),
-                unit="Newton iterations",
-                result=result,
-                outcome=status,
-            )
+        if raise_on_failure:
+            run.raise_unless_converged("arc shooting", result, tol)
         return result
 
     def _part(self, z: np.ndarray, name: str) -> np.ndarray:
@@ -963,18 +942,58 @@ class ArcShooting:
         raise KeyError(name)
 
 
+@dataclass(frozen=True)
+class NewtonRun:
+    """How :func:`newton` ended: the last iterate ``z``, ``S`` and its ``norm`` there, whether it ``converged``, its
+    ``status`` (:func:`~ocpkit.shooting.result.settled`), the solver's words (``detail``), the Jacobian and residual
+    evaluations, and where it stalled, the noise floor of S measured there and the advice it gives."""
+
+    z: np.ndarray
+    S: np.ndarray
+    norm: float
+    converged: bool
+    status: Outcome
+    detail: str
+    iterations: int
+    evaluations: int
+    noise: float | None = None
+    advice: str = ""
+
+    def raise_unless_converged(self, engine: str, result: IndirectResult, tol: float) -> None:
+        """The :class:`~ocpkit.SolverError` of a run that did not converge, ``result`` attached (``engine`` names
+        the shooting in its message)."""
+        if not self.converged:
+            raise SolverError(
+                engine,
+                self.detail,
+                self.iterations,
+                f"|S| = {self.norm:.3e} > {tol:g}" + (f"; {self.advice}" if self.advice else ""),
+                unit="Newton iterations",
+                result=result,
+                outcome=self.status,
+            )
+
+
 def newton(
-    residual: Callable[[np.ndarray], np.ndarray],
+    evaluate: Callable[[np.ndarray], Any],
     jacobian: Callable[[np.ndarray], tuple[Any, Any]],
     ordered: Callable[[np.ndarray], bool],
     z: np.ndarray,
     tol: float,
     max_iterations: int,
-) -> tuple[np.ndarray, np.ndarray, str, Outcome, int, int]:
+) -> NewtonRun:
     """Newton's method on ``S(z) = 0`` (:meth:`ArcShooting.solve`): least-squares steps with the exact Jacobian
-    (``jacobian(z)`` gives ``(S, dS/dz)``), halved until ``|S|`` decreases and the arcs' times stay ``ordered``.
-    Returns the last iterate, S there, the solver's words, its claimed :class:`~ocpkit.Outcome`, and the Jacobian
-    and residual evaluations."""
+    (``jacobian(z)`` gives ``(S, dS/dz)``), halved until ``|S|`` decreases and the arcs' times stay ``ordered``; an
+    iterate ``evaluate`` cannot integrate (CVODES fails) counts as an infinite ``|S|``. Where it stalls, the noise
+    floor of S is measured and said (:func:`~ocpkit.shooting.result.noise_floor`)."""
+    size = z.size
+
+    def residual(z: np.ndarray) -> np.ndarray:
+        try:
+            return np.asarray(evaluate(z)).ravel()
+        except RuntimeError:  # CVODES failed on this iterate
+            return np.full(size, np.inf)
+
     n_S = n_J = 0
     message, claimed = "maximum number of iterations", Outcome.MAX_ITERATIONS
     S = residual(z)
@@ -1016,7 +1035,15 @@ def newton(
         if np.linalg.norm(S) <= tol and gain > 0.1 or np.linalg.norm(S) <= 1e-15:
             message, claimed = "converged", Outcome.CONVERGED
             break
-    return z, S, message, claimed, n_J, n_S
+    norm = float(np.linalg.norm(S))
+    if norm <= tol:
+        message = "converged"
+    converged, status = settled(norm, tol, claimed)
+    noise, advice = None, ""
+    if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
+        noise = noise_floor(residual, z)
+        advice = stall_advice(norm, tol, noise)
+    return NewtonRun(z, S, norm, converged, status, message, n_J, n_S, noise, advice)
 
 
 class ArcTrajectory(Trajectory):
@@ -1125,4 +1152,4 @@ class ArcTrajectory(Trajectory):
         return self._control_and_mu(self._check_times(t))[1]
 
 
-__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "arc_sequence", "newton"]
+__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "NewtonRun", "arc_sequence", "newton"]

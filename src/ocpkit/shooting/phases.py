@@ -33,11 +33,9 @@ from typing import TYPE_CHECKING, cast
 import casadi as ca
 import numpy as np
 
-from ..errors import SolverError
-from ..outcome import Outcome
 from ..trajectory import Trajectory
 from .arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType, newton
-from .result import IndirectResult, noise_floor, settled, stall_advice
+from .result import IndirectResult
 
 if TYPE_CHECKING:
     from ..statement import OptimalControlProblem
@@ -350,58 +348,35 @@ class PhasedArcShooting:
         if z.size != self.nz:
             raise ValueError(f"z0 must have {self.nz} entries (layout {self.layout})")
         start = time.process_time()
-
-        def residual(z: np.ndarray) -> np.ndarray:
-            try:
-                return np.asarray(self.S(z)).ravel()
-            except RuntimeError:  # CVODES failed on this iterate
-                return np.full(self.nz, np.inf)
-
-        z, S, message, claimed, n_J, n_S = newton(residual, lambda z: self.SJ(z), self._ordered, z, tol, max_iterations)
-        norm = float(np.linalg.norm(S))
-        if norm <= tol:
-            message = "converged"
-        converged, status = settled(norm, tol, claimed)
-        noise, advice = None, ""
-        if status is Outcome.STALLED and np.isfinite(norm):
-            noise = noise_floor(residual, z)
-            advice = stall_advice(norm, tol, noise)
+        run = newton(lambda z: self.S(z), lambda z: self.SJ(z), self._ordered, z, tol, max_iterations)
+        z, norm = run.z, run.norm
         try:
             objective = float(np.asarray(self.objective(z)).ravel()[0])
-        except RuntimeError:
+        except RuntimeError:  # the arcs cannot be integrated from the last iterate
             objective = float("nan")
-        nu = self._part(z, "nu")
         result = PhasedArcResult(
             z=z,
-            residual=S,
+            residual=run.S,
             norm=norm,
             tol=tol,
-            converged=converged,
-            status=status,
-            detail=message,
-            iterations=n_J,
-            evaluations=n_S,
+            converged=run.converged,
+            status=run.status,
+            detail=run.detail,
+            iterations=run.iterations,
+            evaluations=run.evaluations,
             cpu_s=time.process_time() - start,
             objective=objective,
-            multipliers=nu,
+            multipliers=self._part(z, "nu"),
             labels=list(self.psi_labels),
-            noise=noise,
+            noise=run.noise,
         )
         if np.isfinite(norm) and np.isfinite(objective) and self._ordered(z):
             try:
                 result.phases = self._phase_results(result)
             except RuntimeError:  # the arcs cannot be integrated densely from the last iterate: no trajectory
                 result.phases = {}
-        if not result.converged and raise_on_failure:
-            raise SolverError(
-                "multi-phase arc shooting",
-                message,
-                n_J,
-                f"|S| = {norm:.3e} > {tol:g}" + (f"; {advice}" if advice else ""),
-                unit="Newton iterations",
-                result=result,
-                outcome=status,
-            )
+        if raise_on_failure:
+            run.raise_unless_converged("multi-phase arc shooting", result, tol)
         return result
 
     def _ordered(self, z: np.ndarray) -> bool:
