@@ -907,22 +907,12 @@ class ArcShooting:
         except RuntimeError:  # the arcs cannot be integrated from the last iterate
             objective = np.array([np.nan])
         result = ArcResult(
-            z=z,
-            residual=run.S,
-            norm=norm,
-            tol=tol,
-            converged=run.converged,
-            status=run.status,
-            detail=run.detail,
-            iterations=run.iterations,
-            evaluations=run.evaluations,
-            cpu_s=time.process_time() - start,
+            **run.fields(tol, time.process_time() - start),
             objective=float(objective[0]),
             times=times,
             multipliers=self._part(z, "nu"),
             arcs=list(self.kinds),
             jumps=[(float(times[k]), name, float(self._part(z, f"jump{k}")[0])) for k, name in self.jumps.items()],
-            noise=run.noise,
         )
         if np.all(np.diff(times) > 0) and np.isfinite(norm) and np.isfinite(result.objective):
             problem = self.problem
@@ -958,6 +948,23 @@ class NewtonRun:
     evaluations: int
     noise: float | None = None
     advice: str = ""
+
+    def fields(self, tol: float, cpu_s: float) -> dict[str, Any]:
+        """The fields of every indirect result (:class:`~ocpkit.shooting.result.IndirectResult`) this run gives, with
+        the ``tol`` it was asked for and its process time ``cpu_s`` (the objective is the caller's)."""
+        return {
+            "z": self.z,
+            "residual": self.S,
+            "norm": self.norm,
+            "tol": tol,
+            "converged": self.converged,
+            "status": self.status,
+            "detail": self.detail,
+            "iterations": self.iterations,
+            "evaluations": self.evaluations,
+            "cpu_s": cpu_s,
+            "noise": self.noise,
+        }
 
     def raise_unless_converged(self, engine: str, result: IndirectResult, tol: float) -> None:
         """The :class:`~ocpkit.SolverError` of a run that did not converge, ``result`` attached (``engine`` names

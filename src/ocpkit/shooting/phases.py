@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, cast
 
 import casadi as ca
@@ -355,20 +355,10 @@ class PhasedArcShooting:
         except RuntimeError:  # the arcs cannot be integrated from the last iterate
             objective = float("nan")
         result = PhasedArcResult(
-            z=z,
-            residual=run.S,
-            norm=norm,
-            tol=tol,
-            converged=run.converged,
-            status=run.status,
-            detail=run.detail,
-            iterations=run.iterations,
-            evaluations=run.evaluations,
-            cpu_s=time.process_time() - start,
+            **run.fields(tol, time.process_time() - start),
             objective=objective,
             multipliers=self._part(z, "nu"),
             labels=list(self.psi_labels),
-            noise=run.noise,
         )
         if np.isfinite(norm) and np.isfinite(objective) and self._ordered(z):
             try:
@@ -386,6 +376,8 @@ class PhasedArcShooting:
     def _phase_results(self, whole: PhasedArcResult) -> dict[str, ArcResult]:
         """Each phase's run as an :class:`ArcResult` with its trajectory (:class:`ArcTrajectory`)."""
         out = self._phase_out(whole.z)
+        # the whole run's fields: one system, one residual, one Newton iteration count
+        shared = {f.name: getattr(whole, f.name) for f in fields(IndirectResult) if f.name not in ("z", "objective")}
         results: dict[str, ArcResult] = {}
         p_offset = 0
         for k, (name, sh) in enumerate(zip(self.names, self.phases)):
@@ -397,16 +389,7 @@ class PhasedArcShooting:
             P = self.P[p_offset : p_offset + sh.flows.P.numel()]
             p_offset += sh.flows.P.numel()
             run = ArcResult(
-                z=zk,
-                residual=whole.residual,
-                norm=whole.norm,
-                tol=whole.tol,
-                converged=whole.converged,
-                status=whole.status,
-                detail=whole.detail,
-                iterations=whole.iterations,
-                evaluations=whole.evaluations,
-                cpu_s=whole.cpu_s,
+                **{**shared, "z": zk},
                 objective=cost,
                 times=times,
                 multipliers=np.zeros(0),
