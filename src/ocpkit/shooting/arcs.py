@@ -924,12 +924,17 @@ class ArcShooting:
         return result
 
     def _part(self, z: np.ndarray, name: str) -> np.ndarray:
-        offset = 0
-        for n_, n in self.layout:
-            if n_ == name:
-                return np.asarray(z[offset : offset + n])
-            offset += n
-        raise KeyError(name)
+        return block(self.layout, z, name)
+
+
+def block(layout: Sequence[tuple[str, int]], z: np.ndarray, name: str) -> np.ndarray:
+    """The block ``name`` of the unknowns ``z`` laid out as ``layout`` (``[(name, size), ...]``, in order)."""
+    offset = 0
+    for label, n in layout:
+        if label == name:
+            return np.asarray(z[offset : offset + n])
+        offset += n
+    raise KeyError(f"no block {name!r} in the layout {[label for label, _ in layout]}")
 
 
 @dataclass(frozen=True)
@@ -1159,4 +1164,14 @@ class ArcTrajectory(Trajectory):
         return self._control_and_mu(self._check_times(t))[1]
 
 
-__all__ = ["ArcFlows", "ArcResult", "ArcShooting", "ArcTrajectory", "ArcType", "NewtonRun", "arc_sequence", "newton"]
+__all__ = [
+    "ArcFlows",
+    "ArcResult",
+    "ArcShooting",
+    "ArcTrajectory",
+    "ArcType",
+    "NewtonRun",
+    "arc_sequence",
+    "block",
+    "newton",
+]

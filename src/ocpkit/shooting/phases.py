@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..trajectory import Trajectory
-from .arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType, newton
+from .arcs import ArcResult, ArcShooting, ArcTrajectory, ArcType, block, newton
 from .result import IndirectResult
 
 if TYPE_CHECKING:
@@ -117,7 +117,7 @@ class PhasedArcShooting:
         problem, phases = self.problem, self.phases
         layout: list[tuple[str, int]] = []
         for name, sh, pr in zip(self.names, phases, problem.problems):
-            layout += [(f"{name}.{block}", n) for block, n in sh.layout]
+            layout += [(f"{name}.{label}", n) for label, n in sh.layout]
             layout += [
                 (f"{name}.{end}", 1) for end, free in (("t0", pr.free_initial_time), ("tf", pr.free_final_time)) if free
             ]
@@ -146,7 +146,7 @@ class PhasedArcShooting:
             p_offset += sh.flows.P.numel()
             t0 = parts[f"{name}.t0"] if pr.free_initial_time else ca.MX(float(pr.t0))
             tf = parts[f"{name}.tf"] if pr.free_final_time else ca.MX(float(cast(float, pr.tf)))
-            zk = ca.vertcat(*[parts[f"{name}.{block}"] for block, n in sh.layout if n]) if sh.nz else ca.MX(0, 1)
+            zk = ca.vertcat(*[parts[f"{name}.{label}"] for label, n in sh.layout if n]) if sh.nz else ca.MX(0, 1)
             res = sh.interior(z=zk, P=P, t0=t0, tf=tf)
             res["t0"], res["tf"], res["P"] = t0, tf, P
             if pr.phi is not None:  # the phase's own share of the cost, as a direct phase reports it
@@ -384,7 +384,7 @@ class PhasedArcShooting:
             times = np.asarray(out[2 * k]).ravel()
             cost = float(np.asarray(out[2 * k + 1]).ravel()[0])
             zk = np.concatenate(
-                [self._part(whole.z, f"{name}.{block}") for block, n in sh.layout if n] or [np.zeros(0)]
+                [self._part(whole.z, f"{name}.{label}") for label, n in sh.layout if n] or [np.zeros(0)]
             )
             P = self.P[p_offset : p_offset + sh.flows.P.numel()]
             p_offset += sh.flows.P.numel()
@@ -401,12 +401,7 @@ class PhasedArcShooting:
         return results
 
     def _part(self, z: np.ndarray, name: str) -> np.ndarray:
-        offset = 0
-        for block, n in self.layout:
-            if block == name:
-                return np.asarray(z[offset : offset + n])
-            offset += n
-        raise KeyError(name)
+        return block(self.layout, z, name)
 
 
 def phase_name(names: Sequence[str], key: str | int) -> str:
