@@ -96,12 +96,6 @@ class PhasedArcShooting:
     ) -> None:
         if len(arcs) != len(problem):
             raise ValueError(f"one arc sequence per phase: {len(problem)} phases, {len(arcs)} sequences")
-        free = [f"{n!r}" for n, pr in zip(problem.names, problem.problems) if pr.free_parameters]
-        if free:
-            raise ValueError(
-                f"the phases {', '.join(free)} have free parameters: the multi-phase arc shooting does not take them "
-                "(their transversality conditions are not derived)"
-            )
         self.problem = problem
         self.names = list(problem.names)
         self.phases = []
