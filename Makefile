@@ -20,6 +20,12 @@ NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
+# make check, make unit and make nbval run over JOBS processes (pytest-xdist; auto: one per core), each test module
+# and each notebook whole in one of them (its module fixtures and its kernel started once); JOBS=0 runs them in this
+# process, one after another
+JOBS ?= auto
+XDIST := -n $(JOBS) --dist loadfile
+
 .PHONY: setup reproduce notebooks report test check lint unit nbval guard docs lab bench store dist clean
 
 # -- setup ---------------------------------------------------------------------------------------------------------
@@ -178,20 +184,20 @@ mathjax: setup
 # functions, but those marked slow (several seconds each); the integration tier (Lab, Chromium, notebook kernels,
 # Sphinx, pip) and the slow tests run under make unit
 check: setup
-	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider
+	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider $(XDIST)
 
 # the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE): make test builds
 # it once
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: export OCPKIT_SITE = $(CURDIR)/build/docs
 unit: setup chromium mathjax docs
-	$(PY) -m pytest tests/
+	$(PY) -m pytest tests/ $(XDIST)
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones
 nbval: setup
 	rm -rf build/test-output
 	OCPKIT_OUTPUT_DIR=$(CURDIR)/build/test-output OCPKIT_PROGRESS=off $(PY) -m pytest --nbval-lax --nbval-kernel-name $(KERNEL) \
-		--nbval-sanitize-with notebooks/nbval_sanitize.cfg -p no:cacheprovider $(NOTEBOOKS)
+		--nbval-sanitize-with notebooks/nbval_sanitize.cfg -p no:cacheprovider $(XDIST) $(NOTEBOOKS)
 
 # what nbval's runs wrote, against the committed figures/ and data/derived/
 guard: nbval
