@@ -193,6 +193,21 @@ def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_sai
     assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
 
 
+def test_each_mesh_says_its_start_its_solve_and_its_verdict_and_a_discarded_warm_start(monkeypatch):
+    """Issue 46: each mesh's build, start, IPOPT and verdict times; a warm start that fails and is replaced by the
+    interpolated point alone shows its iterations (they cost time that solve_s does not hold)."""
+    monkeypatch.setattr(policy, "WARM_START", {**policy.WARM_START, "max_iter": 1})  # every warm start fails
+    sol = Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-5)
+    history = sol.mesh_history
+    assert sol.refinement_outcome == "met" and len(history) >= 2
+    for h in history:
+        assert min(h.build_s, h.start_s, h.solve_s, h.verdict_s) >= 0
+        assert h.total_s >= h.start_s + h.solve_s + h.verdict_s
+    assert history[0].discarded_iterations == 0  # the first mesh starts from the guess, with no warm start
+    assert all(h.discarded_iterations == 1 for h in history[1:])  # the failed warm start's one iteration
+    assert all(h.recovery == "" for h in history)  # not a recovery: the same mesh from the interpolated point
+
+
 def test_a_cut_at_a_switch_never_coarsens_global_collocation():
     tr = Radau(hang_glider(), 60)
     refined = tr.refine(np.array([1.0]), 1e-6, [np.array([0.2, 0.25, 0.6])])

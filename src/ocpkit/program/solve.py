@@ -58,7 +58,8 @@ def settle(result: NLPResult, package: Callable[[NLPResult], Solution], raise_on
 @dataclass(frozen=True)
 class MeshIteration:
     """One solve of a mesh refinement: the mesh (interval lengths as fractions of ``tf - t0``), its size, the
-    solution's error estimate, IPOPT's iterations and the times (build of this mesh, IPOPT, the whole iteration)."""
+    solution's error estimate, IPOPT's iterations and the times (build of this mesh, its start, IPOPT, the verdict,
+    the whole iteration)."""
 
     iteration: int
     transcription: str
@@ -80,6 +81,15 @@ class MeshIteration:
     #: how this mesh was started where it was not warm-started from the previous one, ``""`` (the first mesh from
     #: the guess, or a warm start), ``"cold start"`` or ``"uniform mesh"`` (a recovery, :data:`RECOVERIES`)
     recovery: str = ""
+    #: the start of this mesh: the previous mesh's solution (the first mesh: the guess) interpolated onto it, and its
+    #: multipliers estimated (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`); NaN after a recovery
+    start_s: float = float("nan")
+    #: what the refinement computes about this mesh's solution: the interval estimates, the path constraints between
+    #: the points, the flown objective once the state meets the tolerance
+    verdict_s: float = float("nan")
+    #: IPOPT iterations of a warm start that failed on this mesh, discarded for a start from the interpolated point
+    #: alone (their time is in ``total_s``, not ``solve_s``)
+    discarded_iterations: int = 0
 
     @property
     def nlp_parameters(self) -> int:
@@ -151,12 +161,15 @@ def solve_once(
     raise_on_failure: bool,
     parameters: Mapping[str, float] | None = None,
     estimate_multipliers: bool = False,
+    record: StartRecord | None = None,
 ) -> Solution:
     """One IPOPT solve of ``program``. From a solution of this same program: its exact warm start (its NLP vector and
     IPOPT's multipliers, with :data:`~ocpkit.nlp.WARM_START`). From a solution of another mesh with
     ``estimate_multipliers``: the interpolated point with first-order multiplier estimates
     (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`) and :data:`~ocpkit.nlp.WARM_START`, falling back to the
-    interpolated point alone if that solve fails. The failure policy is :func:`settle`'s."""
+    interpolated point alone if that solve fails. The failure policy is :func:`settle`'s. ``record``, where given,
+    receives the start's time and a discarded warm start's iterations."""
+    record = StartRecord() if record is None else record
     lbw, ubw = program.bounds(parameters)
     lbg, ubg = program.constraint_bounds()
 
@@ -202,15 +215,30 @@ def solve_once(
     if previous is not None:
         result = run(np.clip(previous.w, lbw, ubw), warm_options, (previous.lam_g, previous.lam_w))
         return settle(result, program.solution, raise_on_failure)
+    started = time.perf_counter()
     w0 = np.clip(program.initial_point(guess), lbw, ubw)
     if estimate_multipliers and isinstance(guess, Solution):
         # a solution that reaches the box (a previous mesh held there) starts in it, not from a runaway
         boxed = guard is not None and guard.reaches(w0)
         lb, ub = guard.bounds(lbw, ubw) if guard is not None and boxed else (lbw, ubw)
-        result = run(w0, warm_options, program.nlp.multiplier_estimate(np.clip(w0, lb, ub), lb, ub), (lb, ub))
+        multipliers = program.nlp.multiplier_estimate(np.clip(w0, lb, ub), lb, ub)
+        record.start_s = time.perf_counter() - started
+        result = run(w0, warm_options, multipliers, (lb, ub))
         if result.success:
             return settle(result if boxed else held(result, w0), program.solution, raise_on_failure)
+        record.discarded_iterations = result.iterations
+    else:
+        record.start_s = time.perf_counter() - started
     return settle(held(run(w0, ipopt_options), w0), program.solution, raise_on_failure)
+
+
+@dataclass
+class StartRecord:
+    """How :func:`solve_once` started a mesh: the start's wall time (interpolation, multiplier estimates) and the
+    IPOPT iterations of a warm start it discarded (a :class:`MeshIteration` reports both)."""
+
+    start_s: float = float("nan")
+    discarded_iterations: int = 0
 
 
 def _largest_estimate(solution: Solution) -> float:
@@ -288,6 +316,7 @@ def solve_refined(
     for iteration in range(max_iterations):
         start = time.perf_counter()
         recovery = ""
+        started = StartRecord()
         if pending is not None:
             solution, recovery, start = pending
             mesh, pending = solution.program, None
@@ -302,6 +331,7 @@ def solve_refined(
                     raise_on_failure,
                     parameters,
                     estimate_multipliers=True,
+                    record=started,
                 )
             except SolverError as exc:
                 failure = exc
@@ -330,12 +360,14 @@ def solve_refined(
                     break
                 raise _refinement_failure(failure, iteration, mesh, best, history, tried=tried) from failure
         assert solution is not None  # (solved, recovered, or raised above)
+        estimated_from = time.perf_counter()
         try:
             estimate = solution.interval_errors
         except Exception as exc:  # noqa: BLE001
             if not history:
                 raise
             raise _refinement_failure(exc, iteration, mesh, best, history) from exc
+        estimate_s = time.perf_counter() - estimated_from
         history.append(
             MeshIteration(
                 iteration,
@@ -349,6 +381,8 @@ def solve_refined(
                 solution.solve_s,
                 time.perf_counter() - start,
                 recovery=recovery,
+                start_s=started.start_s,
+                discarded_iterations=started.discarded_iterations,
             )
         )
         # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
@@ -368,6 +402,7 @@ def solve_refined(
                 reason = f"{reason}; recovery tried in vain: {tried}"
             break
         target = path_target = tolerance
+        verdict_from = time.perf_counter()
         try:
             # path constraints between points at every mesh (cheap); the objective once the state meets the
             # tolerance (it integrates the flown control)
@@ -375,6 +410,8 @@ def solve_refined(
             accuracy = solution.accuracy if errors.max() <= tolerance else None
         except Exception as exc:  # noqa: BLE001
             raise _refinement_failure(exc, iteration, mesh, best, history) from exc
+        done = time.perf_counter()
+        history[-1] = dataclasses.replace(history[-1], verdict_s=estimate_s + done - verdict_from, total_s=done - start)
         # what drives this refinement: the state while it is over the tolerance, else the other parts
         worst = float(errors.max())
         if accuracy is not None:
