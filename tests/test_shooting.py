@@ -190,6 +190,24 @@ def test_the_status_is_converged_exactly_at_tol_and_a_claim_above_it_is_a_stall(
     assert not newton.converged and newton.status is Outcome.STALLED and newton.tol == 1e-30
 
 
+def test_a_stall_is_diagnosed_unless_the_caller_keeps_only_the_status(di_l1):
+    """A stall's noise and grazing are measured (integrations the run's own count leaves out) and said in the error;
+    diagnose=False, for restarts that only skip a failed start, measures neither and keeps the status."""
+    start = np.array(double_integrator_solution().p0) * 1.02
+    before = di_l1.counts["integrations"]
+    told = di_l1.solve(start, solver="newton", tol=1e-30, raise_on_failure=False)
+    told_cost = di_l1.counts["integrations"] - before
+    before = di_l1.counts["integrations"]
+    quiet = di_l1.solve(start, solver="newton", tol=1e-30, raise_on_failure=False, diagnose=False)
+    quiet_cost = di_l1.counts["integrations"] - before
+    assert told.status is quiet.status is Outcome.STALLED and told.noise is not None and quiet.noise is None
+    assert quiet.grazing is None and np.array_equal(told.z, quiet.z) and told.norm == quiet.norm
+    assert quiet_cost < told_cost and told.n_integrations == quiet.n_integrations
+    with pytest.raises(SolverError) as info:
+        di_l1.solve(start, solver="newton", tol=1e-30, diagnose=False)
+    assert info.value.outcome is Outcome.STALLED and "noise" not in str(info.value).split("; the last")[0]
+
+
 def test_bad_shooting_input(osc_system):
     pr, compiled = osc_system
     law = compiled.system.law

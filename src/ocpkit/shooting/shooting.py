@@ -58,6 +58,11 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 
+def _where(at: ArrayLike | None, t0: float, tf: float) -> str:
+    """Where a failed integration started: the unknowns ``at``, else its interval."""
+    return f"at z = {np.array2string(np.asarray(at), precision=6)}" if at is not None else f"on [{t0:.6g}, {tf:.6g}]"
+
+
 @dataclass
 class ShootingResult(IndirectResult):
     """A shooting run: the fields every indirect run has (:class:`~ocpkit.shooting.result.IndirectResult`: ``z``,
@@ -331,8 +336,7 @@ class Shooting:
             rows = np.where(self.free_initial, np.arange(nx), nx + np.arange(nx))
             Psi0[rows, np.arange(nx)] = 1.0
         self.counts["integrations"] += 1
-        where = f"at z = {np.array2string(np.asarray(z), precision=6)}"
-        return self.flow(y0, self.problem.t0, tf, P, Psi0=Psi0, record=record, where=where)
+        return self.flow(y0, self.problem.t0, tf, P, Psi0=Psi0, record=record, at=z)
 
     def flow(
         self,
@@ -345,11 +349,13 @@ class Shooting:
         record: bool = False,
         system: CompiledSystem | None = None,
         where: str = "",
+        at: ArrayLike | None = None,
     ) -> Integration:
         """The integration of ``y = (x, p, J)`` from ``y0`` at ``t0`` to ``tf`` as this shooting integrates (its
         switching treatment, tolerances, step cap and interior check), by ``system`` (default its compiled system;
         :class:`~ocpkit.shooting.multiple.MultipleShooting` passes one with more variational columns). A failed
-        integration raises a :class:`~ocpkit.SolverError` naming its status and ``where``."""
+        integration raises a :class:`~ocpkit.SolverError` naming its status and ``where``, else the unknowns
+        ``at``, else the interval (written only then: a shooting integrates thousands of times)."""
         res = (self.compiled if system is None else system).integrate(
             y0,
             t0,
@@ -368,7 +374,7 @@ class Shooting:
                 "Dormand-Prince integrator",
                 res.status,
                 res.accepted + res.rejected,
-                where or f"on [{t0:.6g}, {tf:.6g}]",
+                where or _where(at, t0, tf),
                 unit="steps",
                 outcome=Outcome.INTEGRATION_FAILED,
             )
@@ -454,6 +460,7 @@ class Shooting:
         xtol: float | None = None,
         factor: float | None = None,
         stol: float | None = None,
+        diagnose: bool = True,
     ) -> ShootingResult:
         """Solve S(z) = 0 from ``z0`` to ``|S| <= tol`` (default 1e-8); raise :class:`~ocpkit.SolverError` (with
         ``|S|``, counts and the :class:`~ocpkit.Outcome`) on failure.
@@ -473,6 +480,11 @@ class Shooting:
         ignored), and so is ``stol``, the old name of ``tol``. With the variational
         Jacobian the first notes only which switching mode places the switchings;
         with ``switching="none"`` the variational equations carry no jump terms.
+
+        ``diagnose``: where the run stalls above ``tol``, measure why (the noise floor of S at the last iterate, 27
+        integrations, and a switching function's closest approach to zero, one recorded integration: the result's
+        ``noise`` and ``grazing``, and the advice in its error); False leaves them None, for a caller that keeps
+        only whether the run converged (restarts from many starts).
         """
         tol = renamed_argument("stol", "tol", stol, tol, 1e-8, "Shooting.solve")
         if not tol > 0:
@@ -565,7 +577,7 @@ class Shooting:
         norm = float(np.linalg.norm(S))
         ok, status = settled(norm, tol, claimed)
         noise, grazing, advice = None, None, ""
-        if status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: measured, and said
+        if diagnose and status is Outcome.STALLED and np.isfinite(norm):  # the integrator's noise, or not: said
             noise = noise_floor(lambda y: self.residual(y, P), z)
             if norm > 10.0 * noise and final is not None:  # not the noise: a grazing switching, or not
                 try:

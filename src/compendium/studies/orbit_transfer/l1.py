@@ -32,10 +32,13 @@ def l1_runs(
     rtol: float = 1e-8,
     maxfev: int = 300,
     interior_check: bool = True,
+    diagnose: bool = False,
 ):
     """The L1 shooting from the energy costates with each (detection, Jacobian) and solver.
 
-    Tolerances 1e-8 as in the slides. Non-converged runs are reported, not raised.
+    Tolerances 1e-8 as in the slides. Non-converged runs are reported, not raised, by their status; ``diagnose``
+    also measures why a stalled run stalled (:meth:`~ocpkit.shooting.Shooting.solve`'s: 28 integrations each, which
+    the table does not show).
     Returns ``(table, results)``; ``results`` is keyed by ``(solver, detection, jacobian)``.
     """
     rows, results = [], {}
@@ -53,7 +56,7 @@ def l1_runs(
                 tol=rtol,
                 interior_check=interior_check,
             )
-            r = s.solve(z_energy, solver=solver, maxfev=maxfev, raise_on_failure=False)
+            r = s.solve(z_energy, solver=solver, maxfev=maxfev, raise_on_failure=False, diagnose=diagnose)
             results[(solver, detection, jacobian)] = r
             rows.append(
                 {
@@ -115,7 +118,9 @@ def horizon_branches(
 
     for b, (tf0, z0) in enumerate(progress(seeds, desc=f"horizon branches, {thrust_N:g} N", unit="branch")):
         try:
-            first = solve_robustly(systems.shooting("fuel", thrust_N, final="time", tf=tf0, tol=rtol), z0)
+            first = solve_robustly(
+                systems.shooting("fuel", thrust_N, final="time", tf=tf0, tol=rtol), z0, diagnose=False
+            )
         except SolverError:
             continue
         if any(abs(r["tf_h"] - tf0) < 1e-9 and abs(r["fuel_kg"] - fuel_kg(first)) < 1e-6 for r in rows):
@@ -128,7 +133,8 @@ def horizon_branches(
             last = dict(start)
 
             def solve_at(tf, z, b=b, last=last):
-                r = solve_robustly(systems.shooting("fuel", thrust_N, final="time", tf=tf, tol=rtol), z)
+                # a failure ends the branch, whatever its cause: no stall is diagnosed
+                r = solve_robustly(systems.shooting("fuel", thrust_N, final="time", tf=tf, tol=rtol), z, diagnose=False)
                 J, slope = fuel_kg(r), kg_per_cost * float(r.integration.hamiltonian[-1])
                 predicted = 0.5 * (slope + last["dfuel_dtf_kg_h"]) * (tf - last["tf_h"])
                 jump = abs(J - last["fuel_kg"] - predicted) > 0.002 + 0.01 * abs(predicted)

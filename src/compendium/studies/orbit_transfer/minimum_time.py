@@ -135,7 +135,7 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
             z = row[COSTATES + ["tmin_h"]].to_numpy(dtype=float)
             z[-1] *= row.thrust_N / T
             try:
-                r = shooting.solve(z, maxfev=maxfev)
+                r = shooting.solve(z, maxfev=maxfev, diagnose=False)  # a start that fails is only skipped
             except SolverError:
                 continue
             key = round(r.tf, 4)
