@@ -81,11 +81,11 @@ class MeshIteration:
     #: how this mesh was started where it was not warm-started from the previous one, ``""`` (the first mesh from
     #: the guess, or a warm start), ``"cold start"`` or ``"uniform mesh"`` (a recovery, :data:`RECOVERIES`)
     recovery: str = ""
-    #: the start of this mesh: the previous mesh's solution (the first mesh: the guess) interpolated onto it, and its
-    #: multipliers estimated (:meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`); NaN after a recovery
+    #: the wall time of this mesh's start (the previous mesh's solution, or the first mesh's guess, interpolated onto
+    #: it, and its multipliers estimated by :meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`), NaN after a recovery
     start_s: float = float("nan")
-    #: what the refinement computes about this mesh's solution: the interval estimates, the path constraints between
-    #: the points, the flown objective once the state meets the tolerance
+    #: the wall time of what the refinement computes about this mesh's solution (the interval estimates, the path
+    #: constraints between the points, the flown objective once the state meets the tolerance)
     verdict_s: float = float("nan")
     #: IPOPT iterations of a warm start that failed on this mesh, discarded for a start from the interpolated point
     #: alone (their time is in ``total_s``, not ``solve_s``)
@@ -638,6 +638,7 @@ __all__ = [
     "MAX_RECOVERIES",
     "RECOVERIES",
     "MeshIteration",
+    "StartRecord",
     "cuts",
     "exact_start",
     "hint",
