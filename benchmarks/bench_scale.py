@@ -10,17 +10,26 @@ Issue 26's goals at scale, on one NLP (the flat moon, HLGL, ``--segments``), bes
   automatic orderings, and SPRAL (HSL's MA27/57/86/97 and Pardiso need libraries casadi's wheel does not ship);
   the default within 1.15x of the fastest. Every solve must end on the default's t_f (to 1e-9, relative).
 
-Writes ``build/bench/scale.csv``.
+Issue 46's rows at scale, in the same run (best of ``--repeat``, the library's defaults):
+
+- the flat moon on HLGL 5000, end to end over IPOPT's own time (``solve_s``): at most 1.15;
+- the flat moon on Radau 3 x 5000 (its default ordering, AMF) over HLGL 5000, end to end: at most 1.3;
+- Goddard's rocket with ``v <= 0.1`` (OptimalControl.jl's tutorial) on 5000 intervals at IPOPT ``tol`` 1e-7: HLGL
+  at most 1.0 s, Radau 3 at most 1.3 s end to end. The fastest published CPU figure for it is OptimalControl.jl +
+  ExaModels + MadNLP with MUMPS, trapezoidal rule, 5000 steps, tol 1e-7: 0.44 s and 0.86 s on two server CPUs
+  (Montoison & Caillau, 2025).
+
+Writes ``build/bench/scale.csv`` and ``build/bench/scale_goals.csv``.
 """
 
 from __future__ import annotations
 
 from _harness import best_of, goal, parser, report
 
-from ocpkit import HLGL
+from ocpkit import HLGL, Radau
 
 from compendium.paths import build_dir
-from compendium.problems import flat_moon_ascent
+from compendium.problems import flat_moon_ascent, goddard_rocket
 
 SOLVERS = {
     "mumps (QAMD, ocpkit's default)": {},
@@ -32,6 +41,10 @@ SOLVERS = {
 }
 GOAL_END_TO_END_S = 1.5
 GOAL_LINEAR_ALGEBRA = 1.15
+#: issue 46: (row, measured, goal, unit)
+GOAL_OVER_IPOPT = 1.15
+GOAL_RADAU_OVER_HLGL = 1.3
+GOAL_GODDARD_S = {"HLGL": 1.0, "Radau 3": 1.3}
 
 
 def main() -> None:
@@ -72,6 +85,40 @@ def main() -> None:
         for c in cols:
             row.setdefault(c, "")
     report(rows, cols, args.output, f"Flat moon, HLGL {args.segments}, best of {args.repeat}", {"over_fastest": ".2f"})
+    goals_at_scale(problem, default, args)
+
+
+def goals_at_scale(problem, hlgl: dict, args) -> None:
+    """Issue 46's rows at scale (the module docstring), beside their goals."""
+    n = args.segments
+    radau = best_of(lambda: Radau(problem, 3, n), {}, args.repeat)
+    goddard = goddard_rocket(0.1)
+    tol = {"tol": 1e-7}
+    g_hlgl = best_of(lambda: HLGL(goddard, n), tol, args.repeat)
+    g_radau = best_of(lambda: Radau(goddard, 3, n), tol, args.repeat)
+    over_ipopt = hlgl["end_to_end_s"] / hlgl["solve_s"]
+    radau_over = radau["end_to_end_s"] / hlgl["end_to_end_s"]
+    rows = [
+        _goal_row(f"flat moon, HLGL {n}: end to end / IPOPT's time", over_ipopt, GOAL_OVER_IPOPT, "x", hlgl),
+        _goal_row(f"flat moon, Radau 3 x {n} / HLGL {n}, end to end", radau_over, GOAL_RADAU_OVER_HLGL, "x", radau),
+        _goal_row(
+            f"Goddard v <= 0.1, HLGL {n}, tol 1e-7", g_hlgl["end_to_end_s"], GOAL_GODDARD_S["HLGL"], " s", g_hlgl
+        ),
+        _goal_row(
+            f"Goddard v <= 0.1, Radau 3 x {n}, tol 1e-7",
+            g_radau["end_to_end_s"],
+            GOAL_GODDARD_S["Radau 3"],
+            " s",
+            g_radau,
+        ),
+    ]
+    cols = ["row", "measured", "goal", "build_s", "solve_s", "end_to_end_s", "iterations"]
+    output = args.output.replace("scale.csv", "scale_goals.csv")
+    report(rows, cols, output, f"Issue 46's rows at scale, best of {args.repeat}", {"measured": ".2f"})
+
+
+def _goal_row(label: str, measured: float, limit: float, unit: str, run: dict) -> dict:
+    return {"row": label, "measured": measured, "goal": goal(measured, limit, unit), **run}
 
 
 if __name__ == "__main__":
