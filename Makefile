@@ -21,8 +21,8 @@ export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
 # make check, make unit and make nbval run over JOBS processes (pytest-xdist; auto: one per core), each test module
-# and each notebook whole in one of them (its module fixtures and its kernel started once); JOBS=0 runs them in this
-# process, one after another
+# and each notebook whole in one of them (its module fixtures and its kernel started once); make reproduce and make
+# notebooks run JOBS notebooks at once, the longest first. JOBS=0 runs them in this process, one after another
 JOBS ?= auto
 XDIST := -n $(JOBS) --dist loadfile
 
@@ -85,7 +85,8 @@ $(STAMP): environment.txt pyproject.toml
 # (notebooks/contract.toml). A notebook that fails publishes nothing and stops nothing: the others run, the report
 # is built with the failure on its page, and then make reproduce fails, naming it, without the comparison.
 reproduce: setup mathjax
-	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --report build/report --kernel $(KERNEL)
+	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --report build/report --kernel $(KERNEL) \
+		--jobs $(JOBS)
 	@if git rev-parse --verify -q HEAD >/dev/null 2>&1; then \
 		$(PY) -m compendium.guard . --reference-commit HEAD || { \
 		echo "make reproduce: the regenerated record (figures/, data/derived/) differs from the committed one beyond"; \
@@ -96,7 +97,7 @@ reproduce: setup mathjax
 # full run; the others' defaults), each run copied into figures/ and data/derived/ when it completes; the executed
 # notebooks replace those of an earlier run in build/notebooks
 notebooks: setup
-	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL)
+	$(PY) -m compendium.notebooks reproduce $(NOTEBOOKS) --output build/notebooks --kernel $(KERNEL) --jobs $(JOBS)
 
 # the notebooks make notebooks or make reproduce executed into build/notebooks, as an HTML report
 # (src/compendium/report.py; it runs none), readable offline: equations in MathJax's TeX fonts (make mathjax), figures

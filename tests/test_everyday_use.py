@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import nbformat
+import pandas as pd
 import pytest
 
 from compendium.notebooks import KERNEL_NAME
@@ -257,10 +258,11 @@ def test_the_runner_says_where_a_copy_s_figures_went(compendium):
     assert (compendium / "build" / "runs" / NOTEBOOK / "defaults" / "figures" / "tiny.png").is_file()
 
 
-def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium, jobs):
     """make reproduce's runner: a notebook that raises publishes nothing; the next one still runs and publishes, the
     report is built with the failure on its page, the runner fails naming it, and no executed notebook of an earlier
-    run is left in the report."""
+    run is left in the report; the same with two notebooks at once, each in its own process."""
     broken = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
     broken.cells.insert(4, _cell('raise RuntimeError("the solver said no")'))
     broken.cells[2].source = broken.cells[2].source.replace(f'"{NOTEBOOK}"', '"09_broken"')
@@ -275,7 +277,7 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     earlier = nbformat.read(str(compendium / "notebooks" / f"{NOTEBOOK}.ipynb"), as_version=4)
     earlier.metadata["papermill"] = {"parameters": {}}  # an executed notebook of an earlier run
     nbformat.write(earlier, str(executed / "08_earlier.ipynb"))
-    args = ["notebooks/09_broken.ipynb", f"notebooks/{NOTEBOOK}.ipynb", "--output", "build/notebooks"]
+    args = ["notebooks/09_broken.ipynb", f"notebooks/{NOTEBOOK}.ipynb", "--output", "build/notebooks", "--jobs", jobs]
     proc = _run(["-m", "compendium.notebooks", "reproduce", *args, "--report", "build/report"], compendium)
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert "error: notebooks/09_broken.ipynb did not complete, nothing of it was published" in proc.stderr
@@ -294,6 +296,51 @@ def test_a_failing_notebook_stops_neither_the_others_nor_the_report(compendium):
     again = _run(["-m", "compendium.notebooks", "report", "build/notebooks", "--output", "build/report"], compendium)
     assert again.returncode == 0, again.stderr[-2000:]
     assert "1 notebook stopped before the end" in (report / "index.html").read_text(), "make report says the same"
+
+
+def test_notebooks_run_at_once_and_one_that_reads_anothers_record_reads_this_runs(compendium):
+    """make reproduce --jobs 2: notebook 10 reads notebook 05's published record (READS_PUBLISHED), so it starts
+    once 05's run is published and reads that run's table, not an earlier one; the others run beside them."""
+    notebooks = compendium / "notebooks"
+    source = nbformat.read(str(notebooks / f"{NOTEBOOK}.ipynb"), as_version=4)
+
+    def variant(name: str, body: str) -> None:
+        nb = nbformat.read(str(notebooks / f"{NOTEBOOK}.ipynb"), as_version=4)
+        nb.cells[2].source = source.cells[2].source.replace(f'"{NOTEBOOK}"', f'"{name}"')
+        nb.cells[3:] = [_cell(body), _cell("outputs.publish()")]
+        nbformat.write(nb, str(notebooks / f"{name}.ipynb"))
+
+    variant(
+        "05_orbit_transfer",
+        'time.sleep(3)\noutputs.table(pd.DataFrame({"token": [time.time_ns()]}), "token")',
+    )
+    variant(
+        "10_direct_to_indirect",
+        "from compendium.paths import published_derived_dir\n\n"
+        'seen = pd.read_csv(published_derived_dir() / "token.csv")\n'
+        'outputs.table(pd.DataFrame({"seen": seen.token}), "seen")',
+    )
+    (compendium / "data" / "derived").mkdir(parents=True, exist_ok=True)
+    pd.DataFrame({"token": [0]}).to_csv(compendium / "data" / "derived" / "token.csv", index=False)  # an earlier run's
+    (notebooks / "contract.toml").write_text(
+        (notebooks / "contract.toml").read_text()
+        + '["05_orbit_transfer".tables.token]\nconverged = ["token"]\n'
+        + '["10_direct_to_indirect".tables.seen]\nconverged = ["seen"]\n'
+    )
+    order = [
+        "notebooks/10_direct_to_indirect.ipynb",
+        "notebooks/05_orbit_transfer.ipynb",
+        f"notebooks/{NOTEBOOK}.ipynb",
+    ]
+    proc = _run(
+        ["-m", "compendium.notebooks", "reproduce", *order, "--output", "build/notebooks", "--jobs", "2"], compendium
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "3 notebooks, 2 at once" in proc.stderr
+    derived = compendium / "data" / "derived"
+    token = pd.read_csv(derived / "token.csv").token.iloc[0]
+    assert token > 0 and pd.read_csv(derived / "seen.csv").seen.iloc[0] == token
+    assert "figures/tiny.png" in _published(compendium)
 
 
 def test_reproduce_checks_every_notebook_and_its_output_before_it_removes_or_runs_anything(compendium):

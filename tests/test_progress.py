@@ -174,3 +174,34 @@ def test_make_reproduce_estimates_each_notebook_from_the_run_it_replaces(tmp_pat
     assert "01_lunar_ascent: ~6 s (reference machine), until ~" in err and "all 2 left: ~25 min, until ~" in err
     assert "05_orbit_transfer: ~25 min (last run here), until ~" in err
     assert not (tmp_path / "05_orbit_transfer.ipynb").exists()
+
+
+def test_notebooks_at_once_start_longest_first_and_the_schedule_says_how_long():
+    from compendium.progress import Estimate, longest_first
+
+    estimates = {"a": Estimate(60.0, "x"), "b": Estimate(900.0, "x"), "c": Estimate(500.0, "x"), "d": None}
+    estimates["e"] = Estimate(400.0, "x")
+    order, expected = longest_first(["a", "b", "c", "d", "e"], estimates, 2)
+    assert order == ["d", "b", "c", "e", "a"]  # no estimate: as if the longest
+    assert expected == 960.0  # b then a on one process (960 s), c then e on the other (900 s)
+    assert longest_first(["a", "b"], estimates, 1) == (["b", "a"], 960.0)
+
+
+def test_every_reader_of_anothers_published_record_waits_for_it_when_notebooks_run_at_once():
+    """make reproduce --jobs: a study that reads the published record (read_cache) is known, and the notebook that
+    calls it starts after the one that writes it (READS_PUBLISHED). A new reader fails this test until it is listed."""
+    import re
+    from pathlib import Path
+
+    import compendium
+    from compendium.notebooks import READS_PUBLISHED
+
+    src = Path(compendium.__file__).parent
+    readers = sorted(
+        str(p.relative_to(src))
+        for p in src.rglob("*.py")
+        if re.search(r"(?<!def )(?<!\w)read_cache\(", p.read_text()) and p.name != "cache.py"
+    )
+    # chain.py is notebook 05's own (its cached continuations, not read by the published run: recompute=True)
+    assert readers == ["studies/direct_to_indirect.py", "studies/orbit_transfer/chain.py"]
+    assert READS_PUBLISHED == {"10_direct_to_indirect": ("05_orbit_transfer",)}

@@ -40,7 +40,7 @@ from .notebook_source import (
     static_views,
     written_to,
 )
-from .progress import NotebookETA, measured_durations, notebook_estimates, prior_durations
+from .progress import NotebookETA, duration, longest_first, measured_durations, notebook_estimates, prior_durations
 from .provenance import RUN_RECORD_KEY, RUNS, run_folder
 from .report import UNFINISHED, Unfinished, build_report
 
@@ -340,7 +340,12 @@ def store(path: str | Path, *, kernel: str = KERNEL_NAME, progress: bool = False
 
 
 def reproduce(
-    notebooks: list[Path], output: str | Path, *, kernel: str = KERNEL_NAME, report: str | Path | None = None
+    notebooks: list[Path],
+    output: str | Path,
+    *,
+    kernel: str = KERNEL_NAME,
+    report: str | Path | None = None,
+    jobs: int = 1,
 ) -> dict[Path, Unfinished]:
     """The published runs: each notebook executed with its published parameters (notebooks/published.toml) into
     ``output``, and its run published (:func:`publish_run`); then, if ``report`` names a folder, the report of the
@@ -357,6 +362,10 @@ def reproduce(
     the reasons are returned, ``{notebook: Unfinished}``, empty when every run completed and was published. They are
     also written beside the executed notebooks (:data:`compendium.report.UNFINISHED`), so that a report built from
     them later says the same.
+
+    ``jobs``: how many notebooks run at once, each in a process of its own (its kernel's environment is its own), the
+    longest expected first (:func:`~compendium.progress.longest_first`); each run is published by this process as it ends. One (the
+    default) runs them in the order given, with each notebook's bar over its cells.
     """
     import json
 
@@ -370,21 +379,34 @@ def reproduce(
                 path.unlink()
         (output / UNFINISHED).unlink(missing_ok=True)
     failed: dict[Path, Unfinished] = {}
-    for nb in _each(list(published), "reproduce", eta):
-        params, executed = published[nb], output / nb.name
-        try:
-            execute(nb, executed, params, kernel=kernel, progress=True)
-            files = publish_run(run_folder(nb.stem, _run_parameters(nb, params)))
-        except Exception as exc:  # every kind of stop is reported, and none stops the other notebooks
-            if isinstance(exc, PublishError):
+
+    def settle(nb: Path, stopped: tuple[str, str] | None) -> None:
+        """Publish a run that completed; record and say why one did not (every kind of stop is reported, and none
+        stops the other notebooks)."""
+        executed = output / nb.name
+        if stopped is None:
+            try:
+                files = publish_run(run_folder(nb.stem, _run_parameters(nb, published[nb])))
+            except PublishError as exc:
                 failed[nb] = Unfinished("not published", str(exc))
+                _say(f"FAILED {nb}: {failed[nb].sentence()}")
+                return
+            except Exception as exc:  # noqa: BLE001 - reported as a stop, with where it came from
+                stopped = (_error(exc), traceback.format_exc().rstrip())
             else:
-                failed[nb] = Unfinished("stopped" if executed.is_file() else "did not run", _error(exc))
-            _say(f"FAILED {nb}: {failed[nb].sentence()}")
-            if not isinstance(exc, PublishError) and type(exc).__name__ != "PapermillExecutionError":
-                _say(traceback.format_exc().rstrip())  # not a stop the notebook explains: where it came from
-            continue
-        _say(f"executed {nb} -> {executed}; published {len(files)} files")
+                _say(f"executed {nb} -> {executed}; published {len(files)} files")
+                return
+        line, where = stopped
+        failed[nb] = Unfinished("stopped" if executed.is_file() else "did not run", line)
+        _say(f"FAILED {nb}: {failed[nb].sentence()}")
+        if where:
+            _say(where)  # not a stop the notebook explains: where it came from
+
+    if jobs <= 1 or len(published) <= 1:
+        for nb in _each(list(published), "reproduce", eta):
+            settle(nb, _execute_run(nb, output / nb.name, published[nb], kernel, True))
+    else:
+        _reproduce_at_once(published, output, kernel, jobs, eta, settle)
     if failed:
         output.mkdir(parents=True, exist_ok=True)
         (output / UNFINISHED).write_text(json.dumps({nb.name: list(u) for nb, u in failed.items()}, indent=1))
@@ -393,6 +415,68 @@ def reproduce(
         ran = f" ({len(failed)} of {len(published)} notebooks failed)" if failed else ""
         _say(f"report: {index}{ran}")
     return failed
+
+
+def _execute_run(nb: Path, executed: Path, params: dict, kernel: str, progress: bool) -> tuple[str, str] | None:
+    """Execute one published run (:func:`reproduce`; in a process of its own where several run at once): None, or
+    why it stopped, in a line (:func:`_error`), and where it came from where the notebook does not explain it."""
+    try:
+        execute(nb, executed, params, kernel=kernel, progress=progress)
+    except Exception as exc:  # noqa: BLE001 - every kind of stop is reported by reproduce
+        explained = type(exc).__name__ == "PapermillExecutionError"
+        return _error(exc), "" if explained else traceback.format_exc().rstrip()
+    return None
+
+
+#: Notebooks whose published run reads another's published record, and that other: with ``--jobs``, each starts only
+#: once the run it reads has been settled (published or not), so that it reads what a run one at a time would
+#: (:func:`compendium.studies.direct_to_indirect` reads notebook 05's energy solutions from ``data/derived``).
+READS_PUBLISHED = {"10_direct_to_indirect": ("05_orbit_transfer",)}
+
+
+def _reproduce_at_once(published, output, kernel, jobs, eta, settle) -> None:
+    """:func:`reproduce`'s runs, ``jobs`` at once in processes of their own, the longest first, a run that reads
+    another's published record after it (:data:`READS_PUBLISHED`); each settled here as it ends, under a bar over
+    the notebooks finished."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    from tqdm import tqdm
+
+    by_name = {nb.stem: nb for nb in published}
+    order, expected = longest_first(list(by_name), eta.estimates, jobs)
+    _say(
+        f"reproduce: {len(order)} notebooks, {jobs} at once, the longest expected first ({', '.join(order)}); "
+        f"expected ~{duration(expected)} from the estimates"
+    )
+    waiting, settled, running = list(order), set(), {}
+    fmt = "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
+    bar = tqdm(total=len(order), desc="reproduce", file=sys.stderr, bar_format=fmt, dynamic_ncols=True)
+    context = multiprocessing.get_context("spawn")  # a fresh interpreter: nothing of this process's state shared
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+        while waiting or running:
+            for name in [
+                n for n in waiting if all(d in settled or d not in by_name for d in READS_PUBLISHED.get(n, ()))
+            ]:
+                if len(running) >= jobs:
+                    break
+                waiting.remove(name)
+                nb = by_name[name]
+                running[pool.submit(_execute_run, nb, output / nb.name, published[nb], kernel, False)] = nb
+            if not running:  # (a notebook waiting on one that can never be settled: READS_PUBLISHED in a cycle)
+                raise RuntimeError(f"reproduce: {', '.join(waiting)} wait on each other (READS_PUBLISHED)")
+            bar.set_postfix_str(", ".join(nb.stem for nb in running.values()))
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                nb = running.pop(future)
+                try:
+                    stopped = future.result()
+                except Exception as exc:  # noqa: BLE001 - its process died: a stop like any other
+                    stopped = (f"its process ended: {type(exc).__name__}: {exc}", "")
+                settle(nb, stopped)
+                settled.add(nb.stem)
+                bar.update()
+    bar.close()
 
 
 def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> dict[Path, dict]:
@@ -468,6 +552,18 @@ def _cell_error(exc: Exception) -> str:
     return f"the notebook stopped in cell {exc.exec_count}: {exc.ename}: {exc.evalue}"  # type: ignore[attr-defined]
 
 
+def _jobs(text: str) -> int:
+    """``--jobs``: a count (0 or 1: one at a time), or ``auto``, one per core."""
+    import os
+
+    if text == "auto":
+        return max(os.cpu_count() or 1, 1)
+    try:
+        return max(int(text), 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--jobs takes a count or auto, got {text!r}") from None
+
+
 def _parse_value(text: str):
     try:
         return ast.literal_eval(text)
@@ -527,6 +623,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     rp.add_argument("--kernel", default=KERNEL_NAME)
     rp.add_argument("--report", type=Path, default=None, help="also build the report of the runs into this folder")
+    rp.add_argument(
+        "--jobs",
+        type=_jobs,
+        default=1,
+        help="how many notebooks run at once, each in its own process, the longest first (auto: one per core)",
+    )
     st = sub.add_parser("store", help="re-execute notebooks in place with default parameters (published if those are)")
     st.add_argument("notebooks", nargs="+", type=Path)
     st.add_argument("--kernel", default=KERNEL_NAME)
@@ -548,7 +650,7 @@ def main(argv: list[str] | None = None) -> int:
                 else:
                     _say(f"executed {nb} into {_where(folder)}; its figures and tables are in {_where(outputs)}")
         elif args.command == "reproduce":
-            failed = reproduce(args.notebooks, args.output, kernel=args.kernel, report=args.report)
+            failed = reproduce(args.notebooks, args.output, kernel=args.kernel, report=args.report, jobs=args.jobs)
             if failed:
                 for nb, reason in failed.items():
                     print(f"error: {nb} {reason.sentence()}", file=sys.stderr)

@@ -163,19 +163,32 @@ class NotebookETA:
             return time.strftime("%H:%M", time.localtime(now + seconds))
 
         this = (
-            f"~{_duration(own.seconds)} ({own.source}), until ~{at(own.seconds)}"
+            f"~{duration(own.seconds)} ({own.source}), until ~{at(own.seconds)}"
             if own is not None
             else "no estimate (no earlier run)"
         )
         if not known:
             return f"{name}: {this}; all {len(left)} left: no estimate"
-        total = f"~{_duration(sum(known))}" + (f" + {unknown} without an estimate" if unknown else "")
+        total = f"~{duration(sum(known))}" + (f" + {unknown} without an estimate" if unknown else "")
         return f"{name}: {this}; all {len(left)} left: {total}, until ~{at(sum(known))}"
 
 
-def _duration(seconds: float) -> str:
+def duration(seconds: float) -> str:
+    """Seconds as the runner says them: ``"42 s"``, ``"18 min"``, ``"1 h 07 min"``."""
     if seconds < 60:
         return f"{seconds:.0f} s"
     if seconds < 3600:
         return f"{seconds / 60:.0f} min"
     return f"{int(seconds // 3600)} h {seconds % 3600 / 60:02.0f} min"
+
+
+def longest_first(names: list[str], estimates: dict[str, Estimate | None], jobs: int) -> tuple[list[str], float]:
+    """The order in which ``jobs`` notebooks run at once (``make reproduce``): the longest expected first (one
+    without an estimate counts as the longest), and the wall time that schedule is expected to take (each starts on
+    the first process free; those without an estimate count as zero in it)."""
+    known = {n: e.seconds for n, e in estimates.items() if e is not None}
+    order = sorted(names, key=lambda n: -known.get(n, float("inf")))
+    free = [0.0] * max(jobs, 1)
+    for n in order:
+        free[free.index(min(free))] += known.get(n, 0.0)
+    return order, max(free)
