@@ -82,7 +82,8 @@ class MeshIteration:
     #: the guess, or a warm start), ``"cold start"`` or ``"uniform mesh"`` (a recovery, :data:`RECOVERIES`)
     recovery: str = ""
     #: the wall time of this mesh's start (the previous mesh's solution, or the first mesh's guess, interpolated onto
-    #: it, and its multipliers estimated by :meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`), NaN after a recovery
+    #: it, and its multipliers estimated by :meth:`~ocpkit.nlp.SeparableNLP.multiplier_estimate`); NaN after a
+    #: recovery (``recovery`` says which; its reason, what failed) and from a solution of the same mesh (an exact start)
     start_s: float = float("nan")
     #: the wall time of what the refinement computes about this mesh's solution (the interval estimates, the path
     #: constraints between the points, the flown objective once the state meets the tolerance)
@@ -215,6 +216,7 @@ def solve_once(
     if previous is not None:
         result = run(np.clip(previous.w, lbw, ubw), warm_options, (previous.lam_g, previous.lam_w))
         return settle(result, program.solution, raise_on_failure)
+    program.build()  # (its time is the mesh's build_s, not its start's)
     started = time.perf_counter()
     w0 = np.clip(program.initial_point(guess), lbw, ubw)
     if estimate_multipliers and isinstance(guess, Solution):
@@ -345,6 +347,7 @@ def solve_refined(
                 rescued, tried = _recover(mesh, guess, options, parameters, math.inf)
                 if rescued is not None:
                     solution, recovery = rescued
+                    started = StartRecord()  # the recovery's solve, not the failed start's
                     recoveries.append(
                         f"mesh iteration {iteration} ({mesh.label}) failed from the previous mesh's solution "
                         f"({status}): {_RECOVERED[recovery]} ({solution.program.label})"
@@ -412,6 +415,8 @@ def solve_refined(
             raise _refinement_failure(exc, iteration, mesh, best, history) from exc
         done = time.perf_counter()
         history[-1] = dataclasses.replace(history[-1], verdict_s=estimate_s + done - verdict_from, total_s=done - start)
+        if best is solution:  # with this mesh's times (a fall-back returns it; its stall rule reads no time)
+            best.mesh_history = list(history)
         # what drives this refinement: the state while it is over the tolerance, else the other parts
         worst = float(errors.max())
         if accuracy is not None:
