@@ -482,9 +482,9 @@ class Shooting:
         with ``switching="none"`` the variational equations carry no jump terms.
 
         ``diagnose``: where the run stalls above ``tol``, measure why (the noise floor of S at the last iterate, 27
-        integrations, and a switching function's closest approach to zero, one recorded integration: the result's
-        ``noise`` and ``grazing``, and the advice in its error); False leaves them None, for a caller that keeps
-        only whether the run converged (restarts from many starts).
+        integrations, and a switching function's closest approach to zero along the last flight, integrated once
+        more where ``record`` is False: the result's ``noise`` and ``grazing``, and the advice in its error); False
+        leaves them None, for a caller that keeps only whether the run converged (restarts from many starts).
         """
         tol = renamed_argument("stol", "tol", stol, tol, 1e-8, "Shooting.solve")
         if not tol > 0:

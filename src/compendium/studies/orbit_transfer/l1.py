@@ -37,7 +37,7 @@ def l1_runs(
     """The L1 shooting from the energy costates with each (detection, Jacobian) and solver.
 
     Tolerances 1e-8 as in the slides. Non-converged runs are reported, not raised, by their status; ``diagnose``
-    also measures why a stalled run stalled (:meth:`~ocpkit.shooting.Shooting.solve`'s: 28 integrations each, which
+    also measures why a stalled run stalled (:meth:`~ocpkit.shooting.Shooting.solve`'s: 27 integrations each, which
     the table does not show).
     Returns ``(table, results)``; ``results`` is keyed by ``(solver, detection, jacobian)``.
     """
