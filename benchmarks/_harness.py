@@ -78,6 +78,12 @@ def goal(value: float, limit: float, unit: str = "x") -> str:
     return f"<= {limit:g}{unit}: {'met' if value <= limit else 'not met'}"
 
 
+def sibling(output: str, suffix: str) -> str:
+    """A second table's file beside ``output``: ``build/bench/scale.csv`` -> ``build/bench/scale_goals.csv``."""
+    root, ext = os.path.splitext(output)
+    return f"{root}_{suffix}{ext}"
+
+
 def report(rows: list[dict], columns: list[str], output: str, title: str, formats: dict | None = None) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     os.makedirs(os.path.dirname(output) or ".", exist_ok=True)

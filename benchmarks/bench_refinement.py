@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import time
 import warnings
-from pathlib import Path
 
-from _harness import ipopt_overrides, parser, report
+from _harness import ipopt_overrides, parser, report, sibling
 
 from ocpkit import HLGL, Radau, SolverError
 from ocpkit.accuracy import AccuracyWarning
@@ -164,7 +163,7 @@ def main() -> None:
     report(
         meshes,
         list(meshes[0]) if meshes else [],
-        str(Path(args.output).with_name(Path(args.output).stem + "_meshes.csv")),
+        sibling(args.output, "meshes"),
         "Each mesh of those refinements: build, start (interpolation, multiplier estimates), IPOPT, verdict",
         {"error_estimate": ".1e"},
     )

@@ -24,7 +24,7 @@ Writes ``build/bench/scale.csv`` and ``build/bench/scale_goals.csv``.
 
 from __future__ import annotations
 
-from _harness import best_of, goal, parser, report
+from _harness import best_of, goal, parser, report, sibling
 
 from ocpkit import HLGL, Radau
 
@@ -113,12 +113,17 @@ def goals_at_scale(problem, hlgl: dict, args) -> None:
         ),
     ]
     cols = ["row", "measured", "goal", "build_s", "solve_s", "end_to_end_s", "iterations"]
-    output = args.output.replace("scale.csv", "scale_goals.csv")
-    report(rows, cols, output, f"Issue 46's rows at scale, best of {args.repeat}", {"measured": ".2f"})
+    report(
+        rows,
+        cols,
+        sibling(args.output, "goals"),
+        f"Issue 46's rows at scale, best of {args.repeat}",
+        {"measured": ".2f"},
+    )
 
 
 def _goal_row(label: str, measured: float, limit: float, unit: str, run: dict) -> dict:
-    return {"row": label, "measured": measured, "goal": goal(measured, limit, unit), **run}
+    return {**run, "row": label, "measured": measured, "goal": goal(measured, limit, unit)}
 
 
 if __name__ == "__main__":
