@@ -343,6 +343,35 @@ def test_notebooks_run_at_once_and_one_that_reads_anothers_record_reads_this_run
     assert "figures/tiny.png" in _published(compendium)
 
 
+def test_a_notebook_whose_process_dies_takes_its_pool_and_the_notebooks_left_run_in_another(compendium):
+    """make reproduce --jobs 2: a run whose process is killed (its kernel kills it) breaks the pool of processes and
+    the run beside it; both are reported as stopped, the notebook still waiting runs in a new pool and publishes."""
+    notebooks = compendium / "notebooks"
+    for name, body in (
+        ("08_killer", "import os, signal\n\nos.kill(os.getppid(), signal.SIGKILL)"),  # the kernel's parent: the run's
+        ("10_after", 'outputs.table(pd.DataFrame({"x": [1.0]}), "after")'),
+    ):
+        nb = nbformat.read(str(notebooks / f"{NOTEBOOK}.ipynb"), as_version=4)
+        nb.cells[2].source = nb.cells[2].source.replace(f'"{NOTEBOOK}"', f'"{name}"')
+        nb.cells[3:] = [_cell(body), _cell("outputs.publish()")]
+        nbformat.write(nb, str(notebooks / f"{name}.ipynb"))
+    (notebooks / "contract.toml").write_text(
+        (notebooks / "contract.toml").read_text() + '["10_after".tables.after]\nconverged = ["x"]\n'
+    )
+    given = ["notebooks/08_killer.ipynb", f"notebooks/{NOTEBOOK}.ipynb", "notebooks/10_after.ipynb"]
+    proc = _run(
+        ["-m", "compendium.notebooks", "reproduce", *given, "--output", "build/notebooks", "--jobs", "2"], compendium
+    )
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    assert "error: notebooks/08_killer.ipynb " in proc.stderr and "ended abruptly" in proc.stderr
+    published = _published(compendium)
+    assert "data/derived/after.csv" in published, proc.stderr[-3000:]  # the notebook left, in a new pool
+    lost = f"error: notebooks/{NOTEBOOK}.ipynb " in proc.stderr  # the run beside the killer: lost with it, or done
+    assert lost != ("figures/tiny.png" in published)
+    failed = [line.split()[1] for line in proc.stderr.splitlines() if line.startswith("error: notebooks/")]
+    assert failed == sorted(failed)  # reported in the order given, whichever ended first
+
+
 def test_reproduce_checks_every_notebook_and_its_output_before_it_removes_or_runs_anything(compendium):
     """A wrong notebook name, a notebook outside notebooks/, published parameters it cannot use, an output folder
     that is the notebooks' own, a report folder that is a file: all named at once, exit status 2, and nothing removed

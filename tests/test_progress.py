@@ -205,3 +205,15 @@ def test_every_reader_of_anothers_published_record_waits_for_it_when_notebooks_r
     # chain.py is notebook 05's own (its cached continuations, not read by the published run: recompute=True)
     assert readers == ["studies/direct_to_indirect.py", "studies/orbit_transfer/chain.py"]
     assert READS_PUBLISHED == {"10_direct_to_indirect": ("05_orbit_transfer",)}
+
+
+def test_the_expected_schedule_waits_for_a_notebook_that_reads_anothers_record():
+    """Notebook 10 reads 05's published record: it starts after 05 ends, on whichever process is free then."""
+    from compendium.progress import Estimate, longest_first
+
+    estimates = {"05": Estimate(900.0, "x"), "10": Estimate(80.0, "x"), "11": Estimate(450.0, "x")}
+    estimates["07"] = Estimate(200.0, "x")
+    order, expected = longest_first(list(estimates), estimates, 2, {"10": ("05",)})
+    assert order == ["05", "11", "07", "10"]
+    assert expected == 980.0  # 05 then 10 (the other process is free at 650 s, but 10 waits for 05's end)
+    assert longest_first(list(estimates), estimates, 2)[1] == 900.0  # without the wait: 11, 07, 10 beside 05

@@ -26,6 +26,7 @@ import argparse
 import ast
 import sys
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 
 from . import paths
@@ -407,6 +408,7 @@ def reproduce(
             settle(nb, _execute_run(nb, output / nb.name, published[nb], kernel, True))
     else:
         _reproduce_at_once(published, output, kernel, jobs, eta, settle)
+    failed = {nb: failed[nb] for nb in published if nb in failed}  # in the order given, whichever ended first
     if failed:
         output.mkdir(parents=True, exist_ok=True)
         (output / UNFINISHED).write_text(json.dumps({nb.name: list(u) for nb, u in failed.items()}, indent=1))
@@ -434,49 +436,67 @@ def _execute_run(nb: Path, executed: Path, params: dict, kernel: str, progress: 
 READS_PUBLISHED = {"10_direct_to_indirect": ("05_orbit_transfer",)}
 
 
-def _reproduce_at_once(published, output, kernel, jobs, eta, settle) -> None:
+def _reproduce_at_once(
+    published: dict[Path, dict],
+    output: Path,
+    kernel: str,
+    jobs: int,
+    eta: NotebookETA,
+    settle: Callable[[Path, tuple[str, str] | None], None],
+) -> None:
     """:func:`reproduce`'s runs, ``jobs`` at once in processes of their own, the longest first, a run that reads
     another's published record after it (:data:`READS_PUBLISHED`); each settled here as it ends, under a bar over
-    the notebooks finished."""
+    the notebooks finished. A process that dies takes the others of its pool with it (``BrokenProcessPool``): those
+    runs are settled as stopped, and the notebooks left run in a new pool."""
     import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     from tqdm import tqdm
 
     by_name = {nb.stem: nb for nb in published}
-    order, expected = longest_first(list(by_name), eta.estimates, jobs)
+    order, expected = longest_first(list(by_name), eta.estimates, jobs, READS_PUBLISHED)
     _say(
         f"reproduce: {len(order)} notebooks, {jobs} at once, the longest expected first ({', '.join(order)}); "
         f"expected ~{duration(expected)} from the estimates"
     )
-    waiting, settled, running = list(order), set(), {}
-    fmt = "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
-    bar = tqdm(total=len(order), desc="reproduce", file=sys.stderr, bar_format=fmt, dynamic_ncols=True)
+    waiting, settled = list(order), set()
+    running: dict[Future, Path] = {}
+    bar = tqdm(total=len(order), desc="reproduce", file=sys.stderr, bar_format=_BAR, dynamic_ncols=True)
     context = multiprocessing.get_context("spawn")  # a fresh interpreter: nothing of this process's state shared
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+    try:
         while waiting or running:
-            for name in [
-                n for n in waiting if all(d in settled or d not in by_name for d in READS_PUBLISHED.get(n, ()))
-            ]:
-                if len(running) >= jobs:
-                    break
+            ready = [n for n in waiting if all(d in settled or d not in by_name for d in READS_PUBLISHED.get(n, ()))]
+            for name in ready[: max(jobs - len(running), 0)]:
                 waiting.remove(name)
                 nb = by_name[name]
                 running[pool.submit(_execute_run, nb, output / nb.name, published[nb], kernel, False)] = nb
-            if not running:  # (a notebook waiting on one that can never be settled: READS_PUBLISHED in a cycle)
+            if not running:  # (cannot happen with READS_PUBLISHED as it is: no notebook waits on itself)
                 raise RuntimeError(f"reproduce: {', '.join(waiting)} wait on each other (READS_PUBLISHED)")
             bar.set_postfix_str(", ".join(nb.stem for nb in running.values()))
             done, _ = wait(running, return_when=FIRST_COMPLETED)
+            broken = False
             for future in done:
                 nb = running.pop(future)
                 try:
                     stopped = future.result()
-                except Exception as exc:  # noqa: BLE001 - its process died: a stop like any other
-                    stopped = (f"its process ended: {type(exc).__name__}: {exc}", "")
+                except BrokenProcessPool as exc:
+                    broken, stopped = True, (f"its process, or another run's beside it, ended abruptly ({exc})", "")
                 settle(nb, stopped)
                 settled.add(nb.stem)
                 bar.update()
-    bar.close()
+            if broken:  # every run still in the broken pool is lost with it; the notebooks left get a new one
+                for nb in running.values():
+                    settle(nb, ("another run's process ended abruptly and took this one's with it", ""))
+                    settled.add(nb.stem)
+                    bar.update()
+                running.clear()
+                pool.shutdown(wait=False, cancel_futures=True)
+                pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        bar.close()
 
 
 def _checked_runs(notebooks: list[Path], output: Path, report: Path | None) -> dict[Path, dict]:
@@ -571,13 +591,17 @@ def _parse_value(text: str):
         return text
 
 
+#: the runner's bar over the notebooks: how many have run, and the time elapsed (not tqdm's average-based estimate)
+_BAR = "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
+
+
 def _each(notebooks, verb: str, eta: NotebookETA | None = None):
     """The notebooks with a bar over them (one line per finished notebook stays). With ``eta``, the time each
     notebook and all those left are expected to take, in a line when each starts and on the bar (tqdm's own
     estimate, an average over notebooks, is left out)."""
     from tqdm import tqdm
 
-    fmt = None if eta is None else "{desc}: {n_fmt}/{total_fmt} notebooks |{bar:12}| {elapsed} elapsed{postfix}"
+    fmt = None if eta is None else _BAR
     bar = tqdm(notebooks, desc=verb, unit="notebook", file=sys.stderr, bar_format=fmt, dynamic_ncols=True)
     for nb in bar:
         if eta is None:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import os
 import sys
+from collections.abc import Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -182,13 +183,33 @@ def duration(seconds: float) -> str:
     return f"{int(seconds // 3600)} h {seconds % 3600 / 60:02.0f} min"
 
 
-def longest_first(names: list[str], estimates: dict[str, Estimate | None], jobs: int) -> tuple[list[str], float]:
+def longest_first(
+    names: list[str],
+    estimates: dict[str, Estimate | None],
+    jobs: int,
+    after: Mapping[str, Sequence[str]] | None = None,
+) -> tuple[list[str], float]:
     """The order in which ``jobs`` notebooks run at once (``make reproduce``): the longest expected first (one
-    without an estimate counts as the longest), and the wall time that schedule is expected to take (each starts on
-    the first process free; those without an estimate count as zero in it)."""
+    without an estimate counts as the longest), and the wall time that schedule is expected to take: each starts on
+    the first process free, once the notebooks ``after`` names for it have ended (those without an estimate count as
+    zero in it)."""
+    after = after or {}
     known = {n: e.seconds for n, e in estimates.items() if e is not None}
     order = sorted(names, key=lambda n: -known.get(n, float("inf")))
+    ends: dict[str, float] = {}
     free = [0.0] * max(jobs, 1)
-    for n in order:
-        free[free.index(min(free))] += known.get(n, 0.0)
-    return order, max(free)
+    waiting = list(order)
+    while waiting:
+        k = free.index(min(free))
+        ready = [
+            n for n in waiting if all(d not in names or ends.get(d, float("inf")) <= free[k] for d in after.get(n, ()))
+        ]
+        if not ready:  # this process waits for the first of those it waits on to end
+            pending = [ends[d] for n in waiting for d in after.get(n, ()) if d in ends and ends[d] > free[k]]
+            if not pending:
+                raise ValueError(f"{', '.join(waiting)} wait on each other")
+            free[k] = min(pending)
+            continue
+        waiting.remove(ready[0])
+        ends[ready[0]] = free[k] = free[k] + known.get(ready[0], 0.0)
+    return order, max(ends.values(), default=0.0)
