@@ -365,8 +365,8 @@ def reproduce(
     them later says the same.
 
     ``jobs``: how many notebooks run at once, each in a process of its own (its kernel's environment is its own), the
-    longest expected first (:func:`~compendium.progress.longest_first`); each run is published by this process as it ends. One (the
-    default) runs them in the order given, with each notebook's bar over its cells.
+    longest expected first (:func:`~compendium.progress.longest_first`); each run is published by this process as it
+    ends. One (the default) runs them in the order given, with each notebook's bar over its cells.
     """
     import json
 
