@@ -208,9 +208,7 @@ CASES = {
             "GTO-GEO at 5 N (the slides' transfer): thrust bounded in norm, bang-off-bang over 10 revolutions",
             lambda: orbit_transfer_direct(_transfer_thrust(), "fuel"),
             Radau(nodes=4, intervals=160),
-            # AMF: this ill-conditioned solve converges where rounding falls well (978 iterations under AMF,
-            # the 3000 cap under Radau's QAMD default; docs/benchmarks.md, "the Radau rows")
-            {"error_threshold": None, "ipopt_options": {"max_iter": 3000, "mumps_pivot_order": 2}},
+            {"error_threshold": None, "ipopt_options": {"max_iter": 3000}},
             _slides_reference,
             _transfer_measure,
             shoot=lambda: orbit_transfer(_transfer_thrust()),

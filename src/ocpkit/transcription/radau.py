@@ -116,15 +116,14 @@ class Radau(Transcription):
 
     @property
     def ipopt_defaults(self) -> dict[str, IpoptOption]:  # type: ignore[override]  # read-only here, an attribute above
-        """MUMPS's ordering by the mesh's structure: AMF for one interval (global collocation: one dense block),
-        QAMD (ocpkit's default, :data:`~ocpkit.nlp.DEFAULT_IPOPT_OPTIONS`) for several. ``benchmarks/bench_orderings.py``
-        measures the rule: it picks the faster ordering on 17 of 19 comparable cases over five problems (several
-        intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 3.2 times). Where an ill-conditioned solve's
-        rounding decides where IPOPT converges, the ordering can decide it too: the GTO-GEO transfer's direct solve
-        (Radau 4 x 160) converges in 978 iterations under AMF and stops at the 3000 cap under QAMD, the free-flying
-        robot on 3 x 1000 the other way round. Give ``ipopt_options={"mumps_pivot_order": 2}`` for AMF;
+        """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
+        interval, QAMD for several": it picks the faster ordering on 17 of 19 comparable cases (five
+        problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
+        adopted, because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve
+        (notebook 10, Radau 4 x 160) converges in 978 iterations under AMF and stops at 3000 under QAMD, the free-
+        flying robot on 3 x 1000 the other way round. Give ``ipopt_options={"mumps_pivot_order": 6}`` for QAMD;
         :attr:`~ocpkit.Solution.linear_solver` says which ran."""
-        return {"mumps_pivot_order": 2} if self.intervals == 1 else {}
+        return {"mumps_pivot_order": 2}
 
     def __init__(
         self,
