@@ -185,6 +185,11 @@ def test_minimum_time_restarts_find_a_lower_extremal_than_the_continuation(syste
     assert row.continuation_tmin_h == pytest.approx(173.4822, abs=1e-3)
     assert row.tmin_h == pytest.approx(168.7510, abs=1e-3)
     assert extremals.best.sum() == 1 and extremals[extremals.best].tmin_h.iloc[0] == pytest.approx(row.tmin_h)
+    # within a factor 1.2 of 5 N only the 5 N row itself restarts (the donors are 1.39 and 2.48 times stronger)
+    alone, started = orbit_study.refine_minimum_time(systems, table, within=1.2, log=None)
+    assert started.starts.sum() == 1 and alone[alone.target].tmin_h.iloc[0] == pytest.approx(173.4822, abs=1e-3)
+    with pytest.raises(ValueError, match="within must be at least 1"):
+        orbit_study.refine_minimum_time(systems, table, within=0.5, log=None)
 
 
 def test_horizon_branch_falls_as_the_final_time_grows(systems):

@@ -11,7 +11,8 @@ the second reading. The chain of solves:
    problem has many local minima (one per way of phasing the final revolutions) and
    the path of extremals folds back in the thrust, so each step keeps the smallest
    converged final time of several predictors, and :func:`refine_minimum_time` then
-   restarts each target thrust from every solution found at any thrust.
+   restarts each target thrust from every solution found at a thrust within a factor
+   of ten of it.
 3. The energy problem (lambda = 0): at the first thrust from scaled minimum-time
    costates at ``tf = 1.5 t_min``; for the slides' reading, a continuation on the final
    longitude (free tf) to ``Lf(Tmax)``, then on the thrust with Lf moving with it.

@@ -108,29 +108,49 @@ def _tmin_row(T, z, norm, target):
     return {"thrust_N": T, "tmin_h": z[-1], **dict(zip(COSTATES, z[:-1])), "norm_S": norm, "target": bool(target)}
 
 
-def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev: int = 80, log=print):
-    """The best minimum time at each target thrust of ``table``, by restarts from every solution in it.
+def refine_minimum_time(
+    systems: TransferSystems, table: pd.DataFrame, *, maxfev: int = 80, within: float | None = 10.0, log=print
+):
+    """The best minimum time at each target thrust of ``table``, by restarts from its solutions near in thrust.
 
     The minimum-time transfer has many extremals (solutions of the shooting
     equations: local minima, and saddles that are maxima of t_min against the final
     longitude), and a continuation can follow one that is not the lowest. At each
-    target thrust T, the shooting is restarted from every row's costates with its tf
-    scaled by ``T_row / T`` (t_min x Tmax is nearly constant); the smallest converged
-    tf is kept. Returns ``(table, extremals)``: the table with the targets' rows
-    replaced by the best solutions (``continuation_tmin_h`` keeps what the
-    continuation found), and one row per distinct extremal found at each target
-    (thrust, t_f, final longitude, how many starts reached it).
+    target thrust T, the shooting is restarted from the costates of every row whose
+    thrust is within a factor ``within`` of T (at least 1; ``None``: every row), its tf
+    scaled by ``T_row / T`` (t_min x Tmax is nearly constant, the costates are not);
+    the smallest converged tf is kept. The factor is measured, by replaying the
+    published run's restarts from its continuation table (five targets, 22 rows): the
+    48 starts from rows more than ten times stronger or weaker converged 10 times, once
+    to the best (at 5 N, which three nearer starts reach too), otherwise to nine higher
+    extremals no nearer start found, and took 197 s of the restarts' 295 s.
+
+    Returns ``(table, extremals)``: the table with the targets' rows replaced by the
+    best solutions (``continuation_tmin_h`` keeps what the continuation found), and one
+    row per distinct extremal found at each target (thrust, t_f, final longitude, how
+    many starts reached it).
     """
+    if within is not None and not within >= 1.0:
+        raise ValueError(f"within must be at least 1 (a factor in thrust), or None; got {within!r}")
     table = table.copy()
     table["continuation_tmin_h"] = table.tmin_h
     found = []
-    bar = progress(total=int(table.target.sum()) * len(table), desc="minimum-time restarts", unit="start")
+
+    def donors(T: float) -> pd.DataFrame:
+        if within is None:
+            return table
+        ratio = np.maximum(table.thrust_N / T, T / table.thrust_N)
+        return table[ratio <= within * (1 + 1e-12)]
+
+    targets = [float(table.at[i, "thrust_N"]) for i in table.index[table.target]]
+    bar = progress(total=sum(len(donors(T)) for T in targets), desc="minimum-time restarts", unit="start")
     for i in table.index[table.target]:
         T = float(table.at[i, "thrust_N"])
         shooting = systems.shooting("time", T)
         best = None
         minima: dict[float, list] = {}
-        for _, row in table.iterrows():
+        starts = donors(T)
+        for _, row in starts.iterrows():
             bar.update()
             z = row[COSTATES + ["tmin_h"]].to_numpy(dtype=float)
             z[-1] *= row.thrust_N / T
@@ -145,7 +165,7 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
             if best is None or r.tf < best.tf:
                 best = r
         if best is None:
-            raise SolverError("minimum-time refinement", f"no start converged at {T:g} N", len(table), unit="starts")
+            raise SolverError("minimum-time refinement", f"no start converged at {T:g} N", len(starts), unit="starts")
         for key, (r, count) in sorted(minima.items()):
             found.append(
                 {
@@ -162,7 +182,7 @@ def refine_minimum_time(systems: TransferSystems, table: pd.DataFrame, *, maxfev
             table.at[i, name] = value
         if log:
             log(
-                f"{T:g} N: {len(minima)} distinct extremals from {len(table)} starts; "
+                f"{T:g} N: {len(minima)} distinct extremals from {len(starts)} starts; "
                 f"t_min = {best.tf:.4f} h (the continuation had {table.at[i, 'continuation_tmin_h']:.4f} h)"
             )
     bar.close()
