@@ -40,6 +40,17 @@ if TYPE_CHECKING:
     from ..verdict import VerdictKind
 
 
+#: Collocation points from which an NLP with shared columns (:attr:`Program.shared_columns`: a free final time, a
+#: free parameter) is factorised with ocpkit's default ordering, MUMPS's QAMD, whatever ordering its scheme asks for.
+#: A column that every point depends on is a dense row and column of the KKT matrix: QAMD detects it, AMF (Radau's
+#: ordering) does not, and its time grows as the square of the mesh (``benchmarks/bench_orderings.py``: the flat
+#: moon on Radau 3 x 5000, 15,000 points, 6.6 s under AMF, 1.7 s under QAMD; 3 x 1000, 0.57 s and 0.30 s).
+#: Without shared columns AMF is as fast (the Rayleigh problem, fixed tf, on 3 x 5000: 2.4 s against 3.0 s). Below
+#: this size the scheme's ordering stays: the ordering also moves where IPOPT converges on hard problems
+#: (:attr:`~ocpkit.transcription.radau.Radau.ipopt_defaults`), and no published mesh with shared columns reaches it.
+SHARED_COLUMN_POINTS = 10_000
+
+
 def _is_scheme(value: Any) -> bool:
     return isinstance(value, Scheme)
 
@@ -316,11 +327,21 @@ class Program:
         return self._nlp_build_s + self._solver_build_s
 
     @property
+    def shared_columns(self) -> int:
+        """The NLP's free variables that every point of their phase may depend on: free parameters, a free t0 or tf
+        (pinned parameters are held by their bounds, which IPOPT removes)."""
+        return int(sum(p.layout.times.size - p.layout.times.n_pinned for p in self.phases))
+
+    @property
     def ipopt_defaults(self) -> dict[str, Any]:
         """The schemes' IPOPT defaults where every phase asks for the same value (an ordering one phase's structure
-        asks for, and another's does not, is left at ocpkit's default)."""
+        asks for, and another's does not, is left at ocpkit's default), except a scheme's ordering on a large NLP
+        with shared columns (:data:`SHARED_COLUMN_POINTS`), which gets ocpkit's default ordering."""
         first, *others = [dict(s.ipopt_defaults) for s in self.schemes]
-        return {k: v for k, v in first.items() if all(o.get(k, object()) == v for o in others)}
+        agreed = {k: v for k, v in first.items() if all(o.get(k, object()) == v for o in others)}
+        if self.shared_columns and self.n_collocation_points >= SHARED_COLUMN_POINTS:
+            agreed.pop("mumps_pivot_order", None)
+        return agreed
 
     def effective_ipopt_options(self, ipopt_options: dict[str, Any] | None = None) -> dict[str, Any]:
         """The IPOPT options a solve with these overrides runs with: ocpkit's defaults
