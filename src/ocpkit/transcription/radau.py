@@ -23,7 +23,7 @@ N = 100); multi-interval is ``intervals=K`` with a few nodes each.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, cast
 
@@ -54,34 +54,68 @@ class PiecewiseBarycentric:
         Beyond an interval's last support point the polynomial is extrapolated (an
         LGR control beyond the last collocation point, up to the interval's end).
         """
-        self.breaks = np.asarray(breaks, dtype=float)
         # pieces on the same support points are evaluated together: one Lagrange matrix (and one set of
         # barycentric weights) per group
         groups: dict[bytes, list[int]] = {}
-        weights: dict[bytes, np.ndarray] = {}
-        self.pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        for i, (tau, v) in enumerate(pieces):
+        supports: dict[bytes, np.ndarray] = {}
+        for i, (tau, _) in enumerate(pieces):
             tau = np.asarray(tau, float)
-            key = tau.tobytes()
-            if key not in weights:
-                weights[key] = barycentric_weights(tau)
-            self.pieces.append((tau, np.asarray(v, float), weights[key]))
-            groups.setdefault(key, []).append(i)
-        self.dim = self.pieces[0][1].shape[1]
-        self._group = np.empty(len(self.pieces), dtype=np.int64)
-        self._slot = np.empty(len(self.pieces), dtype=np.int64)
+            supports.setdefault(tau.tobytes(), tau)
+            groups.setdefault(tau.tobytes(), []).append(i)
+        self._set(
+            breaks,
+            len(pieces),
+            [
+                (supports[key], np.stack([np.asarray(pieces[i][1], float) for i in members]), np.array(members))
+                for key, members in groups.items()
+            ],
+        )
+
+    @classmethod
+    def from_rows(
+        cls,
+        breaks: ArrayLike,
+        counts: ArrayLike,
+        supports: dict[int, np.ndarray],
+        starts: ArrayLike,
+        values: ArrayLike,
+        per_piece: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> PiecewiseBarycentric:
+        """Interval ``i`` interpolating the rows ``values[starts[i] : starts[i] + counts[i]]`` at the support points
+        ``supports[counts[i]]``: the pieces of :meth:`__init__` gathered by count, without a loop over intervals.
+        ``per_piece`` maps the pieces' values, stacked ``(pieces, rows, dim)``, piece by piece along axis 1."""
+        counts, starts, values = np.asarray(counts), np.asarray(starts), np.asarray(values, float)
+        groups = []
+        for n in unique(counts):
+            members = np.flatnonzero(counts == n)
+            stacked = values[starts[members][:, None] + np.arange(int(n))]
+            if per_piece is not None:
+                stacked = per_piece(stacked)
+            groups.append((np.asarray(supports[int(n)], float), stacked, members))
+        return cls.__new__(cls)._set(breaks, counts.size, groups)
+
+    def _set(
+        self, breaks: ArrayLike, n_pieces: int, groups: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    ) -> PiecewiseBarycentric:
+        """``groups``: per set of support points, the points, the stacked values ``(members, n, dim)`` and the
+        members' interval numbers."""
+        self.breaks = np.asarray(breaks, dtype=float)
+        self.n_pieces = n_pieces
+        self.dim = groups[0][1].shape[2]
+        self._group = np.empty(n_pieces, dtype=np.int64)
+        self._slot = np.empty(n_pieces, dtype=np.int64)
         self._groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        for g, members in enumerate(groups.values()):
+        for g, (tau, stacked, members) in enumerate(groups):
             self._group[members] = g
             self._slot[members] = np.arange(len(members))
-            tau, _, w = self.pieces[members[0]]
-            self._groups.append((tau, w, np.stack([self.pieces[i][1] for i in members])))
+            self._groups.append((tau, barycentric_weights(tau), stacked))
+        return self
 
     def __call__(self, t: ArrayLike) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         flat = np.clip(t.ravel(), self.breaks[0], self.breaks[-1])
         out = np.empty((flat.size, self.dim))
-        idx = np.clip(np.searchsorted(self.breaks, flat, side="right") - 1, 0, len(self.pieces) - 1)
+        idx = np.clip(np.searchsorted(self.breaks, flat, side="right") - 1, 0, self.n_pieces - 1)
         a, b = self.breaks[idx], self.breaks[idx + 1]
         s = 2.0 * (flat - a) / (b - a) - 1.0
         group = self._group[idx]
@@ -116,12 +150,14 @@ class Radau(Transcription):
 
     @property
     def ipopt_defaults(self) -> dict[str, IpoptOption]:  # type: ignore[override]  # read-only here, an attribute above
-        """MUMPS's AMF ordering, for every mesh. ``benchmarks/bench_orderings.py`` measures the rule "AMF for one
-        interval, QAMD for several": it picks the faster ordering on 17 of 19 comparable cases (five
-        problems; several intervals: QAMD 1.3-2.8 times faster, the flat moon's 3 x 5000 4.3 times) but it is not
-        adopted, because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve
-        (notebook 10, Radau 4 x 160) converges in 978 iterations under AMF and stops at 3000 under QAMD, the free-
-        flying robot on 3 x 1000 the other way round. Give ``ipopt_options={"mumps_pivot_order": 6}`` for QAMD;
+        """MUMPS's AMF ordering, below :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` collocation points or
+        where no free variable is shared by every point (a program with a free tf or free parameter at that size
+        factorises with QAMD: AMF's time grows as the square of the mesh there). ``benchmarks/bench_orderings.py``
+        measures the rule "AMF for one interval, QAMD for several": it picks the faster ordering on 17 of 19
+        comparable cases (five problems; several intervals: QAMD 1.3-2.8 times faster) but it is not adopted,
+        because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve (notebook 10,
+        Radau 4 x 160) converges in 978 iterations under AMF and stops at 3000 under QAMD, the free-flying robot on
+        3 x 1000 the other way round. Give ``ipopt_options={"mumps_pivot_order": 6}`` for QAMD at any size;
         :attr:`~ocpkit.Solution.linear_solver` says which ran."""
         return {"mumps_pivot_order": 2}
 
@@ -185,10 +221,22 @@ class Radau(Transcription):
         """Normalised times (0..1) of the state points: every collocation point, then the final time."""
         return self._state_points
 
+    def _by_degree(self) -> list[tuple[int, np.ndarray, np.ndarray]]:
+        """Per degree ``n``: its intervals and their collocation points' positions ``(intervals, n)`` in layout
+        order."""
+        out = []
+        for n in unique(self.counts):
+            which = np.flatnonzero(self.counts == n)
+            out.append((int(n), which, self.offsets[which][:, None] + np.arange(int(n))))
+        return out
+
     @cached_property
     def _state_points(self) -> np.ndarray:
-        s = [a + f * (tau + 1) / 2 for a, f, tau in zip(self.mesh.starts, self.mesh.fractions, self.tau)]
-        points = np.concatenate(s + [[1.0]])
+        points = np.empty(self.n_state_points)
+        starts, fractions = self.mesh.starts, self.mesh.fractions
+        for n, which, positions in self._by_degree():
+            points[positions] = starts[which][:, None] + fractions[which][:, None] * (lgr_nodes(n) + 1) / 2
+        points[-1] = 1.0
         points.flags.writeable = False  # shared by every caller
         return points
 
@@ -197,8 +245,10 @@ class Radau(Transcription):
 
     def _collocation_weights(self) -> np.ndarray:
         """LGR weights on [-1, 1] of every collocation point, in layout order."""
-        weights = {int(n): lgr_weights(lgr_nodes(int(n))) for n in unique(self.counts)}  # one per degree
-        return np.concatenate([weights[int(n)] for n in self.counts])
+        weights = np.empty(self.n_collocation)
+        for n, _, positions in self._by_degree():
+            weights[positions] = lgr_weights(lgr_nodes(n))
+        return weights
 
     # -- NLP blocks ---------------------------------------------------------------------
     def blocks(self, phase: PhaseLayout) -> list[Block]:
@@ -217,8 +267,9 @@ class Radau(Transcription):
             z = ca.SX.sym("z", nx * (n + 1))
             DX = ca.mtimes(ca.reshape(z, nx, n + 1), ca.DM(D.T))  # (nx, n): column k = point k
             fun = ca.Function(f"lgr_D{n}", [z, ca.SX.sym("p", 0)], [ca.vec(DX)])
-            var = np.stack([X[:, o : o + n + 1].T.ravel() for o in self.offsets[which]], axis=1)
-            rows = np.stack([rows_all[:, o : o + n].T.ravel() for o in self.offsets[which]], axis=1)
+            points = self.offsets[which][:, None] + np.arange(n + 1)  # (intervals, n + 1)
+            var = X[:, points].transpose(1, 2, 0).reshape(which.size, -1).T  # point-major, one column an interval
+            rows = rows_all[:, points[:, :-1]].transpose(1, 2, 0).reshape(which.size, -1).T
             linear = np.kron(D, np.eye(nx))  # point-major z and outputs
             blocks.append(Block(f"lgr_differentiation_{n}", fun, var, np.zeros((0, which.size)), rows, linear))
 
@@ -412,19 +463,29 @@ class Radau(Transcription):
         X, U = values
         pr = problem
         breaks = t0 + (tf - t0) * self.mesh.breaks
-        x_pieces, u_pieces = [], []
-        for o, n, tau in zip(self.offsets, self.counts, self.tau):
-            x_pieces.append((np.append(tau, 1.0), X[o : o + n + 1]))
-            u_pieces.append((tau, unwrap_periodic(U[o : o + n], pr.controls)))
+        counts = [int(n) for n in unique(self.counts)]
+        x_supports = {n + 1: np.append(lgr_nodes(n), 1.0) for n in counts}
+        states = PiecewiseBarycentric.from_rows(breaks, self.counts + 1, x_supports, self.offsets, X)
         t_x = t0 + (tf - t0) * self.state_point_fractions()
-        controls: Any = PiecewiseBarycentric(breaks, u_pieces) if pr.nu else (lambda t: np.zeros(np.shape(t) + (0,)))
+        u_supports = {n: lgr_nodes(n) for n in counts}
+        unwrapped = None
+        if any(c.period is not None for c in pr.controls):  # each interval's controls unwrapped
+
+            def unwrapped(stacked: np.ndarray) -> np.ndarray:
+                return unwrap_periodic(stacked, pr.controls, axis=1)
+
+        controls: Any = (
+            PiecewiseBarycentric.from_rows(breaks, self.counts, u_supports, self.offsets, U, unwrapped)
+            if pr.nu
+            else (lambda t: np.zeros(np.shape(t) + (0,)))
+        )
         return PhaseFields(
             t_x,
             X,
             t_x[:-1],
             U,
             breaks,
-            PiecewiseBarycentric(breaks, x_pieces),
+            states,
             controls,
             estimate_points=self.counts + 1,
         )
