@@ -7,19 +7,30 @@ Radau NLP has: ``Radau.ipopt_defaults``) and its QAMD ordering (6, ocpkit's defa
 the ordering the rule would choose and how far that is from the faster of the two (1.00: the faster). The rule is
 measured, not adopted: the ordering also changes where IPOPT converges (``Radau.ipopt_defaults``). Then the issue's
 scaling goal: the flat-moon ascent on Radau 3 x 5000 end to end with QAMD against HLGL with 5000 segments, in the
-same run (goal: within 1.3 times; 3.7 times with AMF). Writes ``build/bench/orderings.csv``.
+same run (goal: within 1.3 times; 3.7 times with AMF). Last, the rule ocpkit adopts
+(``ocpkit.program.program.SHARED_COLUMN_POINTS``): by mesh size, with a free tf (the flat moon: a column every point
+depends on) and without (the Rayleigh problem, fixed tf), AMF against QAMD and the ordering ocpkit's default picks.
+Writes ``build/bench/orderings.csv`` and ``build/bench/orderings_by_size.csv``.
 """
 
 from __future__ import annotations
 
 import warnings
 
-from _harness import best_of, parser, report
+from _harness import best_of, parser, report, sibling
 
 from ocpkit import HLGL, Radau
+from ocpkit.nlp import MUMPS_ORDERINGS
 
 from compendium.paths import build_dir
-from compendium.problems import entry_landing, flat_moon_ascent, free_flying_robot, goddard_rocket, lunar_ascent
+from compendium.problems import (
+    entry_landing,
+    flat_moon_ascent,
+    free_flying_robot,
+    goddard_rocket,
+    lunar_ascent,
+    rayleigh_mixed,
+)
 
 MESHES = [(100, 1), (40, 5), (10, 100), (3, 1000)]
 PROBLEMS = {
@@ -89,6 +100,39 @@ def main() -> None:
     )
     worst = max((r["rule_over_best"] for r in rows if r["rule_over_best"] == r["rule_over_best"]), default=float("nan"))
     print(f"the rule's choice against the faster ordering, worst case: {worst:.2f} times")
+    by_size(args)
+
+
+def by_size(args) -> None:
+    """AMF and QAMD by mesh size, with and without a shared column, beside what ocpkit's default picks."""
+    rows = []
+    for name, problem in (("flat moon (free tf)", flat_moon_ascent()), ("Rayleigh (fixed tf)", rayleigh_mixed())):
+        for k in (1000, 3334, 5000):
+            tr = Radau(problem, 3, k)
+            amf, it_amf = solve_s(tr, 2, args.repeat)
+            qamd, it_qamd = solve_s(tr, 6, args.repeat)
+            picked = MUMPS_ORDERINGS[tr.effective_ipopt_options()["mumps_pivot_order"]]
+            rows.append(
+                {
+                    "problem": name,
+                    "mesh": f"3 x {k}",
+                    "points": tr.program.n_collocation_points,
+                    "amf_s": amf,
+                    "qamd_s": qamd,
+                    "amf_over_qamd": amf / qamd,
+                    "iterations": f"{it_amf} / {it_qamd}",
+                    "default": picked,
+                    "default_over_best": (amf if picked == "AMF" else qamd) / min(amf, qamd),
+                }
+            )
+            print(rows[-1], flush=True)
+    report(
+        rows,
+        list(rows[0]),
+        sibling(args.output, "by_size"),
+        f"IPOPT solve time by MUMPS ordering and mesh size, best of {args.repeat}",
+        {"amf_over_qamd": ".2f", "default_over_best": ".2f"},
+    )
 
 
 if __name__ == "__main__":

@@ -230,9 +230,29 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
     assert err[:2].max() < 2e-7 and err[2:].max() < 5e-10
 
 
+def test_a_large_nlp_with_a_shared_column_is_ordered_by_qamd():
+    """From SHARED_COLUMN_POINTS collocation points, a Radau NLP with a free tf (a column every point depends on:
+    AMF's time grows as the square of the mesh there) gets ocpkit's QAMD ordering; one point fewer, or a fixed tf,
+    keeps Radau's AMF; an override still wins."""
+    from ocpkit.program.program import SHARED_COLUMN_POINTS
+
+    from compendium.problems import flat_moon_ascent, rayleigh_mixed
+
+    moon, fixed = flat_moon_ascent(), rayleigh_mixed()  # free tf; fixed tf, no free parameter
+    at = -(-SHARED_COLUMN_POINTS // 3)
+    big, short = Radau(moon, 3, at), Radau(moon, 3, at - 1)
+    assert big.program.n_collocation_points >= SHARED_COLUMN_POINTS > short.program.n_collocation_points
+    assert big.program.shared_columns == 1 and Radau(fixed, 3, at).program.shared_columns == 0
+    assert big.effective_ipopt_options()["mumps_pivot_order"] == 6
+    assert short.effective_ipopt_options()["mumps_pivot_order"] == 2
+    assert Radau(fixed, 3, at).effective_ipopt_options()["mumps_pivot_order"] == 2
+    assert big.effective_ipopt_options({"mumps_pivot_order": 2})["mumps_pivot_order"] == 2
+
+
 def test_the_ordering_is_recorded_and_an_override_wins():
-    """Radau factorises with MUMPS's AMF ordering on every mesh (the rule measured in benchmarks/bench_orderings.py,
-    QAMD for several intervals, changes where IPOPT converges; Radau.ipopt_defaults); the solution records the linear
+    """Radau factorises with MUMPS's AMF ordering below the size of the test above (the rule measured in
+    benchmarks/bench_orderings.py, QAMD for several intervals, changes where IPOPT converges; Radau.ipopt_defaults);
+    the solution records the linear
     algebra it ran with, an override wins, and linked phases share a default only where every phase asks for it."""
     from test_phases import leg  # min 1/2 int u^2 from (0, 0) to (1, 0), split at t = 1/2
 
