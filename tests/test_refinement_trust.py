@@ -195,6 +195,33 @@ def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_sai
     assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
 
 
+def test_a_recovery_is_capped_at_ten_times_the_first_mesh_iterations(monkeypatch):
+    """A recovery's solve stops after RECOVERY_ITERATIONS times the first mesh's IPOPT iterations (at least
+    RECOVERY_MIN_ITERATIONS): the cap reaches IPOPT, and a recovery that meets it fails saying so."""
+    calls: list[dict] = []
+    original = policy.solve_once
+
+    def starve_second(program, guess, ipopt_options, *args, **kwargs):
+        calls.append(dict(ipopt_options or {}))
+        if len(calls) == 2:
+            ipopt_options = {**(ipopt_options or {}), "max_iter": 1}
+            kwargs["estimate_multipliers"] = False
+        return original(program, guess, ipopt_options, *args, **kwargs)
+
+    monkeypatch.setattr(policy, "solve_once", starve_second)
+    sol = Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-7)
+    first = sol.mesh_history[0].ipopt_iterations
+    assert sol.mesh_history[1].recovery == "cold start"
+    assert calls[2]["max_iter"] == max(policy.RECOVERY_MIN_ITERATIONS, policy.RECOVERY_ITERATIONS * first)
+    assert "max_iter" not in calls[0] and "max_iter" not in calls[3]  # the refinement's own solves: uncapped
+
+    calls.clear()
+    monkeypatch.setattr(policy, "RECOVERY_MIN_ITERATIONS", 2)
+    monkeypatch.setattr(policy, "RECOVERY_ITERATIONS", 0)  # every recovery capped at 2 iterations: none converges
+    with pytest.raises(SolverError, match=r"cold start on .*\(a recovery's cap: 2 iterations; the first mesh took"):
+        Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-7)
+
+
 def test_each_mesh_says_its_start_its_solve_and_its_verdict_and_a_discarded_warm_start(monkeypatch):
     """Issue 46: each mesh's build, start, IPOPT and verdict times; a warm start that fails and is replaced by the
     interpolated point alone shows its iterations (they cost time that solve_s does not hold)."""

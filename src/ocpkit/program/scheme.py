@@ -9,7 +9,8 @@ the members of :class:`Scheme`, one entry in :data:`~ocpkit.transcription.regist
 
 1. ``label``: a short description for messages and tables, ``"Radau(nodes=4, intervals=20)"``.
 2. ``ipopt_defaults``: IPOPT options its NLP's structure asks for (a fill-reducing ordering), applied after
-   :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` and before the user's.
+   :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` and before the user's; the program drops its ordering where the NLP is
+   large and has a shared column (:data:`~ocpkit.program.program.SHARED_COLUMN_POINTS`).
 3. ``groups(problem)``: its NLP variables for one phase, in layout order, as :class:`VariableGroup` s, each a run of
    some of the problem's states or controls at points with their normalised times in [0, 1] (Dymos calls them node
    subsets). Every state is in one group whose first point lies at 0 and last at 1: the program holds the boundary

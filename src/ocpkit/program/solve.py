@@ -344,7 +344,7 @@ def solve_refined(
             failed = failure is not None or solution is None or not solution.converged
             if history and failed and len(recoveries) < MAX_RECOVERIES:
                 status = failure.status if failure is not None else getattr(solution, "status", "")
-                rescued, tried = _recover(mesh, guess, options, parameters, math.inf)
+                rescued, tried = _recover(mesh, guess, options, parameters, math.inf, history[0])
                 if rescued is not None:
                     solution, recovery = rescued
                     started = StartRecord()  # the recovery's solve, not the failed start's
@@ -445,7 +445,7 @@ def solve_refined(
         stalled = _stalled(history[since:])
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
-            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst)
+            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0])
             if rescued is not None:
                 recoveries.append(
                     f"refinement stalled on mesh iteration {iteration} ({mesh.label}, estimate {worst:.1e}): "
@@ -542,24 +542,48 @@ def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverErro
 RECOVERIES = ("cold start", "uniform mesh")
 #: At most this many recoveries in one refinement
 MAX_RECOVERIES = 2
+#: A recovery's solve stops after this many times the IPOPT iterations of the refinement's first mesh (a cold start
+#: from the same guess), at least :data:`RECOVERY_MIN_ITERATIONS` and at most the solve's ``max_iter``: a cold start
+#: on a finer mesh takes about as many iterations as on the first (interior-point iteration counts hardly grow with
+#: the mesh; the published reference collection's 33 recoveries took at most 6.0 times, and at most 187 iterations),
+#: and one that has not converged in ten times as many is not repaid on a large mesh, where each iteration costs most
+#: (under MUMPS' QAMD ordering, the COPS hang glider's two recoveries on a 6389-point mesh took 31 minutes uncapped).
+RECOVERY_ITERATIONS = 10
+RECOVERY_MIN_ITERATIONS = 200
 _RECOVERED = {
     "cold start": "restarted cold from the guess on the same mesh",
     "uniform mesh": "restarted cold from the guess on a uniform mesh of as many points",
 }
 
 
+def _recovery_options(mesh: Program, ipopt_options: dict[str, Any] | None, first: MeshIteration) -> dict[str, Any]:
+    """The IPOPT overrides of a recovery's solve: the refinement's, with ``max_iter`` capped at
+    :data:`RECOVERY_ITERATIONS` times the ``first`` mesh's iterations (:data:`RECOVERY_MIN_ITERATIONS` at least)."""
+    ipopt_options = dict(ipopt_options or {})
+    allowed = int(mesh.effective_ipopt_options(ipopt_options)["max_iter"])
+    cap = max(RECOVERY_MIN_ITERATIONS, RECOVERY_ITERATIONS * first.ipopt_iterations)
+    if cap < allowed:
+        ipopt_options["max_iter"] = cap
+    return ipopt_options
+
+
 def _recover(
-    mesh: Program, guess: Any, options: dict[str, Any], parameters: Mapping[str, float] | None, bar: float
+    mesh: Program,
+    guess: Any,
+    options: dict[str, Any],
+    parameters: Mapping[str, float] | None,
+    bar: float,
+    first: MeshIteration,
 ) -> tuple[tuple[Solution, str] | None, str]:
     """The first of :data:`RECOVERIES` whose solve converges with a state estimate below ``bar``, with its name,
-    and what the ones tried before it gave (None and all of them where none does)."""
+    and what the ones tried before it gave (None and all of them where none does); each solve within its iteration
+    cap (:data:`RECOVERY_ITERATIONS` times the ``first`` mesh's)."""
     tried = []
     for how in RECOVERIES:
         try:
             candidate = mesh if how == "cold start" else mesh.uniform()
-            solution = solve_once(
-                candidate, guess, options["ipopt_options"], options["allow_acceptable"], False, parameters
-            )
+            ipopt_options = _recovery_options(candidate, options["ipopt_options"], first)
+            solution = solve_once(candidate, guess, ipopt_options, options["allow_acceptable"], False, parameters)
             estimate = solution.interval_errors
         except Exception as exc:  # noqa: BLE001 - a recovery that fails is reported, the next one tried
             tried.append(f"{how}: {type(exc).__name__}: {exc}")
@@ -568,6 +592,9 @@ def _recover(
         if solution.converged and worst < bar:
             return (solution, how), "; ".join(tried)
         what = solution.status if not solution.converged else f"estimate {worst:.1e}, not below {bar:.1e}"
+        if not solution.converged and solution.iterations >= ipopt_options.get("max_iter", math.inf):
+            cap, took = ipopt_options["max_iter"], first.ipopt_iterations
+            what += f" (a recovery's cap: {cap} iterations; the first mesh took {took})"
         tried.append(f"{how} on {candidate.label}: {what}")
     return None, "; ".join(tried)
 
