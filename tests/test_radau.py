@@ -247,13 +247,22 @@ def test_a_large_nlp_with_a_shared_column_is_ordered_by_qamd():
     assert short.effective_ipopt_options()["mumps_pivot_order"] == 2
     assert Radau(fixed, 3, at).effective_ipopt_options()["mumps_pivot_order"] == 2
     assert big.effective_ipopt_options({"mumps_pivot_order": 2})["mumps_pivot_order"] == 2
+    # a dense column spans its own phase: Delta III's four phases of 2700 points, only the last with a free tf
+    from ocpkit import Link, Program
+
+    from compendium.problems import delta3_mass_drops, delta3_phases
+
+    links = [Link(k, k + 1, jumps={"m": jump}) for k, jump in enumerate(delta3_mass_drops()[:3])]
+    four = Program.from_phases([Radau(p, 3, 900) for p in delta3_phases()], links)
+    assert four.n_collocation_points == 10800 and four.points_with_shared_columns == 2700
+    assert four.ipopt_defaults == {"mumps_pivot_order": 2}
 
 
 def test_the_ordering_is_recorded_and_an_override_wins():
     """Radau factorises with MUMPS's AMF ordering below the size of the test above (the rule measured in
     benchmarks/bench_orderings.py, QAMD for several intervals, changes where IPOPT converges; Radau.ipopt_defaults);
-    the solution records the linear
-    algebra it ran with, an override wins, and linked phases share a default only where every phase asks for it."""
+    the solution records the linear algebra it ran with, an override wins, and linked phases share a default only
+    where every phase asks for it."""
     from test_phases import leg  # min 1/2 int u^2 from (0, 0) to (1, 0), split at t = 1/2
 
     from ocpkit import HLGL, Link, Program

@@ -40,14 +40,14 @@ if TYPE_CHECKING:
     from ..verdict import VerdictKind
 
 
-#: Collocation points from which an NLP with shared columns (:attr:`Program.shared_columns`: a free final time, a
-#: free parameter) is factorised with ocpkit's default ordering, MUMPS's QAMD, whatever ordering its scheme asks for.
-#: A column that every point depends on is a dense row and column of the KKT matrix: QAMD detects it, AMF (Radau's
-#: ordering) does not, and its time grows as the square of the mesh (``benchmarks/bench_orderings.py``: the flat
-#: moon on Radau 3 x 5000, 15,000 points, 6.6 s under AMF, 1.7 s under QAMD; 3 x 1000, 0.57 s and 0.30 s).
-#: Without shared columns AMF is as fast (the Rayleigh problem, fixed tf, on 3 x 5000: 2.4 s against 3.0 s). Below
-#: this size the scheme's ordering stays: the ordering also moves where IPOPT converges on hard problems
-#: (:attr:`~ocpkit.transcription.radau.Radau.ipopt_defaults`), and no published mesh with shared columns reaches it.
+#: Collocation points (of the phases with shared columns, :attr:`Program.points_with_shared_columns`: a free t0 or tf,
+#: a free parameter) from which an NLP is factorised with ocpkit's default ordering, MUMPS' QAMD, whatever ordering
+#: its scheme asks for. A variable every point of a phase depends on is a dense row and column of the KKT matrix: QAMD
+#: is approximate minimum degree with quasi-dense row detection (MUMPS' users' guide, ICNTL(7) = 6), AMF (Radau's
+#: ordering) has none, and its time grows as the square of the mesh (``benchmarks/bench_orderings.py``, its table by
+#: size). Without shared columns AMF is as fast. Below this size the scheme's ordering stays: the ordering also moves
+#: where IPOPT converges on hard problems (:attr:`~ocpkit.transcription.radau.Radau.ipopt_defaults`), and no Radau
+#: mesh with a shared column in the published record reaches it.
 SHARED_COLUMN_POINTS = 10_000
 
 
@@ -328,9 +328,19 @@ class Program:
 
     @property
     def shared_columns(self) -> int:
-        """The NLP's free variables that every point of their phase may depend on: free parameters, a free t0 or tf
-        (pinned parameters are held by their bounds, which IPOPT removes)."""
-        return int(sum(p.layout.times.size - p.layout.times.n_pinned for p in self.phases))
+        """The free variables that every point of a phase may depend on, counted per phase: free parameters, a free
+        t0 or tf (pinned parameters are held by their bounds, which IPOPT removes)."""
+        return int(sum(self._shared(p) for p in self.phases))
+
+    @property
+    def points_with_shared_columns(self) -> int:
+        """The collocation points of the phases with shared columns (:attr:`shared_columns`): the length of the
+        KKT matrix's dense columns."""
+        return int(sum(p.n_defects // max(p.problem.nx, 1) for p in self.phases if self._shared(p)))
+
+    @staticmethod
+    def _shared(phase: Phase) -> int:
+        return phase.layout.times.size - phase.layout.times.n_pinned
 
     @property
     def ipopt_defaults(self) -> dict[str, Any]:
@@ -339,7 +349,7 @@ class Program:
         with shared columns (:data:`SHARED_COLUMN_POINTS`), which gets ocpkit's default ordering."""
         first, *others = [dict(s.ipopt_defaults) for s in self.schemes]
         agreed = {k: v for k, v in first.items() if all(o.get(k, object()) == v for o in others)}
-        if self.shared_columns and self.n_collocation_points >= SHARED_COLUMN_POINTS:
+        if self.points_with_shared_columns >= SHARED_COLUMN_POINTS:
             agreed.pop("mumps_pivot_order", None)
         return agreed
 

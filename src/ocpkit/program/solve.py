@@ -91,6 +91,9 @@ class MeshIteration:
     #: IPOPT iterations of a warm start that failed on this mesh, discarded for a start from the interpolated point
     #: alone (their time is in ``total_s``, not ``solve_s``)
     discarded_iterations: int = 0
+    #: IPOPT's linear solver and ordering on this mesh (:attr:`Solution.linear_solver <ocpkit.Solution.linear_solver>`):
+    #: a refinement that grows past :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` changes ordering there
+    linear_solver: str = ""
 
     @property
     def nlp_parameters(self) -> int:
@@ -386,6 +389,7 @@ def solve_refined(
                 recovery=recovery,
                 start_s=started.start_s,
                 discarded_iterations=started.discarded_iterations,
+                linear_solver=linear_solver(solution.program.effective_ipopt_options(options["ipopt_options"])),
             )
         )
         # an interval whose estimate is not a number (NaN states) is treated as far over the tolerance
@@ -542,13 +546,15 @@ def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverErro
 RECOVERIES = ("cold start", "uniform mesh")
 #: At most this many recoveries in one refinement
 MAX_RECOVERIES = 2
-#: A recovery's solve stops after this many times the IPOPT iterations of the refinement's first mesh (a cold start
-#: from the same guess), at least :data:`RECOVERY_MIN_ITERATIONS` and at most the solve's ``max_iter``: a cold start
-#: on a finer mesh takes about as many iterations as on the first (interior-point iteration counts hardly grow with
-#: the mesh; the published reference collection's 33 recoveries took at most 6.0 times, and at most 187 iterations),
-#: and one that has not converged in ten times as many is not repaid on a large mesh, where each iteration costs most
-#: (under MUMPS' QAMD ordering, the COPS hang glider's two recoveries on a 6389-point mesh took 31 minutes uncapped).
-RECOVERY_ITERATIONS = 10
+#: A recovery's solve stops after this many times the IPOPT iterations of the refinement's first mesh (solved from
+#: the refinement's own guess, as a recovery is), at least :data:`RECOVERY_MIN_ITERATIONS` and at most the solve's
+#: ``max_iter``. A cold start on a finer mesh takes about as many iterations as on the first (interior-point iteration
+#: counts hardly grow with the mesh): every recovery solve of the published reference collection, those its history
+#: records and those tried in vain (replayed), took at most 187 iterations, and at most as many as the first mesh
+#: where that took over 100. One that has not converged in twice as many costs the most where a mesh is large: under
+#: MUMPS' QAMD the COPS hang glider's two recoveries on a 6389-point mesh took about 11 minutes uncapped; capped, each
+#: stops by 1100 iterations, twice its first mesh's 550.
+RECOVERY_ITERATIONS = 2
 RECOVERY_MIN_ITERATIONS = 200
 _RECOVERED = {
     "cold start": "restarted cold from the guess on the same mesh",
@@ -556,15 +562,18 @@ _RECOVERED = {
 }
 
 
-def _recovery_options(mesh: Program, ipopt_options: dict[str, Any] | None, first: MeshIteration) -> dict[str, Any]:
+def _recovery_options(
+    mesh: Program, ipopt_options: dict[str, Any] | None, first: MeshIteration
+) -> tuple[dict[str, Any], int | None]:
     """The IPOPT overrides of a recovery's solve: the refinement's, with ``max_iter`` capped at
-    :data:`RECOVERY_ITERATIONS` times the ``first`` mesh's iterations (:data:`RECOVERY_MIN_ITERATIONS` at least)."""
+    :data:`RECOVERY_ITERATIONS` times the ``first`` mesh's iterations (:data:`RECOVERY_MIN_ITERATIONS` at least);
+    and the cap where it is below the solve's own ``max_iter``, else None."""
     ipopt_options = dict(ipopt_options or {})
     allowed = int(mesh.effective_ipopt_options(ipopt_options)["max_iter"])
     cap = max(RECOVERY_MIN_ITERATIONS, RECOVERY_ITERATIONS * first.ipopt_iterations)
-    if cap < allowed:
-        ipopt_options["max_iter"] = cap
-    return ipopt_options
+    if cap >= allowed:
+        return ipopt_options, None
+    return {**ipopt_options, "max_iter": cap}, cap
 
 
 def _recover(
@@ -582,7 +591,7 @@ def _recover(
     for how in RECOVERIES:
         try:
             candidate = mesh if how == "cold start" else mesh.uniform()
-            ipopt_options = _recovery_options(candidate, options["ipopt_options"], first)
+            ipopt_options, cap = _recovery_options(candidate, options["ipopt_options"], first)
             solution = solve_once(candidate, guess, ipopt_options, options["allow_acceptable"], False, parameters)
             estimate = solution.interval_errors
         except Exception as exc:  # noqa: BLE001 - a recovery that fails is reported, the next one tried
@@ -592,9 +601,8 @@ def _recover(
         if solution.converged and worst < bar:
             return (solution, how), "; ".join(tried)
         what = solution.status if not solution.converged else f"estimate {worst:.1e}, not below {bar:.1e}"
-        if not solution.converged and solution.iterations >= ipopt_options.get("max_iter", math.inf):
-            cap, took = ipopt_options["max_iter"], first.ipopt_iterations
-            what += f" (a recovery's cap: {cap} iterations; the first mesh took {took})"
+        if cap is not None and not solution.converged and solution.iterations >= cap:
+            what += f" (a recovery's cap: {cap} iterations; the first mesh took {first.ipopt_iterations})"
         tried.append(f"{how} on {candidate.label}: {what}")
     return None, "; ".join(tried)
 
