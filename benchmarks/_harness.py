@@ -73,6 +73,18 @@ def best_of(make_transcription, ipopt_options: dict, repeat: int) -> dict:
     return min(runs, key=lambda r: r["end_to_end_s"])
 
 
+def best_of_pair(make_a, make_b, ipopt_options: dict, repeat: int) -> tuple[dict, dict]:
+    """The best of ``repeat`` runs of each of two transcriptions, run alternately: a ratio of the two is not moved
+    by the machine's speed drifting between them (a shared 2-core machine drifts by tens of percent in minutes)."""
+    if repeat < 1:
+        raise SystemExit("--repeat must be at least 1")
+    runs_a, runs_b = [], []
+    for _ in range(repeat):
+        runs_a.append(timed_solve(make_a, ipopt_options))
+        runs_b.append(timed_solve(make_b, ipopt_options))
+    return min(runs_a, key=lambda r: r["end_to_end_s"]), min(runs_b, key=lambda r: r["end_to_end_s"])
+
+
 def goal(value: float, limit: float, unit: str = "x") -> str:
     """``"<= 1.10x: met"`` or ``"<= 1.10x: not met"``: a measured ratio (or time) beside its goal."""
     return f"<= {limit:g}{unit}: {'met' if value <= limit else 'not met'}"
