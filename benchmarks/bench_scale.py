@@ -16,9 +16,9 @@ Issue 46's rows at scale, in the same run (best of ``--repeat``, the library's d
 - the flat moon on Radau 3 x 5000 (the default ordering at this size with a free tf: QAMD) over HLGL 5000, end
   to end, the two run alternately (best of ``--repeat`` each): at most 1.3;
 - Goddard's rocket with ``v <= 0.1`` (OptimalControl.jl's tutorial) on 5000 intervals at IPOPT ``tol`` 1e-7: HLGL
-  at most 1.0 s, Radau 3 (QAMD too: a free tf) at most 1.3 s end to end. The fastest published CPU figure for it is OptimalControl.jl +
-  ExaModels + MadNLP with MUMPS, trapezoidal rule, 5000 steps, tol 1e-7: 0.44 s and 0.86 s on two server CPUs
-  (Montoison & Caillau, 2025).
+  at most 1.0 s, Radau 3 (QAMD too: a free tf) at most 1.3 s end to end. The fastest published CPU figure for it
+  is OptimalControl.jl + ExaModels + MadNLP with MUMPS, trapezoidal rule, 5000 steps, tol 1e-7: 0.44 s and 0.86 s
+  on two server CPUs (Montoison & Caillau, 2025).
 
 Writes ``build/bench/scale.csv`` and ``build/bench/scale_goals.csv``.
 """

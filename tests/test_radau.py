@@ -232,7 +232,7 @@ def test_reintegration_uses_each_intervals_own_control_up_to_its_end():
 
 def test_a_large_nlp_with_a_shared_column_is_ordered_by_qamd():
     """From SHARED_COLUMN_POINTS collocation points, a Radau NLP with a free tf (a column every point depends on:
-    AMF's time grows as the square of the mesh there) gets ocpkit's QAMD ordering; one point fewer, or a fixed tf,
+    AMF's time grows much faster than the mesh there) gets ocpkit's QAMD ordering; one point fewer, or a fixed tf,
     keeps Radau's AMF; an override still wins."""
     from ocpkit.program.program import SHARED_COLUMN_POINTS
 

@@ -44,10 +44,11 @@ if TYPE_CHECKING:
 #: a free parameter) from which an NLP is factorised with ocpkit's default ordering, MUMPS' QAMD, whatever ordering
 #: its scheme asks for. A variable every point of a phase depends on is a dense row and column of the KKT matrix: QAMD
 #: is approximate minimum degree with quasi-dense row detection (MUMPS' users' guide, ICNTL(7) = 6), AMF (Radau's
-#: ordering) has none, and its time grows as the square of the mesh (``benchmarks/bench_orderings.py``, its table by
-#: size). Without shared columns AMF is as fast. Below this size the scheme's ordering stays: the ordering also moves
-#: where IPOPT converges on hard problems (:attr:`~ocpkit.transcription.radau.Radau.ipopt_defaults`), and no Radau
-#: mesh with a shared column in the published record reaches it.
+#: ordering) has none, and its time grows much faster than the mesh (``benchmarks/bench_orderings.py``, its table by
+#: size: the flat moon, free tf, 5 times the points, AMF 10 times the time, QAMD 6 times). Without shared columns AMF
+#: is as fast. Below this size the scheme's ordering stays: the ordering also moves where IPOPT converges on hard
+#: problems (:attr:`~ocpkit.transcription.radau.Radau.ipopt_defaults`), and no Radau mesh with a shared column in the
+#: published record reaches it.
 SHARED_COLUMN_POINTS = 10_000
 
 
@@ -328,8 +329,8 @@ class Program:
 
     @property
     def shared_columns(self) -> int:
-        """The free variables that every point of a phase may depend on, counted per phase: free parameters, a free
-        t0 or tf (pinned parameters are held by their bounds, which IPOPT removes)."""
+        """How many free variables every point of a phase may depend on (free parameters, a free t0 or tf), counted
+        per phase; pinned parameters are held by their bounds, which IPOPT removes."""
         return int(sum(self._shared(p) for p in self.phases))
 
     @property
@@ -966,4 +967,4 @@ class Program:
         return f"Program({self.label}, {self.n_variables} variables, {self.n_constraints} constraints)"
 
 
-__all__ = ["Program"]
+__all__ = ["SHARED_COLUMN_POINTS", "Program"]

@@ -554,8 +554,10 @@ MAX_RECOVERIES = 2
 #: its first mesh's 554 and 293 (cold starts on finer meshes can take many times the first mesh's iterations: twice
 #: the first mesh's stopped that row short of its tolerance). It stops one: the same glider's solve at defaults in
 #: notebook 11, whose cold start on a 612-point mesh ends at 1720 and whose uniform mesh then recovers (13 meshes,
-#: not 19, the value within 1.5e-10). It does not bound that problem's recoveries below IPOPT's own 3000.
+#: not 19, the value within 1.5e-10). Where the first mesh takes 300 iterations or more (that glider's 1e-9 chains,
+#: 554-631) the cap is IPOPT's own 3000.
 RECOVERY_ITERATIONS = 10
+#: The fewest IPOPT iterations a recovery's solve is allowed (:data:`RECOVERY_ITERATIONS`), whatever the first mesh took
 RECOVERY_MIN_ITERATIONS = 200
 _RECOVERED = {
     "cold start": "restarted cold from the guess on the same mesh",
@@ -678,6 +680,8 @@ __all__ = [
     "STALL_MESHES",
     "MAX_RECOVERIES",
     "RECOVERIES",
+    "RECOVERY_ITERATIONS",
+    "RECOVERY_MIN_ITERATIONS",
     "MeshIteration",
     "StartRecord",
     "cuts",

@@ -82,7 +82,8 @@ class PiecewiseBarycentric:
         per_piece: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> PiecewiseBarycentric:
         """Interval ``i`` interpolating the rows ``values[starts[i] : starts[i] + counts[i]]`` at the support points
-        ``supports[counts[i]]`` (one entry for every count): the pieces of :meth:`__init__` gathered by count, without a loop over intervals.
+        ``supports[counts[i]]`` (one entry for every count): the constructor's pieces gathered by count,
+        without a loop over intervals.
         ``per_piece`` maps the pieces' values, stacked ``(pieces, rows, dim)``, piece by piece along axis 1."""
         counts, starts, values = np.asarray(counts), np.asarray(starts), np.asarray(values, float)
         missing = sorted({int(n) for n in unique(counts)} - set(supports))
@@ -155,7 +156,7 @@ class Radau(Transcription):
     def ipopt_defaults(self) -> dict[str, IpoptOption]:  # type: ignore[override]  # read-only here, an attribute above
         """MUMPS's AMF ordering, below :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` collocation points or
         where no free variable is shared by every point (a program with a free t0, tf or parameter at that size
-        factorises with QAMD: AMF's time grows as the square of the mesh there). ``benchmarks/bench_orderings.py``
+        factorises with QAMD: AMF's time grows much faster than the mesh there). ``benchmarks/bench_orderings.py``
         measures the rule "AMF for one interval, QAMD for several": it picks the faster ordering on 17 of 19
         comparable cases (five problems; several intervals: QAMD 1.3-2.8 times faster) but it is not adopted,
         because the ordering also changes where IPOPT converges: the GTO-GEO transfer's direct solve (notebook 10,
