@@ -86,11 +86,12 @@ class PiecewiseBarycentric:
         without a loop over intervals.
         ``per_piece`` maps the pieces' values, stacked ``(pieces, rows, dim)``, piece by piece along axis 1."""
         counts, starts, values = np.asarray(counts), np.asarray(starts), np.asarray(values, float)
-        missing = sorted({int(n) for n in unique(counts)} - set(supports))
+        sizes = unique(counts)
+        missing = sorted({int(n) for n in sizes} - set(supports))
         if missing:
             raise ValueError(f"no support points given for the piece sizes {missing}")
         groups = []
-        for n in unique(counts):
+        for n in sizes:
             members = np.flatnonzero(counts == n)
             stacked = values[starts[members][:, None] + np.arange(int(n))]
             if per_piece is not None:
@@ -265,15 +266,14 @@ class Radau(Transcription):
         blocks: list[Block] = []
 
         # D X on the scaled variables: a shift cancels exactly, whatever the rounding of D's row sums
-        for n in unique(self.counts):
-            which = np.flatnonzero(self.counts == n)
+        for n, which, positions in self._by_degree():
             D = lgr_differentiation_matrix(self.tau[which[0]])
             z = ca.SX.sym("z", nx * (n + 1))
             DX = ca.mtimes(ca.reshape(z, nx, n + 1), ca.DM(D.T))  # (nx, n): column k = point k
             fun = ca.Function(f"lgr_D{n}", [z, ca.SX.sym("p", 0)], [ca.vec(DX)])
-            points = self.offsets[which][:, None] + np.arange(n + 1)  # (intervals, n + 1)
+            points = np.hstack([positions, positions[:, -1:] + 1])  # with each interval's end: (intervals, n + 1)
             var = X[:, points].transpose(1, 2, 0).reshape(which.size, -1).T  # point-major, one column an interval
-            rows = rows_all[:, points[:, :-1]].transpose(1, 2, 0).reshape(which.size, -1).T
+            rows = rows_all[:, positions].transpose(1, 2, 0).reshape(which.size, -1).T
             linear = np.kron(D, np.eye(nx))  # point-major z and outputs
             blocks.append(Block(f"lgr_differentiation_{n}", fun, var, np.zeros((0, which.size)), rows, linear))
 
@@ -472,12 +472,8 @@ class Radau(Transcription):
         states = PiecewiseBarycentric.from_rows(breaks, self.counts + 1, x_supports, self.offsets, X)
         t_x = t0 + (tf - t0) * self.state_point_fractions()
         u_supports = {n: lgr_nodes(n) for n in counts}
-        unwrapped = None
-        if any(c.period is not None for c in pr.controls):  # each interval's controls unwrapped
-
-            def unwrapped(stacked: np.ndarray) -> np.ndarray:
-                return unwrap_periodic(stacked, pr.controls, axis=1)
-
+        periodic = any(c.period is not None for c in pr.controls)  # each interval's controls unwrapped
+        unwrapped = (lambda stacked: unwrap_periodic(stacked, pr.controls, axis=1)) if periodic else None
         controls: Any = (
             PiecewiseBarycentric.from_rows(breaks, self.counts, u_supports, self.offsets, U, unwrapped)
             if pr.nu
