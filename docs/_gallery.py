@@ -115,7 +115,8 @@ def code_of(ref, table=None) -> str:
 def _fingerprint(ref, code: str) -> str:
     h = hashlib.sha256(code.encode())
     module = inspect.getmodule(_called(ref.make if ref.make is not None else ref.program))
-    for path in {Path(inspect.getfile(module)), *(ROOT / "data" / "problems").glob("*.toml")}:
+    # sorted: a set's order follows Python's per-process string hashing, and the key must be the same in every build
+    for path in sorted({Path(inspect.getfile(module)), *(ROOT / "data" / "problems").glob("*.toml")}):
         h.update(path.read_bytes())
     for path in sorted((ROOT / "src" / "ocpkit").rglob("*.py")):
         h.update(path.read_bytes())
