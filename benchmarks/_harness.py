@@ -63,6 +63,7 @@ def timed_solve(make_transcription, ipopt_options: dict) -> dict:
         "end_to_end_s": total,
         "iterations": sol.iterations,
         "tf": sol.tf,
+        "objective": sol.objective,
     }
 
 

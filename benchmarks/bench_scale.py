@@ -18,17 +18,22 @@ Issue 46's rows at scale, in the same run (best of ``--repeat``, the library's d
 - Goddard's rocket with ``v <= 0.1`` (OptimalControl.jl's tutorial) on 5000 intervals at IPOPT ``tol`` 1e-7: HLGL
   at most 1.0 s, Radau 3 (QAMD too: a free tf) at most 1.3 s end to end. The fastest published CPU figure for it
   is OptimalControl.jl + ExaModels + MadNLP with MUMPS, trapezoidal rule, 5000 steps, tol 1e-7: 0.44 s and 0.86 s
-  on two server CPUs (Montoison & Caillau, 2025).
+  on two server CPUs (Montoison & Caillau, 2025). A Goddard time counts only with its answer: the final altitude
+  against the control-toolbox reference (``data/paper/goddard_control_toolbox.csv``, 1.01257) within half a unit of
+  its last printed digit. IPOPT's monotone barrier (MadNLP's default), for one, is faster here and stops short of it.
 
 Writes ``build/bench/scale.csv`` and ``build/bench/scale_goals.csv``.
 """
 
 from __future__ import annotations
 
+import math
+
 from _harness import best_of, best_of_pair, goal, parser, report, sibling
 
 from ocpkit import HLGL, Radau
 
+from compendium.paper import paper_table
 from compendium.paths import build_dir
 from compendium.problems import flat_moon_ascent, goddard_rocket
 
@@ -102,18 +107,10 @@ def goals_at_scale(problem, hlgl: dict, args) -> None:
     rows = [
         _goal_row(f"flat moon, HLGL {n}: end to end / IPOPT's time", over_ipopt, GOAL_OVER_IPOPT, "x", hlgl),
         _goal_row(f"flat moon, Radau 3 x {n} / HLGL {n}, end to end", radau_over, GOAL_RADAU_OVER_HLGL, "x", radau),
-        _goal_row(
-            f"Goddard v <= 0.1, HLGL {n}, tol 1e-7", g_hlgl["end_to_end_s"], GOAL_GODDARD_S["HLGL"], " s", g_hlgl
-        ),
-        _goal_row(
-            f"Goddard v <= 0.1, Radau 3 x {n}, tol 1e-7",
-            g_radau["end_to_end_s"],
-            GOAL_GODDARD_S["Radau 3"],
-            " s",
-            g_radau,
-        ),
+        _goddard_row(f"Goddard v <= 0.1, HLGL {n}, tol 1e-7", GOAL_GODDARD_S["HLGL"], g_hlgl),
+        _goddard_row(f"Goddard v <= 0.1, Radau 3 x {n}, tol 1e-7", GOAL_GODDARD_S["Radau 3"], g_radau),
     ]
-    cols = ["row", "measured", "goal", "build_s", "solve_s", "end_to_end_s", "iterations"]
+    cols = ["row", "measured", "goal", "build_s", "solve_s", "end_to_end_s", "iterations", "final_altitude", "answer"]
     report(
         rows,
         cols,
@@ -125,6 +122,23 @@ def goals_at_scale(problem, hlgl: dict, args) -> None:
 
 def _goal_row(label: str, measured: float, limit: float, unit: str, run: dict) -> dict:
     return {**run, "row": label, "measured": measured, "goal": goal(measured, limit, unit)}
+
+
+def _goddard_row(label: str, limit: float, run: dict) -> dict:
+    """A Goddard time beside its goal, and whether its answer is the reference's (a time of a solve that stops
+    elsewhere meets nothing): the final altitude within half a unit of the reference's last printed digit."""
+    ref = paper_table("goddard_control_toolbox").set_index("quantity").loc["final_altitude"]
+    value, digits = float(ref["value"]), int(ref["digits"])
+    reach = 0.5 * 10.0 ** (math.floor(math.log10(abs(value))) - digits + 1)
+    altitude = -run["objective"]  # (the problem minimises -r(tf))
+    agrees = abs(altitude - value) <= reach
+    row = _goal_row(label, run["end_to_end_s"], limit, " s", run)
+    row["final_altitude"] = altitude
+    relation = "agrees with" if agrees else f"differs by more than {reach:g} from"
+    row["answer"] = f"{relation} the reference's {value:g}" + (f" (within {reach:g})" if agrees else "")
+    if not agrees:
+        row["goal"] = f"<= {limit:g} s: not met (the answer differs)"
+    return row
 
 
 if __name__ == "__main__":
