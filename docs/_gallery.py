@@ -6,8 +6,8 @@ statement in equations, its source, the code that states it (the function's own 
 solve and draw it, its published values (``data/paper/``) and its results in the published record
 (``data/derived/reference_collection*.csv``, notebook 11). The picture on each page is drawn by running those few
 lines when the site is built (no picture is committed: it is always the shown code's), two problems at a time; a
-picture is kept in ``build/gallery/`` under the hash of everything it depends on (the lines, the statement's module,
-its constants, the library's source), so that a rebuild with nothing changed draws nothing.
+picture is kept in ``build/gallery/`` under the hash of everything it depends on (the lines, the library's and the
+compendium's sources, the problems' constants), so that a rebuild with nothing changed draws nothing.
 """
 
 from __future__ import annotations
@@ -112,15 +112,20 @@ def code_of(ref, table=None) -> str:
     return code
 
 
-def _fingerprint(ref, code: str) -> str:
-    h = hashlib.sha256(code.encode())
-    module = inspect.getmodule(_called(ref.make if ref.make is not None else ref.program))
-    # sorted: a set's order follows Python's per-process string hashing, and the key must be the same in every build
-    for path in sorted({Path(inspect.getfile(module)), *(ROOT / "data" / "problems").glob("*.toml")}):
-        h.update(path.read_bytes())
-    for path in sorted((ROOT / "src" / "ocpkit").rglob("*.py")):
-        h.update(path.read_bytes())
-    return h.hexdigest()[:20]
+def _sources() -> bytes:
+    """A digest of everything a page's lines can read besides themselves: the library's and the compendium's sources
+    (a statement, its guess and its options live in any of them) and the problems' constants, each file under its
+    path, in sorted order (the key must be the same in every build and every process)."""
+    h = hashlib.sha256()
+    for folder, pattern in ((ROOT / "src", "*.py"), (ROOT / "data" / "problems", "*.toml")):
+        for path in sorted(folder.rglob(pattern)):
+            h.update(path.relative_to(ROOT).as_posix().encode() + b"\0" + path.read_bytes())
+    return h.digest()
+
+
+def _fingerprint(code: str, sources: bytes) -> str:
+    """The key a picture is cached under: its lines and ``sources`` (:func:`_sources`, read once per build)."""
+    return hashlib.sha256(sources + code.encode()).hexdigest()[:20]
 
 
 def draw(code: str, image: str) -> str:
@@ -295,11 +300,11 @@ def write_gallery(draw_images: bool = True) -> list[Path]:
     IMAGES.mkdir(parents=True, exist_ok=True)
     CACHE.mkdir(parents=True, exist_ok=True)
     (PAGES / "index.md").write_text(index(refs))
-    todo = []
+    todo, sources = [], _sources()
     for ref in refs:
         (PAGES / f"{ref.name}.md").write_text(page(ref, table, refinement))
         code = code_of(ref, table)
-        cached = CACHE / f"{ref.name}-{_fingerprint(ref, code)}.png"
+        cached = CACHE / f"{ref.name}-{_fingerprint(code, sources)}.png"
         if not cached.is_file():
             todo.append((code, str(cached)))
     if draw_images and todo:
@@ -310,7 +315,7 @@ def write_gallery(draw_images: bool = True) -> list[Path]:
     images = []
     for ref in refs:
         code = code_of(ref, table)
-        cached = CACHE / f"{ref.name}-{_fingerprint(ref, code)}.png"
+        cached = CACHE / f"{ref.name}-{_fingerprint(code, sources)}.png"
         if cached.is_file():
             shutil.copyfile(cached, IMAGES / f"{ref.name}.png")
             images.append(IMAGES / f"{ref.name}.png")

@@ -180,11 +180,12 @@ def test_the_gallery_code_of_a_problem_draws_its_solution(gallery, tmp_path):
 def test_a_gallery_picture_is_kept_under_the_same_key_in_every_build():
     """The key a picture is cached under (docs/_gallery.py) does not depend on the process: it once followed the
     iteration order of a set of paths, which Python's string hashing changes from one process to the next, so that
-    every build redrew every picture (35 s of a 67 s site build)."""
+    every build redrew every picture (35 s of a 67 s site build). It covers the compendium's sources, where a
+    collection entry's guess and options live, not only the statement's module."""
     code = (
         "import sys; sys.path.insert(0, sys.argv[1]); import _gallery;"
         "from compendium.problems.collection import reference;"
-        "ref = reference('hang_glider'); print(_gallery._fingerprint(ref, _gallery.code_of(ref)))"
+        "ref = reference('hang_glider'); print(_gallery._fingerprint(_gallery.code_of(ref), _gallery._sources()))"
     )
     keys = {
         subprocess.run(
