@@ -82,6 +82,7 @@ def run(label, make, start, tolerance, opts):
             "error_estimate": h.error_estimate,
             "ipopt_iterations": h.ipopt_iterations,
             "discarded_iterations": h.discarded_iterations,
+            "recovery": h.recovery,
             "build_s": h.build_s,
             "start_s": h.start_s,
             "solve_s": h.solve_s,

@@ -318,6 +318,8 @@ def solve_refined(
     # the solution a stall's recovery set out from, and the stall's reason: where the recovery ends in a failure, the
     # refinement ends as that stall did (a recovery never makes an outcome worse)
     stall: tuple[Solution, str, int] | None = None
+    restarted_early = False  # the early restart of a diverging refinement (:func:`_diverged`) is tried once
+    in_vain = ""  # and what it tried, where no restart did better
     for iteration in range(max_iterations):
         start = time.perf_counter()
         recovery = ""
@@ -447,6 +449,25 @@ def solve_refined(
         violated = where[:, 1] > path_target
         errors = np.where(violated, np.maximum(errors, where[:, 1] * target / path_target), errors)
         stalled = _stalled(history[since:])
+        diverged = "" if stalled or restarted_early else _diverged(history[since:])
+        if diverged and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
+            # a mesh refined from a spurious optimum inherits it (DIVERGED_ESTIMATE): restart now, on a uniform mesh
+            # first (the mesh holds the artefact), not five meshes later; where no restart does better, the
+            # refinement goes on from this mesh
+            recovering, restarted_early = time.perf_counter(), True
+            rescued, tried_early = _recover(
+                mesh, guess, options, parameters, STALL_FALL * worst, history[0], RECOVERIES[::-1]
+            )
+            if rescued is not None:
+                recoveries.append(
+                    f"{diverged} on mesh iteration {iteration} ({mesh.label}): "
+                    f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
+                )
+                pending, since = (*rescued, recovering), len(history)
+                why = f"{program.label}: mesh refinement diverged short of {tolerance:g}: {diverged}"
+                stall = (solution, f"{why}; stopped on {mesh.label}", len(history))
+                continue
+            in_vain = f"{diverged} on mesh iteration {iteration} ({mesh.label}), restarts tried in vain: {tried_early}"
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
             rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0])
@@ -491,6 +512,8 @@ def solve_refined(
         )
         warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
     assert solution is not None  # (at least one iteration ran)
+    if in_vain and outcome != "met":
+        reason = f"{reason}; {in_vain}"
     if recoveries:
         said = "; ".join(recoveries)
         if outcome == "met":
@@ -543,6 +566,7 @@ def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverErro
 #: own guess, then the scheme's uniform mesh (:meth:`Program.uniform <ocpkit.program.Program.uniform>`) of as many
 #: points, cold-started likewise. A coarse mesh can hold a spurious optimum the dynamics do not fly (an estimate of
 #: order one), and every mesh refined from it inherits it: its warm start, and its mesh, adapted to that artefact.
+#: Where the refinement diverges (:data:`DIVERGED_ESTIMATE`), the two are tried at once, the uniform mesh first.
 RECOVERIES = ("cold start", "uniform mesh")
 #: At most this many recoveries in one refinement
 MAX_RECOVERIES = 2
@@ -586,12 +610,13 @@ def _recover(
     parameters: Mapping[str, float] | None,
     bar: float,
     first: MeshIteration,
+    order: Sequence[str] = RECOVERIES,
 ) -> tuple[tuple[Solution, str] | None, str]:
-    """The first of :data:`RECOVERIES` whose solve converges with a state estimate below ``bar``, with its name,
-    and what the ones tried before it gave (None and all of them where none does); each solve within its iteration
-    cap (:data:`RECOVERY_ITERATIONS` times the ``first`` mesh's)."""
+    """The first of the recoveries (:data:`RECOVERIES`, in ``order``) whose solve converges with a state estimate
+    below ``bar``, with its name, and what the ones tried before it gave (None and all of them where none does); each
+    solve within its iteration cap (:data:`RECOVERY_ITERATIONS` times the ``first`` mesh's)."""
     tried = []
-    for how in RECOVERIES:
+    for how in order:
         try:
             candidate = mesh if how == "cold start" else mesh.uniform()
             ipopt_options, cap = _recovery_options(candidate, options["ipopt_options"], first)
@@ -621,6 +646,31 @@ STALL_MESHES, STALL_FALL, STALL_GROWTH = 5, 0.5, 1.5
 
 def _worst(h: MeshIteration) -> float:
     return h.worst if np.isfinite(h.worst) else h.error_estimate
+
+
+#: A refinement diverges when a refined mesh's estimate is of order one (at least DIVERGED_ESTIMATE: its solution
+#: does not fly) and no lower than the previous mesh's, though the mesh grew by more than STALL_GROWTH: a coarse mesh's
+#: spurious optimum, which each mesh refined from it inherits, its warm start and its intervals adapted to the
+#: artefact. Radau 4 x 50 on the hang glider lands on x(t_f) = 1500 m, its bound (estimate 0.23), and the mesh refined
+#: from it on the same (0.30); its cold start on a uniform mesh of as many points finds the optimum (estimate 3e-3).
+DIVERGED_ESTIMATE = 0.1
+
+
+def _diverged(history: Sequence[MeshIteration]) -> str:
+    """Why refinement diverges (:data:`DIVERGED_ESTIMATE`), or the empty string."""
+    if len(history) < 2:
+        return ""
+    then, now = history[-2], history[-1]
+    if (
+        _worst(now) >= DIVERGED_ESTIMATE
+        and _worst(now) >= _worst(then)
+        and now.collocation_points > STALL_GROWTH * then.collocation_points
+    ):
+        return (
+            f"the estimate rose from {_worst(then):.1e} to {_worst(now):.1e} while the mesh grew from "
+            f"{then.collocation_points} to {now.collocation_points} points"
+        )
+    return ""
 
 
 def _stalled(history: Sequence[MeshIteration]) -> str:
