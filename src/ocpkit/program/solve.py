@@ -648,11 +648,12 @@ def _worst(h: MeshIteration) -> float:
     return h.worst if np.isfinite(h.worst) else h.error_estimate
 
 
-#: A refinement diverges when a refined mesh's estimate is of order one (at least DIVERGED_ESTIMATE: its solution
-#: does not fly) and no lower than the previous mesh's, though the mesh grew by more than STALL_GROWTH: a coarse mesh's
-#: spurious optimum, which each mesh refined from it inherits, its warm start and its intervals adapted to the
-#: artefact. Radau 4 x 50 on the hang glider lands on x(t_f) = 1500 m, its bound (estimate 0.23), and the mesh refined
-#: from it on the same (0.30); its cold start on a uniform mesh of as many points finds the optimum (estimate 3e-3).
+#: The state estimate, of order one, from which a refinement diverges when a refined mesh's estimate is at least this,
+#: no lower than the previous mesh's, and the mesh grew by more than STALL_GROWTH. Such an estimate says the solution
+#: does not fly; a coarse mesh's spurious optimum is inherited by each mesh refined from it, through its warm start and
+#: through intervals adapted to the artefact. Radau 4 x 50 on the hang glider lands on x(t_f) = 1500 m, its bound
+#: (estimate 0.23), and the mesh refined from it on the same (0.30); a cold start on a uniform mesh of as many points
+#: finds the optimum (estimate 3e-3).
 DIVERGED_ESTIMATE = 0.1
 
 
@@ -728,6 +729,7 @@ __all__ = [
     "STALL_FALL",
     "STALL_GROWTH",
     "STALL_MESHES",
+    "DIVERGED_ESTIMATE",
     "MAX_RECOVERIES",
     "RECOVERIES",
     "RECOVERY_ITERATIONS",
