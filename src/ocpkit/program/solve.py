@@ -313,13 +313,15 @@ def solve_refined(
     outcome, reason = "met", ""
     recoveries: list[str] = []  # what each recovery was taken for, and how
     tried = ""  # the recoveries tried in vain, for the outcome's reason
-    pending: tuple[Solution, str, float] | None = None  # a stall's recovery, the next mesh iteration's solution
+    # a recovery taken after a stall or a divergence (:func:`_diverged`): the next mesh iteration's solution
+    pending: tuple[Solution, str, float] | None = None
     since = 0  # the stall rule counts the meshes since the last recovery
-    # the solution a stall's recovery set out from, and the stall's reason: where the recovery ends in a failure, the
-    # refinement ends as that stall did (a recovery never makes an outcome worse)
-    stall: tuple[Solution, str, int] | None = None
+    # the solution a stall's (or a divergence's) recovery set out from, its reason, its mesh count and what the
+    # recovery was: where the refinement from the recovery ends in a failure, the refinement ends as that stall did
+    # (a recovery never makes an outcome worse)
+    stall: tuple[Solution, str, int, str] | None = None
     restarted_early = False  # the early restart of a diverging refinement (:func:`_diverged`) is tried once
-    in_vain = ""  # and what it tried, where no restart did better
+    in_vain = ""  # what that restart tried, where it did no better (said in the outcome's reason)
     for iteration in range(max_iterations):
         start = time.perf_counter()
         recovery = ""
@@ -363,10 +365,13 @@ def solve_refined(
                     raise failure
                 if stall is not None:
                     solution, history = _fall_back(stall, best, history)
-                    outcome, reason = "stalled", _after_stall(stall[1], iteration, mesh, failure)
+                    outcome, reason = "stalled", _after_stall(stall, iteration, mesh, failure)
+                    reason = _and(reason, in_vain)
                     warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
                     break
-                raise _refinement_failure(failure, iteration, mesh, best, history, tried=tried) from failure
+                raise _refinement_failure(
+                    failure, iteration, mesh, best, history, tried=_and(tried, in_vain)
+                ) from failure
         assert solution is not None  # (solved, recovered, or raised above)
         estimated_from = time.perf_counter()
         try:
@@ -403,12 +408,13 @@ def solve_refined(
             if stall is not None:
                 failed_on = solution.status
                 solution, history = _fall_back(stall, best, history)
-                outcome, reason = "stalled", _after_stall(stall[1], iteration, mesh, failed_on)
+                outcome, reason = "stalled", _and(_after_stall(stall, iteration, mesh, failed_on), in_vain)
                 warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
                 break
             outcome, reason = "failed", f"IPOPT's status {solution.status} on {mesh.label}"
             if tried:
                 reason = f"{reason}; recovery tried in vain: {tried}"
+            reason = _and(reason, in_vain)
             break
         target = path_target = tolerance
         verdict_from = time.perf_counter()
@@ -452,22 +458,21 @@ def solve_refined(
         diverged = "" if stalled or restarted_early else _diverged(history[since:])
         if diverged and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             # a mesh refined from a spurious optimum inherits it (DIVERGED_ESTIMATE): restart now, on a uniform mesh
-            # first (the mesh holds the artefact), not five meshes later; where no restart does better, the
-            # refinement goes on from this mesh
+            # first (the mesh holds the artefact), not five meshes later; a restart must bring the estimate below
+            # order one, and where none does, the refinement goes on from this mesh
             recovering, restarted_early = time.perf_counter(), True
-            rescued, tried_early = _recover(
-                mesh, guess, options, parameters, STALL_FALL * worst, history[0], RECOVERIES[::-1]
-            )
+            bar = min(STALL_FALL * history[-1].error_estimate, DIVERGED_ESTIMATE)
+            rescued, tried_early = _recover(mesh, guess, options, parameters, bar, history[0], RECOVERIES[::-1])
+            diverged_at = f"{diverged} on mesh iteration {iteration} ({mesh.label})"
             if rescued is not None:
-                recoveries.append(
-                    f"{diverged} on mesh iteration {iteration} ({mesh.label}): "
-                    f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
-                )
+                recoveries.append(f"{diverged_at}: {_RECOVERED[rescued[1]]} ({rescued[0].program.label})")
                 pending, since = (*rescued, recovering), len(history)
-                why = f"{program.label}: mesh refinement diverged short of {tolerance:g}: {diverged}"
-                stall = (solution, f"{why}; stopped on {mesh.label}", len(history))
+                diverged_reason = f"{program.label}: mesh refinement diverged short of {tolerance:g}"
+                stall = (solution, diverged_reason, len(history), "the refinement from its early restart")
                 continue
-            in_vain = f"{diverged} on mesh iteration {iteration} ({mesh.label}), restarts tried in vain: {tried_early}"
+            in_vain = f"an early restart did no better ({diverged_at}): {tried_early}"
+            spent = time.perf_counter() - recovering  # the restarts' solves, in this mesh iteration's time
+            history[-1] = dataclasses.replace(history[-1], total_s=history[-1].total_s + spent)
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
             rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0])
@@ -477,10 +482,14 @@ def solve_refined(
                     f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
                 )
                 pending, since = (*rescued, recovering), len(history)
-                stall = (solution, _stall_reason(program, tolerance, history, stalled, solution, ""), len(history))
+                stall_reason = _stall_reason(program, tolerance, history, stalled, solution, "")
+                stall = (solution, stall_reason, len(history), "a recovery from the stall")
                 continue
         if stalled:
-            outcome, reason = "stalled", _stall_reason(program, tolerance, history, stalled, solution, tried)
+            outcome, reason = (
+                "stalled",
+                _stall_reason(program, tolerance, history, stalled, solution, _and(tried, in_vain)),
+            )
             warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
             break
         if iteration + 1 < max_iterations:
@@ -497,6 +506,7 @@ def solve_refined(
                     f"what the failing parts ask of it, so the next mesh would be this one; stopped on "
                     f"{history[-1].transcription}"
                 )
+                reason = _and(reason, in_vain)
                 warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
                 break
             mesh = refined
@@ -510,10 +520,9 @@ def solve_refined(
             f"({parts}state estimate {history[-1].error_estimate:.1e} on {history[-1].transcription})"
             + (f"; {why}" if why else "")
         )
+        reason = _and(reason, in_vain)
         warnings.warn(reason, AccuracyWarning, stacklevel=user_stacklevel())
     assert solution is not None  # (at least one iteration ran)
-    if in_vain and outcome != "met":
-        reason = f"{reason}; {in_vain}"
     if recoveries:
         said = "; ".join(recoveries)
         if outcome == "met":
@@ -541,24 +550,33 @@ def _stall_reason(
 
 
 def _fall_back(
-    stall: tuple[Solution, str, int], best: Solution | None, history: list[MeshIteration]
+    stall: tuple[Solution, str, int, str], best: Solution | None, history: list[MeshIteration]
 ) -> tuple[Solution, list[MeshIteration]]:
-    """Where the recovery from a stall ends in a failure: the better of the stalled solution and the best one since
-    (by what drove each mesh, :func:`_worst`), with its own history (the reason says what followed)."""
-    stalled, _, at = stall
+    """Where the recovery from a stall (or a divergence) ends in a failure: the better of the stalled solution and the
+    best one since (by what drove each mesh, :func:`_worst`), with its own history (the reason says what followed)."""
+    stalled, _, at, _ = stall
     if best is not None and best is not stalled and _worst(_history_of(best)[-1]) < _worst(history[at - 1]):
         return best, _history_of(best)
     return stalled, history[:at]
 
 
-def _after_stall(reason: str, iteration: int, mesh: Program, failure: SolverError | str) -> str:
-    """A stall's reason, where the recovery from it ended in a failure on mesh ``iteration``: the refinement returns
-    the stalled solution, or a better one found since (a recovery never makes an outcome worse)."""
+def _after_stall(
+    stall: tuple[Solution, str, int, str], iteration: int, mesh: Program, failure: SolverError | str
+) -> str:
+    """A stall's (or a divergence's) reason, where the refinement from its recovery ended in a failure on mesh
+    ``iteration``: the refinement returns the stalled solution, or a better one found since (a recovery never makes an
+    outcome worse)."""
+    _, reason, _, recovery = stall
     status = failure.status if isinstance(failure, SolverError) else failure
     return (
-        f"{reason}; a recovery from the stall failed on mesh iteration {iteration} ({mesh.label}: IPOPT's status "
+        f"{reason}; {recovery} failed on mesh iteration {iteration} ({mesh.label}: IPOPT's status "
         f"{status}), so the best solution before it is returned"
     )
+
+
+def _and(reason: str, more: str) -> str:
+    """``reason``, and ``more`` after it where there is more to say."""
+    return f"{reason}; {more}" if reason and more else reason or more
 
 
 #: The recoveries of a refinement whose warm start leads nowhere (a refined mesh's solve fails from the previous
@@ -652,24 +670,25 @@ def _worst(h: MeshIteration) -> float:
 #: no lower than the previous mesh's, and the mesh grew by more than STALL_GROWTH. Such an estimate says the solution
 #: does not fly; a coarse mesh's spurious optimum is inherited by each mesh refined from it, through its warm start and
 #: through intervals adapted to the artefact. Radau 4 x 50 on the hang glider lands on x(t_f) = 1500 m, its bound
-#: (estimate 0.23), and the mesh refined from it on the same (0.30); a cold start on a uniform mesh of as many points
-#: finds the optimum (estimate 3e-3).
+#: (estimate 0.23), and the mesh refined from it to 1e-6 on the same (0.31 on 769 points); a cold start on a uniform
+#: mesh of as many points finds the optimum (2.1e-3). The restart must bring the estimate below this value: from
+#: global Radau 20, a uniform mesh of 33 points still at 2.6 would otherwise count as one, and end the early restarts.
 DIVERGED_ESTIMATE = 0.1
 
 
 def _diverged(history: Sequence[MeshIteration]) -> str:
-    """Why refinement diverges (:data:`DIVERGED_ESTIMATE`), or the empty string."""
+    """Why refinement diverges (:data:`DIVERGED_ESTIMATE`, on the state estimate), or the empty string."""
     if len(history) < 2:
         return ""
     then, now = history[-2], history[-1]
     if (
-        _worst(now) >= DIVERGED_ESTIMATE
-        and _worst(now) >= _worst(then)
+        now.error_estimate >= DIVERGED_ESTIMATE
+        and now.error_estimate >= then.error_estimate
         and now.collocation_points > STALL_GROWTH * then.collocation_points
     ):
         return (
-            f"the estimate rose from {_worst(then):.1e} to {_worst(now):.1e} while the mesh grew from "
-            f"{then.collocation_points} to {now.collocation_points} points"
+            f"the state estimate did not fall ({then.error_estimate:.1e}, then {now.error_estimate:.1e}) while the "
+            f"mesh grew from {then.collocation_points} to {now.collocation_points} points"
         )
     return ""
 
@@ -729,11 +748,11 @@ __all__ = [
     "STALL_FALL",
     "STALL_GROWTH",
     "STALL_MESHES",
-    "DIVERGED_ESTIMATE",
     "MAX_RECOVERIES",
     "RECOVERIES",
     "RECOVERY_ITERATIONS",
     "RECOVERY_MIN_ITERATIONS",
+    "DIVERGED_ESTIMATE",
     "MeshIteration",
     "StartRecord",
     "cuts",
