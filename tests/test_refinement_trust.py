@@ -113,7 +113,7 @@ def test_hang_glider_refinement_from_radau_4x50_restarts_on_a_uniform_mesh_once_
     first, second = history[0].error_estimate, history[1].error_estimate
     assert first >= policy.DIVERGED_ESTIMATE and second >= first
     assert [h.recovery for h in history[:3]] == ["", "", "uniform mesh"]
-    assert bars == [policy.DIVERGED_ESTIMATE]  # a restart must bring the estimate below order one
+    assert bars[0] == policy.DIVERGED_ESTIMATE  # the early restart must bring the estimate below order one
     said = f"the state estimate did not fall ({first:.1e}, then {second:.1e})"
     assert said in sol.refinement_reason and "uniform mesh" in sol.refinement_reason
     assert sol.refinement_outcome == "met" and sol.accuracy.failing(1e-6) == []
