@@ -25,6 +25,7 @@ from _harness import ipopt_overrides, parser, report, sibling
 
 from ocpkit import HLGL, Radau, SolverError
 from ocpkit.accuracy import AccuracyWarning
+from ocpkit.program.solve import refinement_ipopt_options
 
 from compendium.paths import build_dir
 from compendium.problems import entry_landing, goddard_rocket, hang_glider, hyper_sensitive, shuttle_reentry
@@ -63,11 +64,12 @@ def run(label, make, start, tolerance, opts):
     total = time.perf_counter() - t0
     status = sol.refinement_outcome
     final = sol.program
-    # the final mesh on its own: a fresh problem (nothing its refinement built is reused) from the default guess
+    # the final mesh on its own: a fresh problem (nothing its refinement built is reused) from the default guess, with
+    # the IPOPT options the refinement's solves had (below 1e-6, its bounds relaxed by a share of the tolerance)
     alone = _same_mesh(final.scheme, make())
     t1 = time.perf_counter()
     try:
-        single_status = alone.solve(ipopt_options=opts, error_threshold=None).status
+        single_status = alone.solve(ipopt_options=refinement_ipopt_options(opts, tolerance), error_threshold=None).status
     except SolverError as exc:
         single_status = exc.status
     single = time.perf_counter() - t1

@@ -346,6 +346,32 @@ def test_bryson_denham_from_ten_segments_is_refined_until_its_path_constraint_ho
     assert abs(refined.objective - 4.0) < 1e-5 < abs(single.objective - 4.0)
 
 
+def test_a_refinement_below_ipopts_bound_relaxation_relaxes_the_bounds_by_a_share_of_its_tolerance():
+    # to 1e-6 and looser the refinement runs with IPOPT's own relaxation (1e-8), whatever the user gave
+    assert policy.refinement_ipopt_options(None, 1e-6) is None
+    assert policy.refinement_ipopt_options({"tol": 1e-8}, 1e-4) == {"tol": 1e-8}
+    # below it, the bounds are relaxed by a hundredth of the tolerance, unless the user set the relaxation
+    assert policy.refinement_ipopt_options(None, 1e-9) == pytest.approx({"bound_relax_factor": 1e-11}, rel=1e-12)
+    assert policy.refinement_ipopt_options({"tol": 1e-8}, 1e-8) == pytest.approx(
+        {"tol": 1e-8, "bound_relax_factor": 1e-10}, rel=1e-12
+    )
+    assert policy.refinement_ipopt_options({"bound_relax_factor": 0.0}, 1e-9) == {"bound_relax_factor": 0.0}
+
+
+def test_bryson_denham_refined_to_1e8_meets_it_at_its_closed_form_not_at_ipopts_relaxed_bound():
+    """Under IPOPT's relaxation of 1e-8, x <= 1/9 held only to 1e-8 and J = 4 - dJ/dl 1e-8 = 4 - 3.6e-7 (dJ/dl = -36),
+    whatever the mesh: refined to 1e-8 it was not met after 15 meshes (3584 points), the objective failing."""
+    from compendium.problems import bryson_denham
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        refined = HLGL(bryson_denham(), 10).solve(mesh_tolerance=1e-8)
+    assert refined.refinement_outcome == "met" and refined.accuracy.failing(1e-8) == []
+    assert len(refined.mesh_history) <= 8 and refined.mesh_history[-1].collocation_points < 500
+    assert abs(refined.objective - 4.0) < 4e-8
+    assert refined.accuracy.path["x_max"] <= 1e-8
+
+
 def test_a_single_solve_warns_when_a_path_constraint_is_violated_between_points():
     from compendium.problems import bryson_denham
 

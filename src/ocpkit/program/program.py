@@ -891,7 +891,9 @@ class Program:
             solution before it (``error.best``); an estimate that stops falling while the mesh grows
             (:data:`~ocpkit.program.solve.STALL_MESHES`) stops the refinement with a warning saying so, naming a
             singular arc where a control enters linearly and an angle not declared periodic
-            (:func:`~ocpkit.accuracy.refinement_hint`).
+            (:func:`~ocpkit.accuracy.refinement_hint`). Below 1e-6, IPOPT's bounds are relaxed by a hundredth of
+            the tolerance, not its 1e-8 (:func:`~ocpkit.program.solve.refinement_ipopt_options`), unless
+            ``ipopt_options`` sets ``bound_relax_factor``.
         max_mesh_iterations : int
             At most this many meshes (default 25: bang-bang and singular problems from coarse meshes
             take 13 to 20; a stalled refinement stops sooner).
