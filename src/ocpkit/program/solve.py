@@ -131,6 +131,7 @@ def solve(
             # the refinement's own warning says which parts it did not meet: the notes are what is left to say
             for note in (n for n in solution.verdict.notes if not n.quiet):
                 warnings.warn(str(note), SolutionNote, stacklevel=user_stacklevel())
+        ipopt_options = refinement_ipopt_options(ipopt_options, mesh_tolerance)  # as its meshes were solved
     else:
         solution = solve_once(program, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters)
         solution.held_controls = held_controls(solution)
