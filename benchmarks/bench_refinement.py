@@ -69,7 +69,9 @@ def run(label, make, start, tolerance, opts):
     alone = _same_mesh(final.scheme, make())
     t1 = time.perf_counter()
     try:
-        single_status = alone.solve(ipopt_options=refinement_ipopt_options(opts, tolerance), error_threshold=None).status
+        single_status = alone.solve(
+            ipopt_options=refinement_ipopt_options(opts, tolerance), error_threshold=None
+        ).status
     except SolverError as exc:
         single_status = exc.status
     single = time.perf_counter() - t1
