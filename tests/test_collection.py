@@ -159,11 +159,15 @@ def test_rockits_van_der_pol_value_is_the_optimum_with_ipopts_default_bound_rela
     assert 1e-8 < (refined() - published) / published < 3e-8
 
 
+@pytest.mark.slow
 def test_an_indirect_cross_check_starts_from_a_refinement_that_stopped_short_before_the_coarse_start_mesh():
-    """The tumour's Radau refinement to 1e-7 ends not met on about 500 points (on this machine): its extremal is
-    certified from there, where from the 40-point start mesh the arc shooting stalls at |S| = 115."""
+    """The tumour's Radau refinement to 1e-7 ends not met on about 500 points (on the reference machine; met on its
+    refined mesh elsewhere, the check starts there too): its extremal is certified from there, where from the
+    40-point start mesh the arc shooting stalls at |S| = 115."""
     row = rc._indirect(reference("tumour_anti_angiogenesis"))
-    assert row["outcome"] == "certified" and "start mesh" not in row["reason"], row["reason"]
+    assert row["outcome"] == "certified", row["reason"]
+    assert row["reason"].startswith(("from Radau's solution on its refinement's last mesh", "from Radau's solution on "
+                                     "its refined mesh")) and "start mesh" not in row["reason"], row["reason"]  # fmt: skip
     assert row["value"] == pytest.approx(reference("tumour_anti_angiogenesis").published()["value"], rel=1e-6)
 
 

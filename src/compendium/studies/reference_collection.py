@@ -129,12 +129,14 @@ def _refined(ref: Reference, scheme: Any, tolerance: float, *, defaults: bool = 
 
 
 def _indirect(ref: Reference) -> dict:
-    """The certified extremal from Radau's solution refined to :data:`INDIRECT`. Where that refinement stops short
-    (it stalls, or runs out of meshes), from its last mesh's solution first, the direct solution nearest the extremal,
-    then from the solution on the reference's start mesh; where the refinement fails (a singular arc on which
-    collocation chatters: IPOPT stops at its acceptable level), from the start mesh's, as notebook 10 starts catalyst
-    mixing. The tumour's refinement to 1e-7 ends not met on 512 points, from which its extremal is certified, and not
-    from its 40-point start mesh."""
+    """The certified extremal from Radau's solution refined to :data:`INDIRECT`. Where the refinement meets it, from
+    the refined solution alone; where it stops short (it stalls, runs out of meshes or stops), from the solution the
+    refinement returns first, the direct solution nearest the extremal, then from the solution on the reference's
+    start mesh; where the refinement fails (a singular arc on which collocation chatters: IPOPT stops at its
+    acceptable level), from the start mesh's, as notebook 10 starts catalyst mixing. The reason names the start the
+    extremal came from, and the starts tried before it; the last start's errors are the row's. The tumour's
+    refinement to 1e-7 can end short on some 500 points, from which its extremal is certified, and not from its
+    40-point start mesh."""
     from ocpkit.indirect import to_extremal
 
     guess = ref.guess() if ref.guess is not None else None
@@ -145,10 +147,10 @@ def _indirect(ref: Reference) -> dict:
             guess, mesh_tolerance=INDIRECT, max_mesh_iterations=ref.max_mesh_iterations, ipopt_options=options
         )
         met = refined.refinement_outcome == "met"
-        short = "" if met else f" ({refined.refinement_outcome} short of {INDIRECT:g})"
-        starts.append((f"refined{short}", lambda: refined))
-        if met:  # the extremal, certified or not, is the refined solution's
-            starts = starts[:1]
+        label = (
+            "refined mesh" if met else f"refinement's last mesh ({refined.refinement_outcome}, short of {INDIRECT:g})"
+        )
+        starts.append((label, lambda: refined))
     except SolverError:
         met = False
     if not met:
@@ -177,10 +179,10 @@ def _indirect(ref: Reference) -> dict:
         except Exception:  # noqa: BLE001 - a value only a direct solution gives (several phases): no cross-check
             value = float("nan")
     failed = ", ".join(extremal.certificate.failed) if not certified else ""
-    before = f"; not certified {'; '.join(tried)}" if tried else ""
+    before = f" (not certified {'; '.join(tried)})" if tried else ""
     return {
         "outcome": "certified" if certified else f"not certified: {extremal.status.name} {failed}".strip(),
-        "reason": f"from Radau's solution on its {start}" + ("" if certified else f"; {extremal.detail}") + before,
+        "reason": f"from Radau's solution on its {start}{before}" + ("" if certified else f"; {extremal.detail}"),
         "met": certified,
         "value": value,
         "time_s": spent,
