@@ -444,10 +444,11 @@ def _reproduce_at_once(
     eta: NotebookETA,
     settle: Callable[[Path, tuple[str, str] | None], None],
 ) -> None:
-    """:func:`reproduce`'s runs, ``jobs`` at once in processes of their own, the longest first, a run that reads
+    """:func:`reproduce`'s runs, ``jobs`` at once, each in a process of its own, the longest first, a run that reads
     another's published record after it (:data:`READS_PUBLISHED`); each settled here as it ends, under a bar over
-    the notebooks finished. A process that dies takes the others of its pool with it (``BrokenProcessPool``): those
-    runs are settled as stopped, and the notebooks left run in a new pool."""
+    the notebooks finished. Each run has a one-process pool of its own, so a process that dies (``BrokenProcessPool``)
+    stops only its own run: the runs beside it go on, and the notebooks left start as before. (In one shared pool, a
+    death fails every run in it, and a run submitted after the death but before its future reports it is refused.)"""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -461,41 +462,34 @@ def _reproduce_at_once(
         f"expected ~{duration(expected)} from the estimates"
     )
     waiting, settled = list(order), set()
-    running: dict[Future, Path] = {}
+    running: dict[Future, tuple[Path, ProcessPoolExecutor]] = {}
     bar = tqdm(total=len(order), desc="reproduce", file=sys.stderr, bar_format=_BAR, dynamic_ncols=True)
     context = multiprocessing.get_context("spawn")  # a fresh interpreter: nothing of this process's state shared
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
     try:
         while waiting or running:
             ready = [n for n in waiting if all(d in settled or d not in by_name for d in READS_PUBLISHED.get(n, ()))]
             for name in ready[: max(jobs - len(running), 0)]:
                 waiting.remove(name)
                 nb = by_name[name]
-                running[pool.submit(_execute_run, nb, output / nb.name, published[nb], kernel, False)] = nb
+                pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
+                running[pool.submit(_execute_run, nb, output / nb.name, published[nb], kernel, False)] = (nb, pool)
             if not running:  # (cannot happen with READS_PUBLISHED as it is: no notebook waits on itself)
                 raise RuntimeError(f"reproduce: {', '.join(waiting)} wait on each other (READS_PUBLISHED)")
-            bar.set_postfix_str(", ".join(nb.stem for nb in running.values()))
+            bar.set_postfix_str(", ".join(nb.stem for nb, _ in running.values()))
             done, _ = wait(running, return_when=FIRST_COMPLETED)
-            broken = False
             for future in done:
-                nb = running.pop(future)
+                nb, pool = running.pop(future)
                 try:
                     stopped = future.result()
                 except BrokenProcessPool as exc:
-                    broken, stopped = True, (f"its process, or another run's beside it, ended abruptly ({exc})", "")
+                    stopped = (f"its process ended abruptly ({exc})", "")
+                pool.shutdown(wait=False)
                 settle(nb, stopped)
                 settled.add(nb.stem)
                 bar.update()
-            if broken:  # every run still in the broken pool is lost with it; the notebooks left get a new one
-                for nb in running.values():
-                    settle(nb, ("another run's process ended abruptly and took this one's with it", ""))
-                    settled.add(nb.stem)
-                    bar.update()
-                running.clear()
-                pool.shutdown(wait=False, cancel_futures=True)
-                pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        for _, pool in running.values():
+            pool.shutdown(wait=True, cancel_futures=True)
         bar.close()
 
 
