@@ -377,7 +377,8 @@ def solve_refined(
             failed = failure is not None or solution is None or not solution.converged
             if history and failed and len(recoveries) < MAX_RECOVERIES:
                 status = failure.status if failure is not None else getattr(solution, "status", "")
-                rescued, tried = _recover(mesh, guess, options, parameters, math.inf, history[0])
+                order = _recoveries_from(history[-1])  # the mesh whose solution the failed start came from
+                rescued, tried = _recover(mesh, guess, options, parameters, math.inf, history[0], order)
                 if rescued is not None:
                     solution, recovery = rescued
                     started = StartRecord()  # the recovery's solve, not the failed start's
@@ -501,7 +502,8 @@ def solve_refined(
             history[-1] = dataclasses.replace(history[-1], total_s=history[-1].total_s + spent)
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
-            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0])
+            order = _recoveries_from(history[-1])
+            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0], order)
             if rescued is not None:
                 recoveries.append(
                     f"refinement stalled on mesh iteration {iteration} ({mesh.label}, estimate {worst:.1e}): "
@@ -610,7 +612,8 @@ def _and(reason: str, more: str) -> str:
 #: own guess, then the scheme's uniform mesh (:meth:`Program.uniform <ocpkit.program.Program.uniform>`) of as many
 #: points, cold-started likewise. A coarse mesh can hold a spurious optimum the dynamics do not fly (an estimate of
 #: order one), and every mesh refined from it inherits it: its warm start, and its mesh, adapted to that artefact.
-#: Where the refinement diverges (:data:`DIVERGED_ESTIMATE`), the two are tried at once, the uniform mesh first.
+#: So where the refinement stands on such an estimate (:data:`DIVERGED_ESTIMATE`), the uniform mesh is tried first
+#: (:func:`_recoveries_from`), and where it diverges, the two are tried at once, the uniform mesh first.
 RECOVERIES = ("cold start", "uniform mesh")
 #: At most this many recoveries in one refinement
 MAX_RECOVERIES = 2
@@ -620,7 +623,8 @@ MAX_RECOVERIES = 2
 #: the published record's recoveries need: the reference collection's chains took at most 187 iterations (those their
 #: history records and those tried in vain, replayed), notebook 07's COPS hang glider 1782 and 2088, 3.2 and 7.1 times
 #: its first mesh's 554 and 293 (cold starts on finer meshes can take many times the first mesh's iterations: twice
-#: the first mesh's stopped that row short of its tolerance). It stops one: the same glider's solve at defaults in
+#: the first mesh's stopped that row short of its tolerance; those two stood on estimates of order one, where the
+#: uniform mesh now comes first, :func:`_recoveries_from`, and takes 114 and 182). It stops one: the same glider's solve at defaults in
 #: notebook 11, whose cold start on a 612-point mesh ends at 1720 and whose uniform mesh then recovers (13 meshes,
 #: not 19, the value within 1.5e-10). Where the first mesh takes 300 iterations or more (that glider's 1e-9 chains,
 #: 554-631) the cap is IPOPT's own 3000.
@@ -645,6 +649,18 @@ def _recovery_options(
     if cap >= allowed:
         return ipopt_options, None
     return {**ipopt_options, "max_iter": cap}, cap
+
+
+def _recoveries_from(standing: MeshIteration) -> tuple[str, ...]:
+    """The order of :data:`RECOVERIES` for a refinement standing on the mesh ``standing`` (the stalled mesh, or the
+    one a failed start came from): the uniform mesh first where its state estimate is of order one
+    (:data:`DIVERGED_ESTIMATE`). A cold start on a mesh adapted to a spurious optimum is slow and finds it again:
+    COPS's hang glider from Radau 60 x 1, stalled at an estimate of 11 on 898 points of degree up to 34, took 2088
+    IPOPT iterations (30 s) to the same artefact cold, and 182 (2.4 s) to the optimum on the uniform mesh; from
+    Radau 4 x 50, whose third mesh (1470 points) failed from a solution at 1.9, 1782 (46 s) against 114 (2.3 s).
+    Below that estimate the same mesh comes first: in the reference collection, where all but one of its 22
+    recoveries stood below it, the uniform mesh first took 88 s against 75 s over those refinements."""
+    return tuple(RECOVERIES[::-1]) if standing.error_estimate >= DIVERGED_ESTIMATE else RECOVERIES
 
 
 def _recover(
