@@ -152,6 +152,28 @@ def test_the_slides_5N_transfer_from_the_cached_energy_solution(systems):
     )
 
 
+def test_the_noise_floor_study_takes_the_l1_tables_runs_at_their_tolerance(systems, monkeypatch):
+    """tolerance_runs(reuse=...): the L1 table's MINPACK runs with the variational Jacobian at the slides' tolerance
+    are the floor study's runs there, taken as they are (not solved again), their rows those it would make."""
+    from ocpkit.shooting import Shooting
+
+    from compendium.studies import orbit_transfer as orbit_study
+
+    energy = orbit_study.read_cache("orbit_transfer_energy")
+    z = orbit_study.energy_start_vector(energy, "longitude", 5.0)
+    _, l1 = orbit_study.l1_runs(
+        systems, 5.0, z, combinations=[("detection", "variational"), ("correction", "variational")]
+    )
+    solved, original = [], Shooting.solve
+    monkeypatch.setattr(Shooting, "solve", lambda self, *a, **k: solved.append(1) or original(self, *a, **k))
+    fresh, _ = orbit_study.tolerance_runs(systems, 5.0, z, [1e-8])
+    assert len(solved) == 2
+    reuse = {(s, 1e-8): l1[("hybr", s, "variational")] for s in ("detection", "correction")}
+    taken, results = orbit_study.tolerance_runs(systems, 5.0, z, [1e-8], reuse=reuse)
+    assert len(solved) == 2 and all(results[key] is r for key, r in reuse.items())
+    pd.testing.assert_frame_equal(taken.drop(columns="cpu_s"), fresh.drop(columns="cpu_s"))
+
+
 def test_shared_system_integrates_at_the_problems_thrust(systems):
     """Regression: the shared compiled system is built at 1 N; a 5 N shooting must burn 5 N worth of fuel."""
     from compendium.studies import orbit_transfer as orbit_study

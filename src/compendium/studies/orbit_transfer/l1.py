@@ -58,18 +58,21 @@ def l1_runs(
             )
             r = s.solve(z_energy, solver=solver, maxfev=maxfev, raise_on_failure=False, diagnose=diagnose)
             results[(solver, detection, jacobian)] = r
-            rows.append(
-                {
-                    "thrust_N": thrust_N,
-                    "solver": solver,
-                    **r.summary(),
-                    "fuel_kg": fuel_kg(r),
-                    "tf_h": r.tf,
-                    "interior_switchings": r.integration.interior_switchings,
-                }
-            )
+            rows.append(l1_row(thrust_N, solver, r))
     bar.close()
     return pd.DataFrame(rows), results
+
+
+def l1_row(thrust_N: float, solver: str, r) -> dict:
+    """One run's row of :func:`l1_runs`' table."""
+    return {
+        "thrust_N": thrust_N,
+        "solver": solver,
+        **r.summary(),
+        "fuel_kg": fuel_kg(r),
+        "tf_h": r.tf,
+        "interior_switchings": r.integration.interior_switchings,
+    }
 
 
 def horizon_branches(

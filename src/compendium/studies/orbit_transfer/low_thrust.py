@@ -11,17 +11,19 @@ the integrator's accuracy).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pandas as pd
 
-from ocpkit.shooting import Shooting
+from ocpkit.shooting import Shooting, ShootingResult
 from ocpkit.shooting.grazing import closest_approach
 from ocpkit.shooting.result import noise_floor
 from ocpkit.shooting.strategies import FiniteDifferences, Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
 from ...progress import progress
-from .l1 import l1_runs, residual_noise
+from .l1 import l1_row, l1_runs, residual_noise
 from .systems import COSTATES, TransferSystems
 
 #: the integrator tolerance of the reference derivatives (central differences) of the Jacobian check
@@ -156,21 +158,30 @@ def tolerance_runs(
     *,
     switchings=("detection", "correction"),
     maxfev: int = 300,
+    reuse: Mapping[tuple[str, float], ShootingResult] | None = None,
 ) -> tuple[pd.DataFrame, dict]:
     """The slides' L1 shooting (MINPACK from the energy costates, variational Jacobian) with each switching
     treatment at each integrator tolerance of ``rtols``, and the noise of S at each end point
     (:func:`~compendium.studies.orbit_transfer.residual_noise`, at that tolerance): the floor |S| can reach.
-    Returns ``(table, results)``, ``results`` keyed by ``(switching, rtol)``."""
+    ``reuse``: runs already made, keyed by ``(switching, rtol)``, as :func:`~compendium.studies.orbit_transfer.l1_runs`
+    makes them at that tolerance from ``z_energy`` with ``maxfev`` (its table's MINPACK rows with the variational
+    Jacobian): taken as they are, not solved again. Returns ``(table, results)``, ``results`` keyed by
+    ``(switching, rtol)``."""
+    reuse = dict(reuse or {})
     tables, results = [], {}
     for rtol in rtols:
-        table, res = l1_runs(
-            systems,
-            thrust_N,
-            z_energy,
-            combinations=[(s, "variational") for s in switchings],
-            rtol=rtol,
-            maxfev=maxfev,
-        )
+        if all((s, rtol) in reuse for s in switchings):
+            res = {("hybr", s, "variational"): reuse[(s, rtol)] for s in switchings}
+            table = pd.DataFrame([l1_row(thrust_N, "hybr", r) for r in res.values()])
+        else:
+            table, res = l1_runs(
+                systems,
+                thrust_N,
+                z_energy,
+                combinations=[(s, "variational") for s in switchings],
+                rtol=rtol,
+                maxfev=maxfev,
+            )
         noises = []
         for (_, switching, _), r in res.items():
             results[(switching, rtol)] = r
