@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import time
 
+import nbformat
 import pytest
 from test_lab import needs_chromium
 from test_lab_roundtrip import (
@@ -151,11 +152,18 @@ print(_json.dumps({"slider": _e.values(), "drawn": _o.values, "solved": _o.solve
 @needs_chromium
 def test_moving_the_transfers_thrust_in_lab_follows_the_extremal(tmp_path, monkeypatch):
     """Notebook 05's Explore section: two steps left on the thrust slider, each an extremal found by shooting
-    continuation from the last, its fuel and switchings in the status line."""
+    continuation from the last, its fuel and switchings in the status line. The notebook's thrusts are set to the
+    explorer's own 5 N in its parameters cell, as a user exploring would (its default run, 1 N too, is nbval's)."""
     monkeypatch.delenv("OCPKIT_OUTPUT_DIR", raising=False)
     monkeypatch.delenv("OCPKIT_PROGRESS", raising=False)
     clone = tmp_path / "clone"
     _clone_working_tree(clone)
+    path = clone / "notebooks" / "05_orbit_transfer.ipynb"
+    nb = nbformat.read(str(path), as_version=4)
+    cell = next(c for c in nb.cells if "parameters" in c.metadata.get("tags", []))
+    assert cell.source.startswith("thrusts = [5.0, 1.0]"), cell.source[:80]
+    cell.source = cell.source.replace("thrusts = [5.0, 1.0]", "thrusts = [5.0]", 1)
+    nbformat.write(nb, str(path))
     with _lab_on(clone, tmp_path) as (server, browser):
         _run_all(server, browser, "05_orbit_transfer.ipynb")
         widgets = browser.poll(_WIDGETS, 60, "the transfer explorer's slider, figure and status line in the page")
