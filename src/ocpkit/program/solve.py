@@ -489,7 +489,8 @@ def solve_refined(
             # order one, and where none does, the refinement goes on from this mesh
             recovering, restarted_early = time.perf_counter(), True
             bar = min(STALL_FALL * history[-1].error_estimate, DIVERGED_ESTIMATE)
-            rescued, tried_early = _recover(mesh, guess, options, parameters, bar, history[0], RECOVERIES[::-1])
+            order = _recoveries_from(history[-1])  # (its estimate is of order one: the uniform mesh first)
+            rescued, tried_early = _recover(mesh, guess, options, parameters, bar, history[0], order)
             diverged_at = f"{diverged} on mesh iteration {iteration} ({mesh.label})"
             if rescued is not None:
                 recoveries.append(f"{diverged_at}: {_RECOVERED[rescued[1]]} ({rescued[0].program.label})")
@@ -613,21 +614,22 @@ def _and(reason: str, more: str) -> str:
 #: points, cold-started likewise. A coarse mesh can hold a spurious optimum the dynamics do not fly (an estimate of
 #: order one), and every mesh refined from it inherits it: its warm start, and its mesh, adapted to that artefact.
 #: So where the refinement stands on such an estimate (:data:`DIVERGED_ESTIMATE`), the uniform mesh is tried first
-#: (:func:`_recoveries_from`), and where it diverges, the two are tried at once, the uniform mesh first.
+#: (``_recoveries_from``), and where it diverges, the two are tried at once, the uniform mesh first.
 RECOVERIES = ("cold start", "uniform mesh")
 #: At most this many recoveries in one refinement
 MAX_RECOVERIES = 2
 #: A recovery's solve stops after this many times the IPOPT iterations of the refinement's first mesh (solved from
 #: the refinement's own guess, as a recovery is), at least :data:`RECOVERY_MIN_ITERATIONS` and at most the solve's
 #: ``max_iter``, so that a recovery's cost is bounded by the problem's own, whatever the mesh. The factor is above what
-#: the published record's recoveries need: the reference collection's chains took at most 187 iterations (those their
-#: history records and those tried in vain, replayed), notebook 07's COPS hang glider 1782 and 2088, 3.2 and 7.1 times
-#: its first mesh's 554 and 293 (cold starts on finer meshes can take many times the first mesh's iterations: twice
-#: the first mesh's stopped that row short of its tolerance; those two stood on estimates of order one, where the
-#: uniform mesh now comes first, :func:`_recoveries_from`, and takes 114 and 182). It stops one: the same glider's solve at defaults in
-#: notebook 11, whose cold start on a 612-point mesh ends at 1720 and whose uniform mesh then recovers (13 meshes,
-#: not 19, the value within 1.5e-10). Where the first mesh takes 300 iterations or more (that glider's 1e-9 chains,
-#: 554-631) the cap is IPOPT's own 3000.
+#: the published record's recoveries needed: the reference collection's chains took at most 187 iterations (those
+#: their history records and those tried in vain, replayed), notebook 07's COPS hang glider 1782 and 2088, 3.2 and 7.1
+#: times its first mesh's 554 and 293 (cold starts on finer meshes can take many times the first mesh's iterations:
+#: twice the first mesh's stopped that row short of its tolerance). It stopped one: the same glider's solve at defaults
+#: in notebook 11, whose cold start on a 612-point mesh ended at 1720 and whose uniform mesh then recovered (13 meshes,
+#: not 19, the value within 1.5e-10). Those three cold starts stood on estimates of order one (1.9, 11 and 1.7e3),
+#: from which the uniform mesh now comes first (``_recoveries_from``) and recovers in 114, 182 and 104 iterations, so
+#: the cap stops none of the record's recoveries now. Where the first mesh takes 300 iterations or more (that
+#: glider's 1e-9 chains, 554-631) the cap is IPOPT's own 3000.
 RECOVERY_ITERATIONS = 10
 #: The fewest IPOPT iterations a recovery's solve is allowed (:data:`RECOVERY_ITERATIONS`), whatever the first mesh took
 RECOVERY_MIN_ITERATIONS = 200
@@ -652,15 +654,16 @@ def _recovery_options(
 
 
 def _recoveries_from(standing: MeshIteration) -> tuple[str, ...]:
-    """The order of :data:`RECOVERIES` for a refinement standing on the mesh ``standing`` (the stalled mesh, or the
-    one a failed start came from): the uniform mesh first where its state estimate is of order one
-    (:data:`DIVERGED_ESTIMATE`). A cold start on a mesh adapted to a spurious optimum is slow and finds it again:
-    COPS's hang glider from Radau 60 x 1, stalled at an estimate of 11 on 898 points of degree up to 34, took 2088
-    IPOPT iterations (30 s) to the same artefact cold, and 182 (2.4 s) to the optimum on the uniform mesh; from
+    """The order of :data:`RECOVERIES` for a refinement standing on the mesh ``standing`` (the stalled or diverging
+    mesh, or the one a failed start came from): the uniform mesh first where its state estimate is of order one
+    (:data:`DIVERGED_ESTIMATE`) or not a number. A cold start on a mesh adapted to a spurious optimum is slow and finds
+    it again: COPS's hang glider from Radau 60 x 1, stalled at an estimate of 11 on 898 points of degree up to 34, took
+    2088 IPOPT iterations (30 s) to the same artefact cold, and 182 (2.4 s) to the optimum on the uniform mesh; from
     Radau 4 x 50, whose third mesh (1470 points) failed from a solution at 1.9, 1782 (46 s) against 114 (2.3 s).
-    Below that estimate the same mesh comes first: in the reference collection, where all but one of its 22
-    recoveries stood below it, the uniform mesh first took 88 s against 75 s over those refinements."""
-    return tuple(RECOVERIES[::-1]) if standing.error_estimate >= DIVERGED_ESTIMATE else RECOVERIES
+    Below that estimate the same mesh comes first: of the reference collection's 22 recoveries taken, one stood above
+    it (the hanging chain's, at 0.18), and the uniform mesh first everywhere took 88 s against 75 s over the 21
+    refinements that took them, with the same outcomes."""
+    return RECOVERIES if standing.error_estimate < DIVERGED_ESTIMATE else RECOVERIES[::-1]
 
 
 def _recover(
@@ -715,6 +718,7 @@ def _worst(h: MeshIteration) -> float:
 #: (estimate 0.23), and the mesh refined from it to 1e-6 on the same (0.31 on 769 points); a cold start on a uniform
 #: mesh of as many points finds the optimum (2.1e-3). The restart must bring the estimate below this value: from
 #: global Radau 20, a uniform mesh of 33 points still at 2.6 would otherwise count as one, and end the early restarts.
+#: From a mesh at this estimate or more, every recovery tries the uniform mesh first (``_recoveries_from``).
 DIVERGED_ESTIMATE = 0.1
 
 
