@@ -352,7 +352,8 @@ def test_a_notebook_whose_process_dies_stops_only_its_own_run(compendium):
     beside = compendium / "build" / "notebooks" / "10_after.ipynb"  # written as its run starts
     killer = (  # dies while the notebook that waited runs beside it: the kernel kills its parent, the run's process
         f"import os, pathlib, signal, time\n\nfor _ in range(600):\n    if pathlib.Path({str(beside)!r}).exists():\n"
-        "        break\n    time.sleep(0.1)\nos.kill(os.getppid(), signal.SIGKILL)"
+        "        break\n    time.sleep(0.1)\nelse:\n    raise RuntimeError('the notebook that waited never started')\n"
+        "os.kill(os.getppid(), signal.SIGKILL)"
     )
     for name, body in (("08_killer", killer), ("10_after", 'outputs.table(pd.DataFrame({"x": [1.0]}), "after")')):
         nb = nbformat.read(str(notebooks / f"{NOTEBOOK}.ipynb"), as_version=4)

@@ -463,6 +463,7 @@ def _reproduce_at_once(
     )
     waiting, settled = list(order), set()
     running: dict[Future, tuple[Path, ProcessPoolExecutor]] = {}
+    pools: set[ProcessPoolExecutor] = set()  # each run's own, until its run is settled
     bar = tqdm(total=len(order), desc="reproduce", file=sys.stderr, bar_format=_BAR, dynamic_ncols=True)
     context = multiprocessing.get_context("spawn")  # a fresh interpreter: nothing of this process's state shared
     try:
@@ -472,6 +473,7 @@ def _reproduce_at_once(
                 waiting.remove(name)
                 nb = by_name[name]
                 pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
+                pools.add(pool)
                 running[pool.submit(_execute_run, nb, output / nb.name, published[nb], kernel, False)] = (nb, pool)
             if not running:  # (cannot happen with READS_PUBLISHED as it is: no notebook waits on itself)
                 raise RuntimeError(f"reproduce: {', '.join(waiting)} wait on each other (READS_PUBLISHED)")
@@ -483,13 +485,17 @@ def _reproduce_at_once(
                     stopped = future.result()
                 except BrokenProcessPool as exc:
                     stopped = (f"its process ended abruptly ({exc})", "")
-                pool.shutdown(wait=False)
+                finally:
+                    pool.shutdown(wait=False)
+                    pools.discard(pool)
                 settle(nb, stopped)
                 settled.add(nb.stem)
                 bar.update()
     finally:
-        for _, pool in running.values():
-            pool.shutdown(wait=True, cancel_futures=True)
+        for pool in pools:  # (an interrupt: every run still going is waited for, the pools stopped together)
+            pool.shutdown(wait=False, cancel_futures=True)
+        for pool in pools:
+            pool.shutdown(wait=True)
         bar.close()
 
 
