@@ -168,10 +168,19 @@ def test_the_noise_floor_study_takes_the_l1_tables_runs_at_their_tolerance(syste
     monkeypatch.setattr(Shooting, "solve", lambda self, *a, **k: solved.append(1) or original(self, *a, **k))
     fresh, _ = orbit_study.tolerance_runs(systems, 5.0, z, [1e-8])
     assert len(solved) == 2
-    reuse = {(s, 1e-8): l1[("hybr", s, "variational")] for s in ("detection", "correction")}
+    reuse = orbit_study.reusable_runs({(5.0, *key): r for key, r in l1.items()}, 5.0, 1e-8)
+    assert set(reuse) == {("detection", 1e-8), ("correction", 1e-8)}
     taken, results = orbit_study.tolerance_runs(systems, 5.0, z, [1e-8], reuse=reuse)
     assert len(solved) == 2 and all(results[key] is r for key, r in reuse.items())
     pd.testing.assert_frame_equal(taken.drop(columns="cpu_s"), fresh.drop(columns="cpu_s"))
+    # one of the two taken, the other solved; a run of another treatment is refused, named
+    partly, _ = orbit_study.tolerance_runs(
+        systems, 5.0, z, [1e-8], reuse={("correction", 1e-8): reuse["correction", 1e-8]}
+    )
+    assert len(solved) == 3
+    pd.testing.assert_frame_equal(partly.drop(columns="cpu_s"), fresh.drop(columns="cpu_s"))
+    with pytest.raises(ValueError, match=r"reuse\[\('correction', 1e-08\)\] is a run with switching 'detection'"):
+        orbit_study.tolerance_runs(systems, 5.0, z, [1e-8], reuse={("correction", 1e-8): reuse["detection", 1e-8]})
 
 
 def test_shared_system_integrates_at_the_problems_thrust(systems):

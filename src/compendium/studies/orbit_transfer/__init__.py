@@ -48,7 +48,14 @@ from .energy import (
 )
 from .family import thrust_family, thrust_magnitude
 from .l1 import best_known_fuel, goal_met, horizon_branches, l1_runs, residual_noise
-from .low_thrust import jacobian_check, newton_path, slides_conclusion, switching_approach, tolerance_runs
+from .low_thrust import (
+    jacobian_check,
+    newton_path,
+    reusable_runs,
+    slides_conclusion,
+    switching_approach,
+    tolerance_runs,
+)
 from .minimum_time import (
     classify_on_scan,
     minimum_time_continuation,
@@ -96,6 +103,7 @@ __all__ = [
     "thrust_family",
     "thrust_magnitude",
     "thrust_schedule",
+    "reusable_runs",
     "tolerance_runs",
     "versus_slides",
 ]

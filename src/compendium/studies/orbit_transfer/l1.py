@@ -19,6 +19,9 @@ from ..shooting_methods import ALL_COMBINATIONS
 from .continuation import solve_robustly
 from .systems import TransferSystems, fuel_kg
 
+#: The L1 shooting's evaluations of S at most (MINPACK's maxfev), in :func:`l1_runs` and the studies built on its runs
+MAXFEV = 300
+
 
 def l1_runs(
     systems: TransferSystems,
@@ -30,7 +33,7 @@ def l1_runs(
     solvers=("hybr",),
     combinations=ALL_COMBINATIONS,
     rtol: float = 1e-8,
-    maxfev: int = 300,
+    maxfev: int = MAXFEV,
     interior_check: bool = True,
     diagnose: bool = False,
 ):

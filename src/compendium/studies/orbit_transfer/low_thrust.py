@@ -23,7 +23,7 @@ from ocpkit.shooting.strategies import FiniteDifferences, Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
 from ...progress import progress
-from .l1 import l1_row, l1_runs, residual_noise
+from .l1 import MAXFEV, l1_row, l1_runs, residual_noise
 from .systems import COSTATES, TransferSystems
 
 #: the integrator tolerance of the reference derivatives (central differences) of the Jacobian check
@@ -157,39 +157,55 @@ def tolerance_runs(
     rtols,
     *,
     switchings=("detection", "correction"),
-    maxfev: int = 300,
+    maxfev: int = MAXFEV,
     reuse: Mapping[tuple[str, float], ShootingResult] | None = None,
 ) -> tuple[pd.DataFrame, dict]:
     """The slides' L1 shooting (MINPACK from the energy costates, variational Jacobian) with each switching
     treatment at each integrator tolerance of ``rtols``, and the noise of S at each end point
     (:func:`~compendium.studies.orbit_transfer.residual_noise`, at that tolerance): the floor |S| can reach.
     ``reuse``: runs already made, keyed by ``(switching, rtol)``, as :func:`~compendium.studies.orbit_transfer.l1_runs`
-    makes them at that tolerance from ``z_energy`` with ``maxfev`` (its table's MINPACK rows with the variational
-    Jacobian): taken as they are, not solved again. Returns ``(table, results)``, ``results`` keyed by
-    ``(switching, rtol)``."""
+    makes them at that tolerance from ``z_energy`` with ``maxfev`` (:func:`reusable_runs`): taken as they are, not
+    solved again. Returns ``(table, results)``, ``results`` keyed by ``(switching, rtol)``."""
     reuse = dict(reuse or {})
     tables, results = [], {}
     for rtol in rtols:
-        if all((s, rtol) in reuse for s in switchings):
-            res = {("hybr", s, "variational"): reuse[(s, rtol)] for s in switchings}
-            table = pd.DataFrame([l1_row(thrust_N, "hybr", r) for r in res.values()])
-        else:
-            table, res = l1_runs(
+        taken = {s: reuse[(s, rtol)] for s in switchings if (s, rtol) in reuse}
+        for s, r in taken.items():
+            if (r.switching, r.jacobian) != (s, "variational"):
+                raise ValueError(
+                    f"reuse[({s!r}, {rtol:g})] is a run with switching {r.switching!r} and the {r.jacobian} Jacobian, "
+                    f"not {s!r} with the variational one"
+                )
+        left = [s for s in switchings if s not in taken]
+        made = {}
+        if left:
+            _, made = l1_runs(
                 systems,
                 thrust_N,
                 z_energy,
-                combinations=[(s, "variational") for s in switchings],
+                combinations=[(s, "variational") for s in left],
                 rtol=rtol,
                 maxfev=maxfev,
             )
+        runs = {s: taken[s] if s in taken else made[("hybr", s, "variational")] for s in switchings}
+        table = pd.DataFrame([l1_row(thrust_N, "hybr", r) for r in runs.values()])
         noises = []
-        for (_, switching, _), r in res.items():
+        for switching, r in runs.items():
             results[(switching, rtol)] = r
             noises.append(residual_noise(systems.shooting("fuel", thrust_N, switching=switching, tol=rtol), r.z))
         table.insert(2, "integrator_tol", rtol)
         table["noise_of_S"] = noises
         tables.append(table)
     return pd.concat(tables, ignore_index=True), results
+
+
+def reusable_runs(results: Mapping[tuple, ShootingResult], thrust_N: float, rtol: float) -> dict:
+    """The runs of notebook 05's L1 table that :func:`tolerance_runs` makes at ``rtol``, keyed for its ``reuse``:
+    ``results`` keyed ``(thrust_N, solver, detection, jacobian)``, made by
+    :func:`~compendium.studies.orbit_transfer.l1_runs` at ``rtol`` from the same start with ``MAXFEV``; its
+    MINPACK runs with the variational Jacobian, where the table has them."""
+    runs = {s: results.get((thrust_N, "hybr", s, "variational")) for s in ("detection", "correction")}
+    return {(s, rtol): r for s, r in runs.items() if r is not None}
 
 
 def slides_conclusion(runs: pd.DataFrame, slides: pd.DataFrame) -> pd.DataFrame:
@@ -239,5 +255,6 @@ __all__ = [
     "newton_path",
     "slides_conclusion",
     "switching_approach",
+    "reusable_runs",
     "tolerance_runs",
 ]
