@@ -519,6 +519,25 @@ def test_the_closest_approach_of_a_switching_function_names_a_grazing_switching(
         assert not approach.grazing and abs(approach.g) > 0.05
 
 
+def test_a_trajectory_builds_each_mapped_function_once_per_size():
+    """A trajectory's flows are evaluated once per point and mode, and a map is built once per size: a closest
+    approach asks for the switching functions at single points some tens of times (each map took 14 ms to build).
+    The values are those of evaluating each end of each interval on its own."""
+    pr, z, _ = _damped_oscillator_at_a_grazing(-1e-5)
+    s = Shooting(pr, control_law(pr, "box"), rtol=1e-12, atol=1e-12)
+    traj = ShootingTrajectory(s.integrate(z, record=True), s.compiled.system)
+    built = len(traj._maps)
+    for t in np.linspace(traj.t0, traj.tf, 30):
+        traj.switching(np.array([t]))
+    assert len(traj._maps) == built + 1
+    system, P = s.compiled.system, traj.full_parameters
+    for i in (0, len(traj._modes) // 2, len(traj._modes) - 1):
+        m = int(traj._modes[i])
+        assert np.array_equal(np.asarray(system.flow(traj._Y[i], m, P)).ravel(), traj._D0[i])
+        assert np.array_equal(np.asarray(system.flow(traj._Y[i + 1], m, P)).ravel(), traj._D1[i])
+        assert np.array_equal(np.asarray(system.acceleration(traj._Y[i + 1], m, P)).ravel(), traj._A1[i])
+
+
 def test_a_stall_at_a_grazing_switching_says_so():
     """Away from the noise, a stall whose last iterate grazes says where, and what gets past it; one that does not
     graze says nothing of it (the wording of the slides' transfer at 0.2 N, notebook 05)."""
