@@ -16,7 +16,8 @@ KERNEL := ocpkit
 STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 
-# One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core.
+# One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core. The runner
+# sets the same for every kernel it starts (compendium.provenance.ONE_THREAD), and only such a run publishes.
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 

@@ -33,6 +33,7 @@ import pytest
 from test_lab import CHROMIUM_FLAGS, HAVE_LAB, _chromium, _kernel_installed, _running_lab, needs_chromium
 
 from compendium.notebooks import KERNEL_NAME
+from compendium.provenance import ONE_THREAD
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_NOTEBOOK = "01_lunar_ascent.ipynb"
@@ -40,7 +41,7 @@ NOTEBOOKS = os.environ.get("OCPKIT_LAB_ROUNDTRIP", DEFAULT_NOTEBOOK).split(",")
 STORE_FIRST = os.environ.get("OCPKIT_LAB_ROUNDTRIP_STORE", "") not in ("", "0")
 
 # what the Makefile exports for `make lab` and `make store` (one BLAS thread)
-MAKE_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+MAKE_ENV = dict(ONE_THREAD)
 
 PAGE_TIMEOUT = 60.0  # Lab's page loaded, the notebook open, its kernel idle
 RUN_TIMEOUT = 120.0 if NOTEBOOKS == [DEFAULT_NOTEBOOK] else 900.0  # every cell run (the default: about 20 s)

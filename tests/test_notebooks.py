@@ -17,7 +17,7 @@ from compendium.notebook_source import (
     published_parameters,
 )
 from compendium.notebooks import KERNEL_NAME, execute
-from compendium.provenance import RUN_RECORD_KEY, read_run_record
+from compendium.provenance import ONE_THREAD, RUN_RECORD_KEY, read_run_record
 
 NOTEBOOKS = sorted(paths.notebooks_dir().glob("*.ipynb"))
 NOTEBOOK_01 = paths.notebooks_dir() / "01_lunar_ascent.ipynb"
@@ -140,9 +140,12 @@ def _kernel_available():
 def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypatch):
     """papermill in a foreign working directory, outputs redirected: the notebook finds data/ itself. With another
     thrust, it prints the thrust it solved with, its figures (saved and inline) carry the note of a run that is not
-    the published one, and the executed notebook keeps its run's record."""
+    the published one, and the executed notebook keeps its run's record, which says the kernel had one BLAS and one
+    OpenMP thread although the process that started it had other settings."""
     out_root = tmp_path / "outputs"
     monkeypatch.setenv("OCPKIT_OUTPUT_DIR", str(out_root))
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)  # started by hand, not by make: OpenBLAS' own threads
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
@@ -171,6 +174,7 @@ def test_notebook_runs_from_any_folder_with_other_parameters(tmp_path, monkeypat
     assert (out_root / "figures" / "figure6_theta.pdf").is_file()
     record = read_run_record(out_root, "01_lunar_ascent")
     assert record["parameters"]["segments"] == 6 and not record["published_parameters"]
+    assert record["threads"] == ONE_THREAD, "the kernel runs with make's one BLAS and OpenMP thread, whoever starts it"
     assert record["timings"]["lunar_ascent"][0]["solve_s"] > 0
     assert Path(out).is_file()
 

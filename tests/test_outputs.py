@@ -15,7 +15,7 @@ from compendium.notebook_source import notebook_code, published_parameters
 from compendium.notebooks import PublishError, publish_run
 from compendium.outputs import STAGING, ContractWarning, Outputs, executed_code
 from compendium.plotting import NOTE_GID, note_figures, save_figure
-from compendium.provenance import read_run_record, run_key
+from compendium.provenance import ONE_THREAD, read_run_record, run_key
 
 NOTEBOOK = "01_lunar_ascent"
 
@@ -220,12 +220,21 @@ def test_executed_code_leaves_out_papermill_s_injected_cell_and_only_that():
     assert len(executed_code(later, parameters)) == 3
 
 
-def _complete_run(repo, code=None, parameters=None):
-    out = Outputs(NOTEBOOK, parameters or published_parameters(NOTEBOOK))
-    _write_some(out)
-    out.publish()
+def _complete_run(repo, code=None, parameters=None, threads=ONE_THREAD):
+    """A run whose record says the kernel ran ``code`` (default: the committed notebook's) with ``threads`` in its
+    environment (default: one BLAS and one OpenMP thread, as compendium.notebooks.execute gives every kernel)."""
+    with pytest.MonkeyPatch.context() as patch:
+        for name, value in threads.items():
+            if value is None:
+                patch.delenv(name, raising=False)
+            else:
+                patch.setenv(name, value)
+        out = Outputs(NOTEBOOK, parameters or published_parameters(NOTEBOOK))
+        _write_some(out)
+        out.publish()
     path = out.root / "data" / "derived" / "runs" / f"{NOTEBOOK}.json"
     record = json.loads(path.read_text())
+    assert record["threads"] == threads, "the record keeps the threads of the process that ran the notebook"
     record["code"] = code if code is not None else notebook_code(repo / "notebooks" / f"{NOTEBOOK}.ipynb")
     path.write_text(json.dumps(record))
     return out.root
@@ -247,6 +256,7 @@ def test_a_complete_run_of_the_committed_notebook_publishes(repo):
         ("edited", "is not that of notebooks/01_lunar_ascent.ipynb"),
         ("parameters", "other parameters than the published run: \\['segments'\\]"),
         ("no kernel", "recorded no executed code"),
+        ("threads", "ran with OPENBLAS_NUM_THREADS=None, OMP_NUM_THREADS=2: the published record is computed with one"),
     ],
 )
 def test_anything_else_does_not_publish(repo, how, message):
@@ -255,6 +265,8 @@ def test_anything_else_does_not_publish(repo, how, message):
         folder = _complete_run(repo, code=code[:3] + ["0123456789abcdef"] + code[4:])
     elif how == "parameters":
         folder = _complete_run(repo, parameters=published_parameters(NOTEBOOK) | {"segments": 40})
+    elif how == "threads":  # a Lab or a runner started without make's environment: OpenBLAS' own threads
+        folder = _complete_run(repo, threads={"OPENBLAS_NUM_THREADS": None, "OMP_NUM_THREADS": "2"})
     else:
         out = Outputs(NOTEBOOK, published_parameters(NOTEBOOK))
         _write_some(out)

@@ -42,7 +42,7 @@ from .notebook_source import (
     written_to,
 )
 from .progress import NotebookETA, duration, longest_first, measured_durations, notebook_estimates, prior_durations
-from .provenance import RUN_RECORD_KEY, RUNS, run_folder
+from .provenance import ONE_THREAD, RUN_RECORD_KEY, RUNS, run_folder
 from .report import UNFINISHED, Unfinished, build_report
 
 KERNEL_NAME = "ocpkit"
@@ -95,6 +95,9 @@ def execute(
     notebook's cells, and the notebook's own bars, in this process's terminal. ``env``:
     environment variables for the kernel (``OCPKIT_RUNS_DIR``, ``OCPKIT_OUTPUT_DIR``).
 
+    The kernel runs with one BLAS and one OpenMP thread (:data:`~compendium.provenance.ONE_THREAD`), whoever starts
+    the run: as ``make`` runs the notebooks, so that a run started by hand takes the published record's paths.
+
     The executed notebook keeps the record of its run (:func:`keep_run_record`), so that its report shows that
     run whatever runs write into the same folder later.
     """
@@ -109,7 +112,7 @@ def execute(
     parameters = dict(parameters or {})
     check_parameters(path, parameters)
     output.parent.mkdir(parents=True, exist_ok=True)
-    settings = {"OCPKIT_PROGRESS": "terminal" if progress else "off", **(env or {})}  # inherited by the kernel
+    settings = {"OCPKIT_PROGRESS": "terminal" if progress else "off", **ONE_THREAD, **(env or {})}  # the kernel's
     previous = {k: os.environ.get(k) for k in settings}
     os.environ.update(settings)
     ipc_dir = tempfile.mkdtemp(prefix="ocpkit-ipc-")  # short: a Unix socket path has at most ~107 characters
@@ -270,8 +273,9 @@ def publish_run(folder: str | Path) -> list[str]:
     """Copy a complete run into the published record (``figures/``, ``data/derived/``); the files copied.
 
     Only a complete run of the committed notebook publishes: the digests of the code cells its kernel executed are
-    those of ``notebooks/<name>.ipynb`` as committed (:func:`committed_code`), in order, once each; its parameters
-    are the published ones; it wrote every file the contract declares for the notebook and nothing else. Anything
+    those of ``notebooks/<name>.ipynb`` as committed (:func:`committed_code`), in order, once each; its kernel ran
+    with one BLAS and one OpenMP thread (:data:`~compendium.provenance.ONE_THREAD`); its parameters are the
+    published ones; it wrote every file the contract declares for the notebook and nothing else. Anything
     else raises :class:`PublishError` naming the reason.
     """
     import json
@@ -294,6 +298,14 @@ def publish_run(folder: str | Path) -> list[str]:
         raise PublishError(
             f"the code the kernel ran in {folder} is not that of {what}: an edited or copied notebook, or cells run "
             "out of order (commit the notebook, restart the kernel and run all cells)"
+        )
+    ran = record.get("threads")
+    if ran != ONE_THREAD:
+        said = ", ".join(f"{k}={v}" for k, v in (ran or {}).items()) or "no record of its threads"
+        raise PublishError(
+            f"the run of {notebook} in {folder} ran with {said}: the published record is computed with one BLAS and "
+            "one OpenMP thread (OPENBLAS_NUM_THREADS=1, OMP_NUM_THREADS=1, as make exports them), since a "
+            "refinement's path depends on the last bits of its solves; publish a run of make reproduce or make store"
         )
     published = published_parameters(notebook)
     if record["parameters"] != json.loads(json.dumps(published)):

@@ -44,7 +44,7 @@ from . import contract, paths
 from .figure_data import write_figure_data
 from .notebook_source import code_digest, none_meanings, notebook_parameters, parameters_cell, published_parameters
 from .plotting import add_note, note_figures, run_note, save_figure
-from .provenance import RUNS, git_state, run_folder
+from .provenance import RUNS, git_state, run_folder, threads
 
 STAGING = ".staging"
 FIGURE_DATA = Path(contract.FIGURE_DATA)
@@ -310,6 +310,7 @@ class Outputs:
             "files": self.files,
             "code": executed_code(inputs, parameters_cell(tracked).source) if inputs is not None else None,
             "timings": self.timings,
+            "threads": threads(),  # the kernel's BLAS and OpenMP threads: only one of each publishes
             "git": git_state(),  # the commit the run's code was at when it ended, and what was changed since
         }
         (self.root / RUNS).mkdir(parents=True, exist_ok=True)

@@ -26,6 +26,12 @@ PACKAGES = ("casadi", "numpy", "scipy", "matplotlib", "pandas", "ocpkit")
 RECORD = ("figures/", "data/derived/")
 #: the folder of run records, in a run's folder and in the published record
 RUNS = Path("data") / "derived" / "runs"
+#: The threads the published record is computed with: one BLAS (OpenBLAS) and one OpenMP thread, as the Makefile
+#: exports them and :func:`compendium.notebooks.execute` sets them for every kernel it starts. A refinement's path
+#: depends on the last bits of its solves, which the BLAS's threads change: COPS's hang glider from global Radau 60
+#: took 14 meshes and 1028 points in a run started by hand with OpenBLAS' own threads, 10 and 731 under ``make``.
+#: A run's record keeps what its kernel had (:func:`threads`), and only a run with these publishes.
+ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 #: the key of an executed notebook's metadata under which the runner keeps the record of the run it shows
 #: (:func:`compendium.notebooks.execute`; ``null``: the run wrote none, it did not complete)
 RUN_RECORD_KEY = "compendium_run_record"
@@ -50,6 +56,11 @@ def environment() -> dict:
         "python": f"{platform.python_implementation()} {platform.python_version()}",
         "packages": versions,
     }
+
+
+def threads() -> dict[str, str | None]:
+    """This process's thread settings of :data:`ONE_THREAD` (``None`` for one not set): what a run's record keeps."""
+    return {name: os.environ.get(name) for name in ONE_THREAD}
 
 
 def _cpu_model() -> str:
