@@ -3,9 +3,10 @@ src/compendium/bootstrap.py (the steps of `make setup`) imported from its file.
 
 The interpreter check meets fake interpreters (scripts that report another version, or no ensurepip), and real old
 ones where installed; the steps after it meet a fake interpreter whose `-m venv` makes a fake .venv whose python
-answers each step (and fails the one a test names), and once a real venv whose pip finds nothing offline. pip's
-output folding is fed samples of pip's output directly. Nothing here uses the network except the pin resolution
-test, which runs only with OCPKIT_NETWORK_TESTS=1. About 15 s in all, most of it the real venv.
+answers each step (and fails the one a test names), and once a real venv whose pip finds no uv offline; this
+environment's uv fails for real on a pin it cannot find. uv's output folding is fed samples of uv's output directly.
+Nothing here uses the network except the pin resolution test, which runs only with OCPKIT_NETWORK_TESTS=1. About
+15 s in all, most of it the real venv.
 """
 
 from __future__ import annotations
@@ -44,7 +45,13 @@ def _script(path: Path, body: str) -> Path:
     return path
 
 
-def _project(tmp_path: Path, pins: str = "numpy==2.4.6\nscipy==1.17.1\n") -> Path:
+#: the installer's pin, as environment.txt gives it (make setup installs it first, then the pins with it)
+UV_PIN = next(
+    line.split()[0] for line in (ROOT / "environment.txt").read_text().splitlines() if line.startswith("uv==")
+)
+
+
+def _project(tmp_path: Path, pins: str = f"numpy==2.4.6\nscipy==1.17.1\n{UV_PIN}\n") -> Path:
     """A folder with the Makefile and what its setup rule reads and runs."""
     project = tmp_path / "project"
     (project / BOOTSTRAP.parent.relative_to(ROOT)).mkdir(parents=True)
@@ -169,22 +176,52 @@ def test_setup_tells_a_real_old_python_so(tmp_path, series):
 
 
 def test_setup_takes_the_running_python_and_a_failed_install_leaves_no_venv(tmp_path):
-    """The real thing up to pip: the check passes this interpreter, venv makes .venv, pip (offline) finds nothing."""
-    project = _project(tmp_path, pins="ocpkit-no-such-package==0.0.0\n")
+    """The real thing up to the installer: the check passes this interpreter, venv makes .venv, and its pip (offline)
+    finds no uv to install the pins with."""
+    project = _project(tmp_path, pins=f"ocpkit-no-such-package==0.0.0\n{UV_PIN}\n")
     result = _make(project, "setup", f"PYTHON={sys.executable}", env=_env(tmp_path))
     assert f"PYTHON={sys.executable} is Python {RUNNING} (" in result.stdout, result.stdout + result.stderr
-    assert "setup [2/5] creating .venv" in result.stdout and "setup [3/5] installing the 1 packages" in result.stdout
+    assert "setup [2/5] creating .venv" in result.stdout and "setup [3/5] installing the 2 packages" in result.stdout
     assert result.returncode != 0
-    assert "No matching distribution found for ocpkit-no-such-package==0.0.0" in result.stdout  # pip's own words
+    assert f"No matching distribution found for {UV_PIN}" in result.stdout + result.stderr  # pip's own words
     assert "setup: [3/5] installing environment.txt failed; .venv removed" in result.stderr, result.stderr
     assert not (project / ".venv").exists()
     assert "setup [4/5]" not in result.stdout
+
+
+def test_uv_s_own_failure_reaches_the_reader_through_the_fold(bootstrap, tmp_path):
+    """The installer for real (this environment's uv), offline and told where to look as pip would be: a pin it
+    cannot find is named in uv's own words, and nothing is said to be installed."""
+    target = tmp_path / "target"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(target)], check=True)
+    pins = tmp_path / "environment.txt"
+    pins.write_text("ocpkit-no-such-package==0.0.0\n")
+    sources = bootstrap.pip_sources(_env(tmp_path))
+    assert sources == ["--find-links", str(tmp_path / "no-wheels"), "--no-index"]
+    command = [sys.executable, "-m", "uv", "pip", "install", "--python", str(target / "bin" / "python"), *sources]
+    done = subprocess.run([*command, "-r", str(pins)], capture_output=True, text=True, timeout=60, env=_env(tmp_path))
+    assert done.returncode != 0
+    out = io.StringIO()
+    log = bootstrap.UvLog(1, out, tty=False)
+    for line in (done.stdout + done.stderr).splitlines():
+        log.feed(line)
+    log.close()
+    assert "ocpkit-no-such-package" in out.getvalue() and "error" in out.getvalue(), out.getvalue()
+    assert "installed in" not in out.getvalue()
+
+
+def test_setup_names_an_environment_txt_without_the_installer_s_pin(tmp_path):
+    project = _project(tmp_path, pins="numpy==2.4.6\n")
+    result = _make(project, "setup", f"PYTHON={sys.executable}", env=_env(tmp_path))
+    assert result.returncode != 0 and not (project / ".venv").exists()
+    assert "environment.txt pins no uv (a line uv==VERSION): setup installs with it" in result.stderr, result.stderr
 
 
 # -- the steps after it, on a fake venv -----------------------------------------------------------------------------
 
 #: what each step the fake venv can fail is called in setup's message (the .pth is written in step 4)
 STEPS = {
+    "uv": "[3/5] installing environment.txt",
     "pins": "[3/5] installing environment.txt",
     "ocpkit": "[4/5] installing ocpkit",
     "pth": "[4/5] installing ocpkit",
@@ -195,18 +232,27 @@ FAKE_VENV_PYTHON = """import json, os, sys, time
 args = sys.argv[1:]
 with open(os.path.join(os.environ["FAKE_PROJECT"], "calls.jsonl"), "a") as log:
     log.write(json.dumps(args if args[:1] != ["-c"] else ["-c", "..."]) + "\\n")
-step = ("pins" if "-r" in args else "ocpkit") if args[:3] == ["-m", "pip", "install"] else (
-    "kernel" if args[:3] == ["-m", "ipykernel", "install"] else "pth" if args[:1] == ["-c"] else "unknown")
-if step == "pins":  # what pip 23 prints, shortened
+if args[:3] == ["-m", "pip", "install"]:
+    step = "uv" if any(a.startswith("uv==") for a in args) else "ocpkit"
+elif args[:4] == ["-m", "uv", "pip", "install"]:
+    step = "pins"
+else:
+    step = "kernel" if args[:3] == ["-m", "ipykernel", "install"] else "pth" if args[:1] == ["-c"] else "unknown"
+if step == "pins":  # what uv 0.13 prints, shortened
     pins = [line.split()[0] for line in open("environment.txt") if line[:1].isalnum()]
-    print("Looking in links: /nowhere")
+    print("Using Python 3.11.7 environment at: .venv")
+    print("Resolved %d packages in 12ms" % len(pins), flush=True)
     for pin in pins:
-        print("Collecting %s (from -r environment.txt (line 1))" % pin)
-        print("  Downloading %s-py3-none-any.whl (12.5 MB)" % pin.replace("==", "-"))
-    if os.environ.get("FAKE_HANG") == "pins":
-        time.sleep(60)
-    print("Installing collected packages: " + ", ".join(p.split("==")[0] for p in pins))
-    print("Successfully installed " + " ".join(p.replace("==", "-") for p in pins), flush=True)
+        print("Downloading %s (12.5MiB)" % pin.split("==")[0], flush=True)
+        if os.environ.get("FAKE_HANG") == "pins":
+            time.sleep(60)
+    for pin in pins:
+        print(" Downloaded %s" % pin.split("==")[0])
+    print("Prepared %d packages in 1.2s" % len(pins))
+    print("Installed %d packages in 8ms" % len(pins))
+    print("Bytecode compiled 12 files in 1.0s")
+    for pin in pins:
+        print(" + %s" % pin, flush=True)
 if step == os.environ.get("FAKE_FAIL") or step == "unknown":
     sys.exit("ERROR: fake %s step failed (%r)" % (step, args))
 """
@@ -295,19 +341,20 @@ def test_setup_runs_its_steps_in_order_with_progress_and_stamps_the_venv(fake_se
     out = result.stdout
     lines = [line for line in out.splitlines() if line.startswith("setup [")]
     assert [line[:11] for line in lines] == [f"setup [{i}/5]" for i in range(1, 6)], out
-    # pip's log folded to a line per package, with its download; pip's other lines gone
-    assert "  [1/2] numpy==2.4.6, downloading 12.5 MB\n  [2/2] scipy==1.17.1, downloading 12.5 MB\n" in out, out
-    assert "  installing 2 packages\n" in out and re.search(
-        r"  2 packages installed in \d+ s \(2 downloaded, 25 MB\)", out
-    )
-    assert "Collecting" not in out and "Looking in" not in out
+    # uv's log folded to the resolution, the large downloads and a summary; its other lines gone
+    assert "  resolved 3 packages\n  downloading numpy (12.5 MiB)\n  downloading scipy (12.5 MiB)\n" in out, out
+    assert re.search(r"  3 packages installed in \d+ s \(3 large downloads, 38 MiB\)", out), out
+    assert "Using Python" not in out and " + numpy" not in out and "Bytecode" not in out
     assert re.search(r"setup: done in \d+ s", out)
     calls = _calls(project)
-    assert calls[0][:3] == ["-m", "pip", "install"] and calls[0][-2:] == ["-r", "environment.txt"]
-    assert calls[1][:3] == ["-m", "pip", "install"] and calls[1][-2:] == ["-e", "."] and "--no-deps" in calls[1]
-    assert calls[2] == ["-c", "..."]  # compendium.pth
-    assert calls[3][:4] == ["-m", "ipykernel", "install", "--sys-prefix"] and "ocpkit" in calls[3]
-    assert calls[3][-2:] == ["--display-name", "Python (ocpkit)"]
+    assert calls[0][:3] == ["-m", "pip", "install"] and calls[0][-1] == UV_PIN  # the installer, at its pin
+    assert calls[1][:4] == ["-m", "uv", "pip", "install"] and calls[1][-2:] == ["-r", "environment.txt"]
+    assert {"--compile-bytecode", "--no-index"} <= set(calls[1]), calls[1]  # as pip compiles; pip's offline, kept
+    assert calls[1][calls[1].index("--python") + 1] == ".venv/bin/python"  # the new environment, not uv's own
+    assert calls[2][:3] == ["-m", "pip", "install"] and calls[2][-2:] == ["-e", "."] and "--no-deps" in calls[2]
+    assert calls[3] == ["-c", "..."]  # compendium.pth
+    assert calls[4][:4] == ["-m", "ipykernel", "install", "--sys-prefix"] and "ocpkit" in calls[4]
+    assert calls[4][-2:] == ["--display-name", "Python (ocpkit)"]
     assert (project / ".venv" / ".installed").is_file()
     assert not (project / ".venv.previous").exists()
     again = run()  # up to date: nothing to do
@@ -381,11 +428,11 @@ def test_a_previous_venv_without_its_stamp_is_what_is_left_of_a_removal(fake_set
 
 
 def _interrupt(proc: subprocess.Popen, how: str) -> str:
-    """Once pip is at its second package (where the fake sleeps), Ctrl-C as a terminal sends it (SIGINT to make and
+    """Once uv is at its first download (where the fake sleeps), Ctrl-C as a terminal sends it (SIGINT to make and
     everything under it), or `kill` of make alone (SIGTERM, which make passes on to its recipe): make's output."""
     try:
         seen = ""
-        while "[1/2] numpy" not in seen:  # printed once pip is at scipy
+        while "downloading numpy" not in seen:  # where the fake uv sleeps
             line = proc.stdout.readline()
             assert line, seen
             seen += line
@@ -479,63 +526,36 @@ def test_a_stamped_venv_that_could_not_be_set_aside_is_left_as_it_was(bootstrap,
     assert "setup: PermissionError: cannot rename .venv\nsetup: failed before its first step; .venv is as it was" in err
 
 
-@pytest.mark.parametrize(
-    ("found", "project", "shown"),
-    [
-        ("casadi==3.8.2", "casadi", "casadi==3.8.2"),
-        ("Send2Trash==2.2.0", "send2trash", "Send2Trash==2.2.0"),
-        ("/opt/pypi/files/typing_extensions-4.16.0-py3-none-any.whl", "typing-extensions", "typing-extensions==4.16.0"),
-        ("python_dateutil-4.0.0-py3-none-any.whl", "python-dateutil", "python-dateutil==4.0.0"),
-        ("pyzmq-27.1.0.tar.gz", "pyzmq", "pyzmq==27.1.0"),
-        ("tzdata", "tzdata", "tzdata"),  # a dependency pip collects before it reads its pin
-        ("soupsieve>=1.6.1", "soupsieve", "soupsieve>=1.6.1"),
-    ],
-)
-def test_a_requirement_is_shown_as_a_pin(bootstrap, found, project, shown):
-    assert bootstrap.requirement(found) == (project, shown)
-
-
-#: pip 23.0.1 (Debian 12's python3), as it printed on a machine with an extra index missing some projects
-PIP_23_0 = """Looking in indexes: https://pypi.org/simple, file:///opt/pypi/simple
-Looking in links: /opt/wheels
-WARNING: Location 'file:///opt/pypi-more/simple/python-dateutil/' is ignored: it is neither a file nor a directory.
-Collecting python-dateutil==4.0.0
-  Downloading python_dateutil-4.0.0-py3-none-any.whl (92 kB)
-Processing /opt/pypi/files/beautifulsoup4-4.15.0-py3-none-any.whl
-Collecting tzdata
-  Downloading tzdata-2026.6-py2.py3-none-any.whl (348 kB)
-Processing /opt/pypi/files/soupsieve-2.10-py3-none-any.whl
-Installing collected packages: tzdata, soupsieve, python-dateutil, beautifulsoup4
-Successfully installed beautifulsoup4-4.15.0 python-dateutil-4.0.0 soupsieve-2.10 tzdata-2026.6
+#: uv 0.13.10, as it printed installing environment.txt into a new venv (shortened: 4 of its 181 packages)
+UV_0_13 = """Using Python 3.11.7 environment at: .venv
+Resolved 181 packages in 478ms
+Downloading scipy (33.7MiB)
+Downloading casadi (88.9MiB)
+Downloading ast-serialize (1.3MiB)
+ Downloaded ast-serialize
+ Downloaded scipy
+ Downloaded casadi
+Prepared 181 packages in 8.05s
+Uninstalled 1 package in 13ms
+Installed 181 packages in 993ms
+Bytecode compiled 9143 files in 9.24s
+ + ast-serialize==0.2.1
+ + casadi==3.8.2
+ - setuptools==65.5.0
+ + setuptools==84.2.1
+ + scipy==1.17.1
 """
 
-#: pip 23.2.1 (pyenv's 3.11.7) with metadata from the index: each wheel is fetched once every pin is resolved
-PIP_23_2 = """Collecting numpy==2.4.6 (from -r environment.txt (line 9))
-  Obtaining dependency information for numpy==2.4.6 from https://files.example/numpy-2.4.6-cp311-cp311-manylinux_2_17_x86_64.whl.metadata
-  Downloading numpy-2.4.6-cp311-cp311-manylinux_2_17_x86_64.whl.metadata (62 kB)
-Collecting scipy==1.17.1 (from -r environment.txt (line 10))
-  Using cached scipy-1.17.1-cp311-cp311-manylinux_2_17_x86_64.whl (37.6 MB)
-Requirement already satisfied: six==1.17.0 in ./.venv/lib/python3.11/site-packages (from -r environment.txt (line 11))
-
-Downloading numpy-2.4.6-cp311-cp311-manylinux_2_17_x86_64.whl (16.4 MB)
-Installing collected packages: numpy, scipy
-Successfully installed numpy-2.4.6 scipy-1.17.1
-"""
-
-PIP_FAILS = """Looking in links: /nowhere
-Collecting ocpkit-no-such-package==0.0.0 (from -r environment.txt (line 1))
-ERROR: Could not find a version that satisfies the requirement ocpkit-no-such-package==0.0.0 (from versions: none)
-ERROR: No matching distribution found for ocpkit-no-such-package==0.0.0
-"""
-
+#: a warning uv prints among its lines (what any unexpected line stands for)
+UV_WARNS = "warning: Failed to hardlink files; falling back to full copy."
 
 CLEAR = "\r\033[K"
 
 
 def _fold(bootstrap, text: str, total: int, tty: bool, width: int = 200) -> str:
     out = io.StringIO()
-    clock = iter([100.0, 142.4]).__next__  # at the start, and at "Successfully installed"
-    log = bootstrap.PipLog(total, out, tty=tty, width=width, clock=clock)
+    clock = iter([100.0, 142.4]).__next__  # at the start, and at the end
+    log = bootstrap.UvLog(total, out, tty=tty, width=width, clock=clock)
     for line in text.splitlines():
         log.feed(line)
     log.close()
@@ -549,54 +569,55 @@ def _screen(output: str) -> list[str]:
     return [line.split(CLEAR)[-1] for line in output.split("\n")]
 
 
-def test_pip_23_0_folds_to_a_line_per_package(bootstrap):
-    warning = PIP_23_0.splitlines()[2]
-    assert _fold(bootstrap, PIP_23_0, total=3, tty=False) == "\n".join(
+def test_uv_s_log_folds_to_its_resolution_large_downloads_and_a_summary(bootstrap):
+    text = UV_0_13.replace(" Downloaded scipy", UV_WARNS + "\n Downloaded scipy")
+    assert _fold(bootstrap, text, total=181, tty=False) == "\n".join(
         [
-            warning,  # passes through, as pip printed it
-            "  [1/3] python-dateutil==4.0.0, downloading 92 kB",
-            "  [2/3] beautifulsoup4==4.15.0",
-            "  [3/3] tzdata, downloading 348 kB",
-            "  [4] soupsieve==2.10",  # past the pins counted
-            "  installing 4 packages",
-            "  4 packages installed in 42 s (2 downloaded, 0 MB)",
+            "  resolved 181 packages",
+            "  downloading scipy (33.7 MiB)",
+            "  downloading casadi (88.9 MiB)",
+            "  downloading ast-serialize (1.3 MiB)",
+            UV_WARNS,  # passes through, as uv printed it
+            "  4 packages installed in 42 s (3 large downloads, 124 MiB)",  # the removed setuptools is none of them
             "",
         ]
     )
 
 
-def test_pip_23_2_downloads_after_resolving_are_lines_of_their_own(bootstrap):
-    assert _fold(bootstrap, PIP_23_2, total=3, tty=False) == "\n".join(
-        [
-            "  [1/3] numpy==2.4.6",  # its metadata's download is none of the wheel's
-            "  [2/3] scipy==1.17.1",
-            "  downloading numpy==2.4.6 (16.4 MB)",
-            "  installing 2 packages",
-            "  2 packages installed in 42 s (1 downloaded, 16 MB)",
-            "",
-        ]
+def test_uv_s_errors_pass_through_and_nothing_is_said_installed(bootstrap):
+    fails = (
+        "Using Python 3.11.7 environment at: .venv\nerror: No solution found when resolving dependencies\n  cause: "
+        "Because ocpkit-no-such-package was not found in the provided package locations and you require "
+        "ocpkit-no-such-package==0.0.0, we can conclude that your requirements are unsatisfiable."
     )
-
-
-def test_pip_errors_pass_through_and_the_package_line_ends(bootstrap):
-    errors = PIP_FAILS.splitlines()[2:]
-    out = _fold(bootstrap, PIP_FAILS, total=1, tty=False)
-    assert out == "\n".join(["  [1/1] ocpkit-no-such-package==0.0.0", *errors, ""])
-    on_a_terminal = _fold(bootstrap, PIP_FAILS, total=1, tty=True)
-    assert _screen(on_a_terminal) == [*errors, "  [1/1] ocpkit-no-such-package==0.0.0", ""]
+    assert _fold(bootstrap, fails, total=1, tty=False) == "\n".join([*fails.splitlines()[1:], ""])
+    assert _screen(_fold(bootstrap, fails, total=1, tty=True)) == [*fails.splitlines()[1:], ""]
 
 
 def test_on_a_terminal_one_line_is_rewritten_in_place(bootstrap):
-    out = _fold(bootstrap, PIP_23_0, total=3, tty=True, width=34)
-    # what stays on the screen: the warning and the summary; every package line was written over the one before
-    assert _screen(out) == [PIP_23_0.splitlines()[2], "  4 packages installed in 42 s (2 downloaded, 0 MB)", ""]
-    shown = [piece.split("\n")[0] for piece in out.split(CLEAR) if piece.startswith("  [")]  # package lines
-    assert shown[:3] == [
-        "  [1/3] python-dateutil==4.0.0",
-        "  [1/3] python-dateutil==4.0.0, do",
-        "  [2/3] beautifulsoup4==4.15.0",
-    ]
-    assert all(len(line) <= 34 for line in shown), shown  # cut to the terminal's width
+    text = UV_0_13.replace(" Downloaded scipy", UV_WARNS + "\n Downloaded scipy")
+    out = _fold(bootstrap, text, total=181, tty=True, width=28)
+    # what stays on the screen: the warning and the summary; every other line was written over the one before
+    assert _screen(out) == [UV_WARNS, "  4 packages installed in 42 s (3 large downloads, 124 MiB)", ""]
+    shown = [piece.split("\n")[0] for piece in out.split(CLEAR) if piece.startswith("  ")]
+    assert shown[:3] == ["  resolved 181 packages", "  downloading scipy (33.7 Mi", "  downloading casadi (88.9 M"]
+    assert "  [2/181] casadi==3.8.2" in shown and "  [4/181] scipy==1.17.1" in shown
+    assert all(len(line) <= 28 for line in shown[:-1]), shown  # cut to the terminal's width (not the summary)
+
+
+def test_pip_s_sources_reach_uv_as_its_options(bootstrap):
+    environ = {
+        "PIP_INDEX_URL": "https://mirror.example/simple",
+        "PIP_EXTRA_INDEX_URL": "https://a.example/simple https://b.example/simple",
+        "PIP_FIND_LINKS": "/opt/wheels",
+        "PIP_NO_INDEX": "0",
+    }
+    assert bootstrap.pip_sources(environ) == [
+        "--index-url", "https://mirror.example/simple",
+        "--extra-index-url", "https://a.example/simple", "--extra-index-url", "https://b.example/simple",
+        "--find-links", "/opt/wheels",
+    ]  # fmt: skip
+    assert bootstrap.pip_sources({"PIP_NO_INDEX": "true"}) == ["--no-index"] and bootstrap.pip_sources({}) == []
 
 
 # -- the pins and the minimum Python --------------------------------------------------------------------------------
