@@ -17,6 +17,7 @@ import pandas as pd
 import pytest
 
 from compendium.notebooks import KERNEL_NAME
+from compendium.provenance import ONE_THREAD
 
 NOTEBOOK = "10_tiny"
 
@@ -47,13 +48,19 @@ def compendium(tmp_path, monkeypatch):
     nb.metadata["kernelspec"] = {"name": KERNEL_NAME, "display_name": "Python (ocpkit)", "language": "python"}
     nb.cells = [
         nbformat.v4.new_markdown_cell("# A small notebook"),
-        _cell("n = 3  # points\npause = 0.0  # seconds to wait between the table and the figure", ["parameters"]),
         _cell(
-            "import time\n\nimport matplotlib.pyplot as plt\nimport numpy as np\nimport pandas as pd\n\n"
+            'n = 3  # points\nresume = ""  # a file: the run waits between the table and the figure until it exists',
+            ["parameters"],
+        ),
+        _cell(
+            "import os\nimport time\n\nimport matplotlib.pyplot as plt\nimport numpy as np\nimport pandas as pd\n\n"
             "from compendium.outputs import Outputs\n\n"
             f'outputs = Outputs.start("{NOTEBOOK}", globals())'
         ),
-        _cell('x = np.linspace(0, 1, n)\noutputs.table(pd.DataFrame({"x": x, "y": x**2}), "tiny")\ntime.sleep(pause)'),
+        _cell(
+            'x = np.linspace(0, 1, n)\noutputs.table(pd.DataFrame({"x": x, "y": x**2}), "tiny")\n'
+            "while resume and not os.path.exists(resume):\n    time.sleep(0.05)"
+        ),
         _cell('fig, ax = plt.subplots()\nax.plot(x, x**2)\nax.set_title("y = x^2")\noutputs.figure(fig, "tiny")'),
         _cell("outputs.publish()"),
     ]
@@ -106,15 +113,23 @@ def test_a_copied_and_edited_notebook_run_with_papermill_never_publishes(compend
     assert _published(compendium) == []
 
 
-def test_a_lab_style_run_writes_its_own_folder_and_publishes_only_on_request(compendium):
-    """Cells executed one by one on a kernel, as JupyterLab's Run All does (no papermill)."""
+def test_a_lab_style_run_writes_its_own_folder_and_publishes_only_on_request(compendium, monkeypatch):
+    """Cells executed one by one on a kernel, as JupyterLab's Run All does (no papermill). A Lab started without
+    make's one BLAS and one OpenMP thread runs the notebook, but its run does not publish, and says why."""
     from nbclient import NotebookClient
 
     path = compendium / "notebooks" / f"{NOTEBOOK}.ipynb"
+    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
     nb = nbformat.read(str(path), as_version=4)
     NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
+    refused = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
+    assert refused.returncode == 2 and "ran with OPENBLAS_NUM_THREADS=None, OMP_NUM_THREADS=2" in refused.stderr
+    assert "of a JupyterLab started by make lab" in refused.stderr and _published(compendium) == []
+    nb = nbformat.read(str(path), as_version=4)
+    _lab_style_run(compendium, nb)
     assert _published(compendium) == []
-    folder = compendium / "build" / "runs" / NOTEBOOK / "defaults"
     assert nb.cells[2].outputs[0]["text"].startswith(f"This run writes its figures and tables to build/runs/{NOTEBOOK}")
     assert _record(folder)["published_parameters"] is True
     proc = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
@@ -178,17 +193,19 @@ def test_a_misspelt_parameter_is_an_error_with_papermill_too(compendium, tmp_pat
 
 
 def test_a_killed_run_leaves_no_sockets_and_its_staging_goes_with_the_next_run(compendium):
-    folder = compendium / "build" / "runs" / NOTEBOOK / "pause-8.0"
-    args = ["-m", "compendium.notebooks", "run", f"notebooks/{NOTEBOOK}.ipynb", "-p", "pause", "8.0"]
+    resume = compendium.parent / "resume"  # not there: the run waits, until it is killed
+    args = ["-m", "compendium.notebooks", "run", f"notebooks/{NOTEBOOK}.ipynb", "-p", "resume", str(resume)]
     proc = subprocess.Popen(
         [sys.executable, *args], cwd=compendium, env=_env(compendium), start_new_session=True,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
-    staging = folder / ".staging"
+    runs = compendium / "build" / "runs" / NOTEBOOK
     deadline = time.monotonic() + 120
-    while not (staging.is_dir() and any((p / "data").exists() for p in staging.iterdir())):
+    while not any((p / "data").exists() for p in runs.glob("*/.staging/*")):
         assert proc.poll() is None and time.monotonic() < deadline, "the run did not reach its pause"
         time.sleep(0.2)
+    (folder,) = [p for p in runs.iterdir() if p.is_dir()]
+    staging = folder / ".staging"
     (entry,) = list(staging.iterdir())
     kernel_pid = int(entry.name.split("-")[-2])
     os.killpg(proc.pid, signal.SIGKILL)
@@ -205,6 +222,7 @@ def test_a_killed_run_leaves_no_sockets_and_its_staging_goes_with_the_next_run(c
     assert entry.is_dir(), "a killed run leaves its staging folder"
     leftovers = [p.name for d in (compendium, folder) for p in d.iterdir() if p.name.startswith("kernel")]
     assert leftovers == [], "no IPC sockets in the user's folders"
+    resume.touch()
     again = _run(args, compendium)  # the same run, in full
     assert again.returncode == 0, again.stderr[-2000:]
     assert not entry.exists() and not staging.exists(), "the next run into the folder removed the leftovers"
@@ -218,9 +236,13 @@ def _commit(root: Path) -> None:
 
 
 def _lab_style_run(compendium: Path, nb) -> None:
+    """Run All in a Lab that `make lab` started: its kernels have make's one BLAS and one OpenMP thread."""
     from nbclient import NotebookClient
 
-    NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
+    with pytest.MonkeyPatch.context() as patch:
+        for name, value in ONE_THREAD.items():
+            patch.setenv(name, value)
+        NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
 
 
 def test_the_tracked_notebook_edited_and_saved_is_not_the_committed_one(compendium):

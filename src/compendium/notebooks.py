@@ -305,7 +305,8 @@ def publish_run(folder: str | Path) -> list[str]:
         raise PublishError(
             f"the run of {notebook} in {folder} ran with {said}: the published record is computed with one BLAS and "
             "one OpenMP thread (OPENBLAS_NUM_THREADS=1, OMP_NUM_THREADS=1, as make exports them), since a "
-            "refinement's path depends on the last bits of its solves; publish a run of make reproduce or make store"
+            "refinement's path depends on the last bits of its solves; publish a run of make reproduce or make store, or "
+            "of a JupyterLab started by make lab"
         )
     published = published_parameters(notebook)
     if record["parameters"] != json.loads(json.dumps(published)):
