@@ -17,7 +17,8 @@ STAMP  := $(VENV)/.installed
 NOTEBOOKS := $(sort $(wildcard notebooks/*.ipynb))
 
 # One BLAS thread: the NLPs here are small and sparse, and idle BLAS threads only steal the second core. The runner
-# sets the same for every kernel it starts (compendium.provenance.ONE_THREAD), and only such a run publishes.
+# sets the same for every kernel it starts (compendium.provenance.ONE_THREAD), the ocpkit kernel is registered with
+# them (bootstrap.py's KERNEL_ENV), and only a run with them publishes.
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 
@@ -66,7 +67,7 @@ setup: $(STAMP)
 # The interpreter is checked first (CHECK_PYTHON), before anything is created. Then src/compendium/bootstrap.py, run
 # by it, makes .venv, all of it or nothing half-made (its docstring says how): a .venv of an earlier setup is rebuilt
 # from scratch when environment.txt or pyproject.toml changed, and comes back from .venv.previous if the rebuild
-# fails or is interrupted; pip's output shows one line per package. The script writes the stamp, last: .PRECIOUS
+# fails or is interrupted; uv, which installs the pins, shows what it resolves and downloads, then a summary. The script writes the stamp, last: .PRECIOUS
 # keeps make from deleting it on Ctrl-C (the script alone says which .venv is whole).
 .PRECIOUS: $(STAMP)
 $(STAMP): export SETUP_CHECK_PYTHON = $(CHECK_PYTHON)

@@ -23,6 +23,7 @@ from packaging.version import Version
 
 from compendium.notebooks import KERNEL_NAME
 from compendium.paths import notebooks_dir, repo_root
+from compendium.provenance import ONE_THREAD
 
 ROOT = repo_root()
 BINDER = ROOT / "binder"
@@ -122,6 +123,8 @@ def test_postbuild_installs_the_notebooks_kernel():
     args = installs[0]
     assert args[args.index("--name") + 1] == KERNEL_NAME
     assert args[args.index("--display-name") + 1] == "Python (ocpkit)"
+    env = {args[i + 1]: args[i + 2] for i, a in enumerate(args) if a == "--env"}
+    assert env == ONE_THREAD, "Binder's kernel computes with the published record's threads"
 
 
 def test_postbuild_installs_ocpkit_without_dependencies():

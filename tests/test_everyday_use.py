@@ -114,8 +114,8 @@ def test_a_copied_and_edited_notebook_run_with_papermill_never_publishes(compend
 
 
 def test_a_lab_style_run_writes_its_own_folder_and_publishes_only_on_request(compendium, monkeypatch):
-    """Cells executed one by one on a kernel, as JupyterLab's Run All does (no papermill). A Lab started without
-    make's one BLAS and one OpenMP thread runs the notebook, but its run does not publish, and says why."""
+    """Cells executed one by one on a kernel, as JupyterLab's Run All does (no papermill), in a Lab started without
+    make's environment: the registered kernel has make's one BLAS and one OpenMP thread all the same."""
     from nbclient import NotebookClient
 
     path = compendium / "notebooks" / f"{NOTEBOOK}.ipynb"
@@ -124,11 +124,7 @@ def test_a_lab_style_run_writes_its_own_folder_and_publishes_only_on_request(com
     monkeypatch.setenv("OMP_NUM_THREADS", "2")
     nb = nbformat.read(str(path), as_version=4)
     NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
-    refused = _run(["-m", "compendium.notebooks", "publish", str(folder)], compendium)
-    assert refused.returncode == 2 and "ran with OPENBLAS_NUM_THREADS=None, OMP_NUM_THREADS=2" in refused.stderr
-    assert "of a JupyterLab started by make lab" in refused.stderr and _published(compendium) == []
-    nb = nbformat.read(str(path), as_version=4)
-    _lab_style_run(compendium, nb)
+    assert _record(folder)["threads"] == ONE_THREAD, "the kernelspec's environment wins over its caller's"
     assert _published(compendium) == []
     assert nb.cells[2].outputs[0]["text"].startswith(f"This run writes its figures and tables to build/runs/{NOTEBOOK}")
     assert _record(folder)["published_parameters"] is True
@@ -236,13 +232,9 @@ def _commit(root: Path) -> None:
 
 
 def _lab_style_run(compendium: Path, nb) -> None:
-    """Run All in a Lab that `make lab` started: its kernels have make's one BLAS and one OpenMP thread."""
     from nbclient import NotebookClient
 
-    with pytest.MonkeyPatch.context() as patch:
-        for name, value in ONE_THREAD.items():
-            patch.setenv(name, value)
-        NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
+    NotebookClient(nb, kernel_name=KERNEL_NAME, resources={"metadata": {"path": str(compendium)}}).execute()
 
 
 def test_the_tracked_notebook_edited_and_saved_is_not_the_committed_one(compendium):

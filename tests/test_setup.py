@@ -355,6 +355,8 @@ def test_setup_runs_its_steps_in_order_with_progress_and_stamps_the_venv(fake_se
     assert calls[3] == ["-c", "..."]  # compendium.pth
     assert calls[4][:4] == ["-m", "ipykernel", "install", "--sys-prefix"] and "ocpkit" in calls[4]
     assert calls[4][-2:] == ["--display-name", "Python (ocpkit)"]
+    env = {calls[4][i + 1]: calls[4][i + 2] for i, a in enumerate(calls[4]) if a == "--env"}
+    assert env == {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}, calls[4]  # the kernel's threads
     assert (project / ".venv" / ".installed").is_file()
     assert not (project / ".venv.previous").exists()
     again = run()  # up to date: nothing to do
@@ -450,7 +452,7 @@ def _interrupt(proc: subprocess.Popen, how: str) -> str:
 
 
 def test_an_interrupted_setup_leaves_no_venv(fake_setup):
-    """Ctrl-C during pip, on a first setup."""
+    """Ctrl-C during uv, on a first setup."""
     project, run = fake_setup
     proc = run.popen(FAKE_HANG="pins")
     out = _interrupt(proc, "ctrl-c")
@@ -461,7 +463,7 @@ def test_an_interrupted_setup_leaves_no_venv(fake_setup):
 
 @pytest.mark.parametrize("how", ["ctrl-c", "kill"])
 def test_an_interrupted_rebuild_gives_back_the_previous_environment(fake_setup, how):
-    """Ctrl-C, or kill, during pip, on a rebuild: the environment set aside comes back."""
+    """Ctrl-C, or kill, during uv, on a rebuild: the environment set aside comes back."""
     project, run = fake_setup
     venv = _working_venv(project)
     stamped = (venv / ".installed").stat().st_mtime
@@ -584,6 +586,15 @@ def test_uv_s_log_folds_to_its_resolution_large_downloads_and_a_summary(bootstra
     )
 
 
+def test_no_summary_where_uv_failed_after_installing(bootstrap):
+    out = io.StringIO()
+    log = bootstrap.UvLog(181, out, tty=False, clock=iter([100.0, 142.4]).__next__)
+    for line in UV_0_13.splitlines():
+        log.feed(line)
+    log.close(status=2)
+    assert "installed in" not in out.getvalue() and out.getvalue().startswith("  resolved 181 packages\n")
+
+
 def test_uv_s_errors_pass_through_and_nothing_is_said_installed(bootstrap):
     fails = (
         "Using Python 3.11.7 environment at: .venv\nerror: No solution found when resolving dependencies\n  cause: "
@@ -616,8 +627,18 @@ def test_pip_s_sources_reach_uv_as_its_options(bootstrap):
         "--index-url", "https://mirror.example/simple",
         "--extra-index-url", "https://a.example/simple", "--extra-index-url", "https://b.example/simple",
         "--find-links", "/opt/wheels",
+        "--index-strategy", "unsafe-best-match",  # each pin from whichever index has it, as pip takes it
     ]  # fmt: skip
     assert bootstrap.pip_sources({"PIP_NO_INDEX": "true"}) == ["--no-index"] and bootstrap.pip_sources({}) == []
+
+
+def test_the_threads_of_make_the_kernel_and_a_published_run_are_one_setting(bootstrap):
+    """The Makefile's exports (nbval, make reproduce, make lab), the registered kernel's environment and what a run
+    must have had to publish (compendium.provenance.ONE_THREAD) are the same."""
+    from compendium.provenance import ONE_THREAD
+
+    exported = dict(re.findall(r"^export (\w+_NUM_THREADS) := (\S+)$", (ROOT / "Makefile").read_text(), flags=re.M))
+    assert exported == bootstrap.KERNEL_ENV == ONE_THREAD
 
 
 # -- the pins and the minimum Python --------------------------------------------------------------------------------

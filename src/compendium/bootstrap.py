@@ -62,6 +62,12 @@ from typing import TextIO
 #: the signals that end a setup early: Ctrl-C, kill (make passes its SIGTERM on), the terminal closing
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
+#: the environment of the registered kernel (``ipykernel install --env``): one BLAS and one OpenMP thread, as the
+#: Makefile exports them and ``compendium.provenance.ONE_THREAD`` requires of a run that publishes. A kernelspec's
+#: environment wins over its caller's, so every kernel of the compendium computes the same way, whichever JupyterLab,
+#: papermill or editor starts it (tests/test_setup.py checks the three agree)
+KERNEL_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+
 #: the .pth file, in the environment's site-packages, that puts <root>/src on its path
 PTH_NAME = "compendium.pth"
 #: `python -c WRITE_PTH NAME FOLDER`, by the environment's python: the .pth file NAME in its site-packages, FOLDER in it
@@ -107,9 +113,11 @@ def pip_sources(environ: dict[str, str]) -> list[str]:
     for variable, option in PIP_SOURCES.items():
         value = environ.get(variable, "").strip()
         if option == "--no-index":
-            options += [option] if value.lower() in ("1", "true", "yes", "on") else []
+            options += [option] if value.lower() in ("1", "y", "yes", "t", "true", "on") else []
         else:
             options += [part for item in value.split() for part in (option, item)]
+    if "--extra-index-url" in options:  # pip takes each pin from whichever index has it; uv, from the first by default
+        options += ["--index-strategy", "unsafe-best-match"]
     return options
 
 
@@ -130,8 +138,8 @@ class UvLog:
     What stays: how many packages uv resolved, each large download as uv announces it (with its size), anything
     that is not :data:`QUIET` (warnings, errors) as uv printed it, and at the end a summary: how many packages, how
     long, how many megabytes of large downloads. On a terminal (``tty``) the resolution and the downloads share one
-    line rewritten in place, cut to ``width``, and each package installed shows there as ``[3/181] numpy==2.4.6``.
-    ``total`` is the number of pins, for ``[3/181]``.
+    line rewritten in place, cut to ``width``; uv names the packages it installed at the end, each shown there in
+    turn as ``[3/181] numpy==2.4.6``. ``total`` is the number of pins uv installs, for ``[3/181]``.
     """
 
     def __init__(
@@ -163,12 +171,13 @@ class UvLog:
         elif not QUIET.match(line):
             self._emit(line)
 
-    def close(self) -> None:
-        """uv is done (or stopped): the summary, if it installed anything; the line in place, if any, ends."""
+    def close(self, status: int = 0) -> None:
+        """uv is done (or stopped), with exit ``status``: the line in place, if any, ends; the summary, if uv
+        installed anything and exited 0."""
         if self.tty and self.status:
             self._write("\r\033[K")
         self.status = None
-        if self.installed:
+        if self.installed and status == 0:
             elapsed = self.clock() - self.start
             self._write(
                 f"  {self.installed} packages installed in {elapsed:.0f} s ({self.downloads} large downloads, "
@@ -288,11 +297,13 @@ class Setup:
         """Steps 2 to 5, from environment.txt (its pins, counted) and pyproject.toml (the library's name)."""
         python = str(self.venv / "bin" / "python")
         pip = [python, "-m", "pip", "install", "--disable-pip-version-check"]
-        uv = [python, "-m", INSTALLER, "pip", "install", "--python", python, *pip_sources(dict(os.environ))]
+        uv = [python, "-m", INSTALLER, "pip", "install", "--python", python, "--color", "never"]
+        uv += pip_sources(dict(os.environ))
         pins = count_pins(self.requirements)
-        installer = installer_pin(self.requirements)
+        installer = installer_pin(self.requirements)  # installed first, by pip: uv installs the others
         library = tomllib.loads(Path("pyproject.toml").read_text())["project"]["name"]
         kernel = [python, "-m", "ipykernel", "install", "--sys-prefix", "--name", self.kernel]
+        kernel += [part for name, value in KERNEL_ENV.items() for part in ("--env", name, value)]
         registering = f"[5/5] registering the Jupyter kernel {self.kernel}"
         return [
             Step(
@@ -307,7 +318,7 @@ class Setup:
                     [*pip, "-q", installer],
                     [*uv, "--compile-bytecode", "--link-mode", "copy", "-r", str(self.requirements)],
                 ],
-                fold=pins,
+                fold=pins - 1,
             ),
             Step(
                 f"[4/5] installing {library}",
@@ -375,7 +386,7 @@ class Setup:
             finally:
                 self.running = None
                 if log is not None:
-                    log.close()
+                    log.close(proc.returncode if proc.returncode is not None and self.signum is None else 1)
         self._stop_if_asked()
         return status
 

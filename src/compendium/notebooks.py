@@ -10,7 +10,8 @@ Command line::
 
 A run writes the executed notebook, its figures and tables and its record into its own folder
 (:mod:`compendium.outputs`), and the executed notebook keeps a copy of that record (:func:`keep_run_record`);
-only ``reproduce``, ``store`` and ``publish`` copy a run into the published record, and only a complete run of the committed notebook, unchanged, with its published parameters (:func:`publish_run`).
+only ``reproduce``, ``store`` and ``publish`` copy a run into the published record, and only a complete run of the
+committed notebook, unchanged, with its published parameters, on one BLAS and one OpenMP thread (:func:`publish_run`).
 Unlike plain papermill, which only warns, an unknown parameter is an error. Kernels talk over IPC sockets in a
 private temporary folder (no unencrypted TCP, nothing left in the user's folders), and long work reports its
 progress in the terminal (``OCPKIT_PROGRESS=terminal``, see :mod:`compendium.progress`), not in the stored notebooks.
@@ -301,12 +302,13 @@ def publish_run(folder: str | Path) -> list[str]:
         )
     ran = record.get("threads")
     if ran != ONE_THREAD:
-        said = ", ".join(f"{k}={v}" for k, v in (ran or {}).items()) or "no record of its threads"
+        said = ", ".join(f"{k}={'unset' if v is None else v}" for k, v in (ran or {}).items()) or "no record of threads"
+        needed = ", ".join(f"{k}={v}" for k, v in ONE_THREAD.items())
         raise PublishError(
-            f"the run of {notebook} in {folder} ran with {said}: the published record is computed with one BLAS and "
-            "one OpenMP thread (OPENBLAS_NUM_THREADS=1, OMP_NUM_THREADS=1, as make exports them), since a "
-            "refinement's path depends on the last bits of its solves; publish a run of make reproduce or make store, or "
-            "of a JupyterLab started by make lab"
+            f"the run of {notebook} in {folder} ran with {said}: the published record is computed with {needed}, as "
+            "make exports them and the ocpkit kernel is registered with them (make setup), since a refinement's path "
+            "depends on the last bits of its solves; publish a run of make reproduce or make store, or of a kernel "
+            "registered by make setup"
         )
     published = published_parameters(notebook)
     if record["parameters"] != json.loads(json.dumps(published)):

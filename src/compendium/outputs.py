@@ -14,7 +14,8 @@ A notebook opens one :class:`Outputs` in its first code cell and publishes it in
    run of the committed notebook, unchanged, with its published parameters
    (:func:`compendium.notebook_source.published_parameters`): the run's record holds a digest of every code cell
    the kernel executed (:func:`executed_code`), which must be the code cells of the notebook as committed (git's
-   ``HEAD``; :func:`compendium.notebooks.publish_run`). Lab's Run All, a copy of a notebook and an edited one stay
+   ``HEAD``; :func:`compendium.notebooks.publish_run`), and the kernel's threads, which must be one BLAS and one
+   OpenMP thread (:data:`compendium.provenance.ONE_THREAD`). Lab's Run All, a copy of a notebook and an edited one stay
    in ``build/runs/``.
 3. **All or nothing.** Files are staged in ``<folder>/.staging/`` and moved into place by :meth:`Outputs.publish`
    when the notebook completes: a run that fails midway leaves its folder as it was. The staging folder of a
