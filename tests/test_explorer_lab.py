@@ -43,10 +43,10 @@ _WIDGETS = """(() => {
           status: status && status.textContent, readout: readout && (readout.innerText || readout.value)};
 })()"""
 
-# the status line, once it differs from BEFORE and no longer says that a value is being solved
+# the status line, once it differs from BEFORE, no longer says that a value is being solved, and starts with PREFIX
 _STATUS_CHANGED = """(() => {
   const text = window.__explorer.status.textContent;
-  return {done: text !== BEFORE && !text.startsWith('solving'), status: text};
+  return {done: text !== BEFORE && !text.startsWith('solving') && text.startsWith(PREFIX), status: text};
 })()"""
 
 # the explorer as the kernel holds it, after its worker has settled (stdout of one silent execution)
@@ -98,13 +98,15 @@ def _read_back(browser: _Browser, settled: bool = False) -> dict:
         time.sleep(0.2)
 
 
-def _move(browser: _Browser, key: str, code: int, times: int = 1) -> tuple[dict, float]:
+def _move(browser: _Browser, key: str, code: int, times: int = 1, prefix: str = "") -> tuple[dict, float]:
+    """Press ``key`` ``times`` on the slider; the status line once it has changed (and starts with ``prefix``: a
+    status of an earlier key's last value, which can reach the kernel late, is not taken for this key's)."""
     before = browser.js("window.__explorer.status.textContent")
     start = time.monotonic()
     for _ in range(times):
         _key(browser, key, code)
-    changed = browser.poll(_STATUS_CHANGED.replace("BEFORE", json.dumps(before)), MOVE_TIMEOUT, f"{key} on the slider")
-    return changed, time.monotonic() - start
+    changed = _STATUS_CHANGED.replace("BEFORE", json.dumps(before)).replace("PREFIX", json.dumps(prefix))
+    return browser.poll(changed, MOVE_TIMEOUT, f"{key} on the slider"), time.monotonic() - start
 
 
 @needs_chromium
@@ -128,7 +130,9 @@ def test_moving_the_thrust_slider_in_lab_solves_and_redraws(tmp_path, monkeypatc
         assert after["objective"] < default["objective"] and all(after["visible"])  # more thrust, sooner
         assert "Solve_Succeeded" in moved["status"] and seconds < MOVE_TIMEOUT
 
-        failed, _ = _move(browser, "Home", 36)  # the slider's low end, a twentieth of the weight
+        # the slider's low end, a twentieth of the weight: no solution (the status of a right step's last value can
+        # still arrive first: seen once in CI, the kernel then at 3.2458 with Home's value not yet received)
+        failed, _ = _move(browser, "Home", 36, prefix="FAILED")
         low = _read_back(browser, settled=True)
         assert low["slider"]["a"] == pytest.approx(0.05) and not low["solved"], low
         assert not any(low["visible"]) and failed["status"].startswith("FAILED"), failed
