@@ -67,8 +67,9 @@ setup: $(STAMP)
 # The interpreter is checked first (CHECK_PYTHON), before anything is created. Then src/compendium/bootstrap.py, run
 # by it, makes .venv, all of it or nothing half-made (its docstring says how): a .venv of an earlier setup is rebuilt
 # from scratch when environment.txt or pyproject.toml changed, and comes back from .venv.previous if the rebuild
-# fails or is interrupted; uv, which installs the pins, shows what it resolves and downloads, then a summary. The script writes the stamp, last: .PRECIOUS
-# keeps make from deleting it on Ctrl-C (the script alone says which .venv is whole).
+# fails or is interrupted; uv, which installs the pins, shows what it resolves and downloads, then a summary. The
+# script writes the stamp, last: .PRECIOUS keeps make from deleting it on Ctrl-C (the script alone says which .venv
+# is whole).
 .PRECIOUS: $(STAMP)
 $(STAMP): export SETUP_CHECK_PYTHON = $(CHECK_PYTHON)
 $(STAMP): environment.txt pyproject.toml

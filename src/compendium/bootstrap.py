@@ -23,10 +23,9 @@ whichever step fails, which a recipe can do only with traps:
   that was killed outright (SIGKILL, a power cut): it comes back first; unless it has lost its stamp, which a setup
   that worked removes before the rest of it: then it is what is left of that removal, and goes.
 * A .venv without the stamp was left by a setup that did not finish (or made by hand): it is replaced.
-* The pins are installed by uv (:data:`INSTALLER`, pinned in environment.txt), three times faster than pip. Its log,
-  a line per package, is folded by :class:`UvLog` to the resolution, the large downloads and a summary (on a
-  terminal, a single line rewritten in place, with each package as it is installed); warnings, errors and anything
-  else unexpected pass through as uv prints them. pip's settings of where packages come from (``PIP_INDEX_URL``,
+* The pins are installed by uv (:data:`INSTALLER`, pinned in environment.txt), three times faster than pip. Its log
+  is folded by :class:`UvLog` to the resolution, the large downloads and a summary (on a terminal, a single line
+  rewritten in place); warnings, errors and anything else unexpected pass through as uv prints them. pip's settings of where packages come from (``PIP_INDEX_URL``,
   ``PIP_EXTRA_INDEX_URL``, ``PIP_FIND_LINKS``, ``PIP_NO_INDEX``) are passed on to uv, which reads no pip
   configuration.
 
