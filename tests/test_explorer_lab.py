@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 
 import nbformat
 import pytest
@@ -89,17 +90,20 @@ def _key(browser: _Browser, key: str, code: int) -> None:
         browser.call("Input.dispatchKeyEvent", type=kind, key=key, code=key, windowsVirtualKeyCode=code)
 
 
-def _read_back(browser: _Browser, settled: bool = False, code: str = _READ_BACK) -> dict:
+def _read_back(
+    browser: _Browser, settled: bool = False, code: str = _READ_BACK, until: Callable[[dict], bool] | None = None
+) -> dict:
     """The explorer as the kernel holds it (``code``: a read-back printing it as one JSON line, notebook 01's by
-    default). ``settled``: read again, for up to MOVE_TIMEOUT, until the value drawn is the sliders' (a key's last
-    value change may reach the kernel after the first read; seen once in CI, with the worker idle and the third of
-    five values drawn: the reads are printed)."""
+    default). ``settled``: read again, for up to MOVE_TIMEOUT, until the value drawn is the sliders' and ``until``
+    holds of the read, where given (a key's last value change may reach the kernel after the first read; seen once in
+    CI, with the worker idle and the third of five values drawn: the reads are printed)."""
     end = time.monotonic() + MOVE_TIMEOUT
     while True:
         value = browser.js(_EXECUTE.replace("CODE", json.dumps(code)))
         assert not value["error"], value
         read = json.loads(value["text"].strip().splitlines()[-1])
-        if not settled or read["drawn"] == read["slider"] or time.monotonic() > end:
+        done = read["drawn"] == read["slider"] and (until is None or until(read))
+        if not settled or done or time.monotonic() > end:
             return read
         print(f"not yet drawn: {read}")
         time.sleep(0.2)
@@ -156,7 +160,7 @@ assert _e.worker.idle(60), "the explorer's worker is still busy"
 _o = _e.outcome
 print(_json.dumps({"slider": _e.values(), "drawn": _o.values, "solved": _o.solved, "norm": _o.error_estimate,
                    "fuel": _fuel(_o.solution) if _o.solved else None, "note": _o.note,
-                   "visible": [_l.get_visible() for _l in _e.lines]}))
+                   "visible": [_l.get_visible() for _l in _e.lines], "step": _e.sliders["thrust_N"].step}))
 """
 
 
@@ -183,12 +187,20 @@ def test_moving_the_transfers_thrust_in_lab_follows_the_extremal(tmp_path, monke
         assert default["slider"] == {"thrust_N": 5.0} and default["solved"]
 
         _, seconds = _move(browser, "ArrowLeft", 37, times=2)
-        after = _read_back(browser, settled=True, code=_READ_BACK_TRANSFER)
+        # both steps: the kernel can hold the first step's value, drawn, before the second's reaches it
+        two_left = 5.0 - 2 * default["step"]
+        after = _read_back(
+            browser,
+            settled=True,
+            code=_READ_BACK_TRANSFER,
+            until=lambda read: read["slider"]["thrust_N"] == pytest.approx(two_left, rel=1e-9),
+        )
         print(f"two steps left: the status line changed after {seconds:.2f} s; {after['note']}")
-        assert after["slider"]["thrust_N"] < 5.0 and after["drawn"] == after["slider"] and after["solved"]
+        assert after["slider"]["thrust_N"] == pytest.approx(two_left, rel=1e-9), after
+        assert after["drawn"] == after["slider"] and after["solved"]
         assert after["norm"] <= 1e-8 and all(after["visible"])
-        # the page's status line shows that extremal (the first step's can reach the page first: the thrust slider's
-        # Home met that race in CI)
+        # the page's status line shows that extremal (the first step's can reach the page first: the race notebook
+        # 01's Home step met in CI)
         fuel = json.dumps(f"fuel {after['fuel']:.3f} kg")
         browser.poll(_STATUS_HAS.replace("TEXT", fuel), MOVE_TIMEOUT, "the status line of the extremal drawn")
     assert _git(clone, "status", "--porcelain", "--", "figures", "data") == ""  # the record is untouched
