@@ -124,11 +124,13 @@ def test_hang_glider_refinement_from_radau_4x50_restarts_on_a_uniform_mesh_once_
 
 def test_an_early_restart_that_does_no_better_is_said_and_the_refinement_goes_on(monkeypatch):
     in_vain = "uniform mesh on Radau(nodes=3, intervals=257): estimate 3.0e-01, not below 1.0e-01"
-    monkeypatch.setattr(policy, "_recover", lambda *args: (None, in_vain))
+    monkeypatch.setattr(policy, "_recover", lambda *args: (None, in_vain, 7))
     with pytest.warns(AccuracyWarning) as caught:
         sol = Radau(hang_glider(), 4, 50).solve(mesh_tolerance=1e-6, max_mesh_iterations=3)
     assert sol.refinement_outcome == "not met" and len(sol.mesh_history) == 3
     assert all(h.recovery == "" for h in sol.mesh_history)
+    # the restart's iterations, discarded, are the mesh iteration's that tried it (the second: its estimate rose)
+    assert [h.discarded_iterations for h in sol.mesh_history] == [0, 7, 0]
     said = "an early restart did no better (the state estimate did not fall ("
     assert said in sol.refinement_reason and in_vain in sol.refinement_reason
     assert any(said in str(w.message) and in_vain in str(w.message) for w in caught)  # in the warning too
@@ -248,9 +250,33 @@ def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_sai
     assert sol.refinement_outcome == "met"
     assert [h.recovery for h in sol.mesh_history][:3] == ["", "cold start", ""]
     recovered = sol.mesh_history[1]  # its times are the recovery's solve: no start from the previous mesh
-    assert np.isnan(recovered.start_s) and recovered.discarded_iterations == 0 and recovered.verdict_s >= 0
+    assert np.isnan(recovered.start_s) and recovered.verdict_s >= 0
+    assert recovered.discarded_iterations == 1  # the failed start's one iteration, spent in this mesh iteration
     assert "met after a recovery: mesh iteration 1" in sol.refinement_reason
     assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
+
+
+def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before_it(monkeypatch):
+    """The failed start (its warm start and its start from the interpolated point) and a recovery tried in vain
+    (the cold start, stopped at 3 iterations) are discarded: their iterations are the recovered mesh's
+    ``discarded_iterations`` (notebook 07's COPS hang glider from Radau 4 x 50 spent 867 iterations, 22 s, in two
+    failed starts that the record said nothing of)."""
+    calls = {"n": 0}
+    original = policy.solve_once
+
+    def starve_second_and_its_cold_start(program, guess, ipopt_options, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] in (2, 3):  # the second mesh's start, then the recovery's cold start
+            ipopt_options = {**(ipopt_options or {}), "max_iter": 3}
+        return original(program, guess, ipopt_options, *args, **kwargs)
+
+    monkeypatch.setattr(policy, "solve_once", starve_second_and_its_cold_start)
+    sol = Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-7)
+    recovered = sol.mesh_history[1]
+    assert recovered.recovery == "uniform mesh"  # the cold start was tried in vain
+    # the warm start's 3 iterations, the interpolated point's 3, the cold start's 3
+    assert recovered.discarded_iterations == 3 + 3 + 3
+    assert sol.mesh_history[0].discarded_iterations == 0
 
 
 def test_a_recovery_is_capped_at_ten_times_the_first_mesh_iterations(monkeypatch):

@@ -88,8 +88,10 @@ class MeshIteration:
     #: the wall time of what the refinement computes about this mesh's solution (the interval estimates, the path
     #: constraints between the points, the flown objective once the state meets the tolerance)
     verdict_s: float = float("nan")
-    #: IPOPT iterations of a warm start that failed on this mesh, discarded for a start from the interpolated point
-    #: alone (their time is in ``total_s``, not ``solve_s``)
+    #: IPOPT iterations spent in this mesh iteration on solves whose result was discarded: a warm start that failed,
+    #: replaced by the interpolated point alone; a start that failed, and the recoveries tried in vain, before the
+    #: recovery that solved the mesh (``recovery``); an early restart tried in vain after it. Their time is in
+    #: ``total_s``, not ``solve_s``.
     discarded_iterations: int = 0
     #: IPOPT's linear solver and ordering on this mesh (:attr:`Solution.linear_solver <ocpkit.Solution.linear_solver>`):
     #: a refinement that grows past :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` changes ordering there
@@ -339,8 +341,9 @@ def solve_refined(
     outcome, reason = "met", ""
     recoveries: list[str] = []  # what each recovery was taken for, and how
     tried = ""  # the recoveries tried in vain, for the outcome's reason
-    # a recovery taken after a stall or a divergence (:func:`_diverged`): the next mesh iteration's solution
-    pending: tuple[Solution, str, float] | None = None
+    # a recovery taken after a stall or a divergence (:func:`_diverged`): the next mesh iteration's solution, its
+    # recovery, its start time and the IPOPT iterations of the recoveries tried in vain before it
+    pending: tuple[Solution, str, float, int] | None = None
     since = 0  # the stall rule counts the meshes since the last recovery
     # the solution a stall's (or a divergence's) recovery set out from, its reason, its mesh count and what the
     # recovery was: where the refinement from the recovery ends in a failure, the refinement ends as that stall did
@@ -353,7 +356,7 @@ def solve_refined(
         recovery = ""
         started = StartRecord()
         if pending is not None:
-            solution, recovery, start = pending
+            solution, recovery, start, started.discarded_iterations = pending
             mesh, pending = solution.program, None
         else:
             failure: SolverError | None = None
@@ -378,10 +381,15 @@ def solve_refined(
             if history and failed and len(recoveries) < MAX_RECOVERIES:
                 status = failure.status if failure is not None else getattr(solution, "status", "")
                 order = _recoveries_from(history[-1])  # the mesh whose solution the failed start came from
-                rescued, tried = _recover(mesh, guess, options, parameters, math.inf, history[0], order)
+                # the failed start's iterations (its warm start's, and its start from the interpolated point's)
+                failed_start = started.discarded_iterations + _iterations_of(failure, None if failure else solution)
+                rescued, tried, in_vain_iterations = _recover(
+                    mesh, guess, options, parameters, math.inf, history[0], order
+                )
                 if rescued is not None:
                     solution, recovery = rescued
-                    started = StartRecord()  # the recovery's solve, not the failed start's
+                    # the recovery's solve, not the failed start's: its iterations and the tries before it discarded
+                    started = StartRecord(discarded_iterations=failed_start + in_vain_iterations)
                     recoveries.append(
                         f"mesh iteration {iteration} ({mesh.label}) failed from the previous mesh's solution "
                         f"({status}): {_RECOVERED[recovery]} ({solution.program.label})"
@@ -490,27 +498,35 @@ def solve_refined(
             recovering, restarted_early = time.perf_counter(), True
             bar = min(STALL_FALL * history[-1].error_estimate, DIVERGED_ESTIMATE)
             order = _recoveries_from(history[-1])  # (its estimate is of order one: the uniform mesh first)
-            rescued, tried_early = _recover(mesh, guess, options, parameters, bar, history[0], order)
+            rescued, tried_early, in_vain_iterations = _recover(
+                mesh, guess, options, parameters, bar, history[0], order
+            )
             diverged_at = f"{diverged} on mesh iteration {iteration} ({mesh.label})"
             if rescued is not None:
                 recoveries.append(f"{diverged_at}: {_RECOVERED[rescued[1]]} ({rescued[0].program.label})")
-                pending, since = (*rescued, recovering), len(history)
+                pending, since = (*rescued, recovering, in_vain_iterations), len(history)
                 diverged_reason = f"{program.label}: mesh refinement diverged short of {tolerance:g}"
                 stall = (solution, diverged_reason, len(history), "the refinement from its early restart")
                 continue
             in_vain = f"an early restart did no better ({diverged_at}): {tried_early}"
             spent = time.perf_counter() - recovering  # the restarts' solves, in this mesh iteration's time
-            history[-1] = dataclasses.replace(history[-1], total_s=history[-1].total_s + spent)
+            history[-1] = dataclasses.replace(
+                history[-1],
+                total_s=history[-1].total_s + spent,
+                discarded_iterations=history[-1].discarded_iterations + in_vain_iterations,
+            )
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
             order = _recoveries_from(history[-1])
-            rescued, tried = _recover(mesh, guess, options, parameters, STALL_FALL * worst, history[0], order)
+            rescued, tried, in_vain_iterations = _recover(
+                mesh, guess, options, parameters, STALL_FALL * worst, history[0], order
+            )
             if rescued is not None:
                 recoveries.append(
                     f"refinement stalled on mesh iteration {iteration} ({mesh.label}, estimate {worst:.1e}): "
                     f"{_RECOVERED[rescued[1]]} ({rescued[0].program.label})"
                 )
-                pending, since = (*rescued, recovering), len(history)
+                pending, since = (*rescued, recovering, in_vain_iterations), len(history)
                 stall_reason = _stall_reason(program, tolerance, history, stalled, solution, "")
                 stall = (solution, stall_reason, len(history), "a recovery from the stall")
                 continue
@@ -674,12 +690,14 @@ def _recover(
     bar: float,
     first: MeshIteration,
     order: Sequence[str] = RECOVERIES,
-) -> tuple[tuple[Solution, str] | None, str]:
+) -> tuple[tuple[Solution, str] | None, str, int]:
     """The first of the recoveries (:data:`RECOVERIES`, in ``order``) whose solve converges with a state estimate
-    below ``bar``, with its name, and what the ones tried before it gave (None and all of them where none does); each
-    solve within its iteration cap (:data:`RECOVERY_ITERATIONS` times the ``first`` mesh's)."""
-    tried = []
+    below ``bar``, with its name, what the ones tried before it gave, and their IPOPT iterations (None, all of them
+    and all their iterations where none does); each solve within its iteration cap (:data:`RECOVERY_ITERATIONS` times
+    the ``first`` mesh's)."""
+    tried, spent = [], 0
     for how in order:
+        solution = None
         try:
             candidate = mesh if how == "cold start" else mesh.uniform()
             ipopt_options, cap = _recovery_options(candidate, options["ipopt_options"], first)
@@ -687,15 +705,26 @@ def _recover(
             estimate = solution.interval_errors
         except Exception as exc:  # noqa: BLE001 - a recovery that fails is reported, the next one tried
             tried.append(f"{how}: {type(exc).__name__}: {exc}")
+            spent += _iterations_of(exc, solution)
             continue
         worst = float(np.max(np.where(np.isfinite(estimate), estimate, 1e3)))
         if solution.converged and worst < bar:
-            return (solution, how), "; ".join(tried)
+            return (solution, how), "; ".join(tried), spent
+        spent += solution.iterations
         what = solution.status if not solution.converged else f"estimate {worst:.1e}, not below {bar:.1e}"
         if cap is not None and not solution.converged and solution.iterations >= cap:
             what += f" (a recovery's cap: {cap} iterations; the first mesh took {first.ipopt_iterations})"
         tried.append(f"{how} on {candidate.label}: {what}")
-    return None, "; ".join(tried)
+    return None, "; ".join(tried), spent
+
+
+def _iterations_of(failure: BaseException | None, solution: Solution | None) -> int:
+    """The IPOPT iterations of a solve whose result is discarded: its error's where IPOPT's failure raised, else its
+    ``solution``'s (a last iterate returned unconverged, or a solution judged afterwards), else none (it raised
+    before IPOPT ran)."""
+    if isinstance(failure, SolverError) and failure.iterations is not None:
+        return int(failure.iterations)
+    return int(solution.iterations) if solution is not None else 0
 
 
 def _history_of(solution: Solution) -> list[MeshIteration]:
