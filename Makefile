@@ -108,7 +108,12 @@ notebooks: setup
 report: setup mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-test: lint dist unit nbval guard docs
+# lint, dist and the site side by side (Sphinx keeps one core busy for half a minute; mypy from an empty cache, the
+# other for ten seconds), each one's output printed whole when it ends; then the tests, which read that site
+# (SITE_BUILD empty: make unit does not build it again)
+test: setup chromium mathjax
+	@$(MAKE) --no-print-directory -j3 --output-sync=target lint dist docs
+	@$(MAKE) --no-print-directory unit nbval guard SITE_BUILD=
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
 # into build/docs/index.html; every warning is an error, and -n (nitpicky) makes every cross-reference one that must
@@ -190,11 +195,12 @@ mathjax: setup
 check: setup
 	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider $(XDIST)
 
-# the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE): make test builds
-# it once
+# the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE); make test builds
+# it once, beside lint and dist, and then runs this with SITE_BUILD empty
+SITE_BUILD := docs
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: export OCPKIT_SITE = $(CURDIR)/build/docs
-unit: setup chromium mathjax docs
+unit: setup chromium mathjax $(SITE_BUILD)
 	$(PY) -m pytest tests/ $(XDIST)
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones

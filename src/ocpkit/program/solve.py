@@ -88,10 +88,10 @@ class MeshIteration:
     #: the wall time of what the refinement computes about this mesh's solution (the interval estimates, the path
     #: constraints between the points, the flown objective once the state meets the tolerance)
     verdict_s: float = float("nan")
-    #: IPOPT iterations spent in this mesh iteration on solves whose result was discarded: a warm start that failed,
+    #: IPOPT iterations spent in this mesh iteration on solves whose result was discarded (a warm start that failed,
     #: replaced by the interpolated point alone; a start that failed, and the recoveries tried in vain, before the
-    #: recovery that solved the mesh (``recovery``); an early restart tried in vain after it. Their time is in
-    #: ``total_s``, not ``solve_s``.
+    #: recovery that solved the mesh, ``recovery``; an early restart tried in vain after it), their time in
+    #: ``total_s``, not ``solve_s``
     discarded_iterations: int = 0
     #: IPOPT's linear solver and ordering on this mesh (:attr:`Solution.linear_solver <ocpkit.Solution.linear_solver>`):
     #: a refinement that grows past :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` changes ordering there
