@@ -108,17 +108,19 @@ notebooks: setup
 report: setup mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-# lint, dist and the site side by side (Sphinx keeps one core busy for half a minute; mypy from an empty cache, the
-# other for ten seconds), each one's output printed whole when it ends; then the tests, which read that site
-# (SITE_BUILD empty: make unit does not build it again)
+# Chromium and MathJax first, one after the other (each may run apt-get, which takes a lock); then lint, dist and
+# the site side by side, each one's output printed whole when it ends (the site's Sphinx phase keeps one core busy
+# for half a minute, and mypy from an empty cache the other for ten seconds); then the tests, which read that site.
+# DOCS_NEEDS and UNIT_NEEDS empty: nothing is checked or built twice.
 test: setup chromium mathjax
-	@$(MAKE) --no-print-directory -j3 --output-sync=target lint dist docs
-	@$(MAKE) --no-print-directory unit nbval guard SITE_BUILD=
+	@$(MAKE) --no-print-directory -j3 --output-sync=target lint dist docs DOCS_NEEDS=
+	@$(MAKE) --no-print-directory unit nbval guard UNIT_NEEDS=
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
 # into build/docs/index.html; every warning is an error, and -n (nitpicky) makes every cross-reference one that must
 # resolve: a broken link or reference, a docstring that does not parse
-docs: setup mathjax
+DOCS_NEEDS := mathjax
+docs: setup $(DOCS_NEEDS)
 	rm -rf build/docs
 	$(PY) -m sphinx -n -W --keep-going -q -b html docs build/docs
 	@echo "the documentation site: build/docs/index.html"
@@ -196,11 +198,11 @@ check: setup
 	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider $(XDIST)
 
 # the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE); make test builds
-# it once, beside lint and dist, and then runs this with SITE_BUILD empty
-SITE_BUILD := docs
+# it once, beside lint and dist, and then runs this with UNIT_NEEDS empty
+UNIT_NEEDS := chromium mathjax docs
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: export OCPKIT_SITE = $(CURDIR)/build/docs
-unit: setup chromium mathjax $(SITE_BUILD)
+unit: setup $(UNIT_NEEDS)
 	$(PY) -m pytest tests/ $(XDIST)
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones

@@ -259,8 +259,8 @@ def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_sai
 def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before_it(monkeypatch):
     """The failed start (its warm start and its start from the interpolated point) and a recovery tried in vain
     (the cold start, stopped at 3 iterations) are discarded: their iterations are the recovered mesh's
-    ``discarded_iterations`` (notebook 07's COPS hang glider from Radau 4 x 50 spent 867 iterations, 22 s, in two
-    failed starts that the record said nothing of)."""
+    ``discarded_iterations`` (notebook 07's COPS hang glider from Radau 4 x 50 spent 867 iterations, 22 s, in the
+    two solves of a failed start that the record said nothing of)."""
     calls = {"n": 0}
     original = policy.solve_once
 
@@ -743,6 +743,25 @@ def test_the_cops_hang_glider_is_copss_statement():
 
 
 @pytest.mark.slow
+def test_the_recoveries_tried_in_vain_after_a_stall_are_counted_on_the_stalled_mesh(monkeypatch):
+    """Goddard from HLGL 20 stalls on its singular arc; where no recovery from the stall does better, the refinement
+    stops there, and the recoveries' iterations (here 11, as a stand-in says) are that mesh's discarded ones."""
+    from compendium.problems import goddard_rocket
+
+    calls = []
+
+    def in_vain(*args):
+        calls.append(args)
+        return None, "cold start on HLGL(intervals=99): estimate 4.0e-04, not below 2.0e-04", 11
+
+    monkeypatch.setattr(policy, "_recover", in_vain)
+    with pytest.warns(AccuracyWarning, match=r"stalled short of 1e-06"):
+        sol = HLGL(goddard_rocket(), 20).solve(mesh_tolerance=1e-6, max_mesh_iterations=25)
+    assert len(calls) == 1 and sol.refinement_outcome == "stalled"
+    assert [h.discarded_iterations for h in sol.mesh_history][-1] == 11
+    assert sum(h.discarded_iterations for h in sol.mesh_history) == 11
+
+
 def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
     """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
     solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the

@@ -242,8 +242,9 @@ def solve_once(
 
 @dataclass
 class StartRecord:
-    """How :func:`solve_once` started a mesh: the start's wall time (interpolation, multiplier estimates) and the
-    IPOPT iterations of a warm start it discarded (a :class:`MeshIteration` reports both)."""
+    """How a mesh was started: the start's wall time (interpolation, multiplier estimates) and the IPOPT iterations
+    discarded on the way (:func:`solve_once`'s failed warm start; the refinement adds a failed start's and the
+    recoveries' tried in vain), which a :class:`MeshIteration` reports."""
 
     start_s: float = float("nan")
     discarded_iterations: int = 0
@@ -395,6 +396,8 @@ def solve_refined(
                         f"({status}): {_RECOVERED[recovery]} ({solution.program.label})"
                     )
                     mesh, failure, since = solution.program, None, len(history)
+                else:  # the recoveries' iterations, in this mesh iteration's time (its record, where it gets one)
+                    started.discarded_iterations += in_vain_iterations
             if failure is not None:
                 if not history:  # the first mesh: the solve's own error (IPOPT's status)
                     raise failure
@@ -530,6 +533,12 @@ def solve_refined(
                 stall_reason = _stall_reason(program, tolerance, history, stalled, solution, "")
                 stall = (solution, stall_reason, len(history), "a recovery from the stall")
                 continue
+            spent = time.perf_counter() - recovering  # the recoveries' solves, in this mesh iteration's time
+            history[-1] = dataclasses.replace(
+                history[-1],
+                total_s=history[-1].total_s + spent,
+                discarded_iterations=history[-1].discarded_iterations + in_vain_iterations,
+            )
         if stalled:
             outcome, reason = (
                 "stalled",
