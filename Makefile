@@ -108,19 +108,12 @@ notebooks: setup
 report: setup mathjax
 	$(PY) -m compendium.notebooks report build/notebooks --output build/report
 
-# Chromium and MathJax first, one after the other (each may run apt-get, which takes a lock); then lint, dist and
-# the site side by side, each one's output printed whole when it ends (the site's Sphinx phase keeps one core busy
-# for half a minute, and mypy from an empty cache the other for ten seconds); then the tests, which read that site.
-# DOCS_NEEDS and UNIT_NEEDS empty: nothing is checked or built twice.
-test: setup chromium mathjax
-	@$(MAKE) --no-print-directory -j3 --output-sync=target lint dist docs DOCS_NEEDS=
-	@$(MAKE) --no-print-directory unit nbval guard UNIT_NEEDS=
+test: lint dist unit nbval guard docs
 
 # the documentation site (docs/, Sphinx with myst-nb; the notebooks from their stored outputs, never executed here)
 # into build/docs/index.html; every warning is an error, and -n (nitpicky) makes every cross-reference one that must
 # resolve: a broken link or reference, a docstring that does not parse
-DOCS_NEEDS := mathjax
-docs: setup $(DOCS_NEEDS)
+docs: setup mathjax
 	rm -rf build/docs
 	$(PY) -m sphinx -n -W --keep-going -q -b html docs build/docs
 	@echo "the documentation site: build/docs/index.html"
@@ -197,12 +190,11 @@ mathjax: setup
 check: setup
 	$(PY) -m pytest tests/ -m "not integration and not slow" -q -p no:cacheprovider $(XDIST)
 
-# the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE); make test builds
-# it once, beside lint and dist, and then runs this with UNIT_NEEDS empty
-UNIT_NEEDS := chromium mathjax docs
+# the site's browser tests (tests/test_site.py) read the site make docs builds first (OCPKIT_SITE): make test builds
+# it once
 unit: export OCPKIT_REQUIRE_BROWSER ?= 1
 unit: export OCPKIT_SITE = $(CURDIR)/build/docs
-unit: setup $(UNIT_NEEDS)
+unit: setup chromium mathjax docs
 	$(PY) -m pytest tests/ $(XDIST)
 
 # nbval writes figures and tables under build/test-output, never over the tracked ones

@@ -66,8 +66,7 @@ _CODE_FITS = """(() => {
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
     """The site built with make docs's command: the one make docs built in this same make run (make unit builds
-    it first, or make test beside lint and dist, and names it in OCPKIT_SITE, so that make test builds the site
-    once), else built here."""
+    it first and names it in OCPKIT_SITE, so that make test builds the site once), else built here."""
     if not mathjax.find_mathjax().tex_fonts:
         pytest.skip("no MathJax 2 with TeX fonts (make mathjax); tests/test_report.py says so")
     built = os.environ.get("OCPKIT_SITE")
