@@ -46,6 +46,29 @@ def test_a_coarse_mesh_holds_the_runaway_in_its_box_and_says_so():
     assert 5.0 < sol.objective < catenary()["J"]
 
 
+def test_the_solve_the_box_replaces_is_counted_as_discarded_on_its_mesh(monkeypatch):
+    """Refined from HLGL 20, the first mesh is solved twice, unbounded then in the box, and keeps the box's: the
+    unbounded solve's iterations are that mesh's ``discarded_iterations``, the box's its ``ipopt_iterations``."""
+    import ocpkit.program.solve as policy
+
+    iterations = []
+    original = policy.solve_nlp
+
+    def counted(*args, **kwargs):
+        result = original(*args, **kwargs)
+        iterations.append(result.iterations)
+        return result
+
+    monkeypatch.setattr(policy, "solve_nlp", counted)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        warnings.simplefilter("ignore", SolutionNote)
+        sol = HLGL(hanging_chain(), 20).solve(mesh_tolerance=1e-6, max_mesh_iterations=1)
+    first = sol.mesh_history[0]
+    assert sol.held_controls == {"u": pytest.approx(30.0)} and len(iterations) == 2
+    assert first.discarded_iterations == iterations[0] > 0 and first.ipopt_iterations == iterations[1]
+
+
 def test_no_box_without_a_guess_or_with_a_bound():
     """A control with a bound, or without a guess of its own, gets no box: those NLPs are the user's, unchanged."""
 

@@ -89,9 +89,10 @@ class MeshIteration:
     #: constraints between the points, the flown objective once the state meets the tolerance)
     verdict_s: float = float("nan")
     #: IPOPT iterations spent in this mesh iteration on solves whose result was discarded (a warm start that failed,
-    #: replaced by the interpolated point alone; a start that failed, and the recoveries tried in vain, before the
-    #: recovery that solved the mesh, ``recovery``; an early restart tried in vain after it), their time in
-    #: ``total_s``, not ``solve_s``
+    #: replaced by the interpolated point alone; of a runaway control's two solves, unbounded and in its box, the one
+    #: not kept; a start that failed, and the recoveries tried in vain, before the recovery that solved the mesh,
+    #: ``recovery``; recoveries tried in vain after a stall or as an early restart), their time in ``total_s``, not
+    #: ``solve_s``
     discarded_iterations: int = 0
     #: IPOPT's linear solver and ordering on this mesh (:attr:`Solution.linear_solver <ocpkit.Solution.linear_solver>`):
     #: a refinement that grows past :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` changes ordering there
@@ -204,10 +205,17 @@ def solve_once(
     guard = control_safeguard(program)
 
     def held(result: NLPResult, w0: np.ndarray) -> NLPResult:
-        # an unbounded control that ran away is solved again from the same start in its box (.safeguard)
+        # an unbounded control that ran away is solved again from the same start in its box (.safeguard); of the
+        # two solves, the one not kept is discarded (its iterations are the record's)
         if guard is None or not guard.exceeded(result.w):
             return result
         boxed = run(w0, ipopt_options, bounds=guard.bounds(lbw, ubw))
+        kept = kept_of(result, boxed)
+        record.discarded_iterations += (boxed if kept is result else result).iterations
+        return kept
+
+    def kept_of(result: NLPResult, boxed: NLPResult) -> NLPResult:
+        assert guard is not None  # (held solved in the box only where there is one)
         if not result.success or (boxed.success and not guard.on_box(boxed.w)):
             return boxed if boxed.success or not result.success else result
         if not boxed.success:
@@ -234,7 +242,7 @@ def solve_once(
         result = run(w0, warm_options, multipliers, (lb, ub))
         if result.success:
             return settle(result if boxed else held(result, w0), program.solution, raise_on_failure)
-        record.discarded_iterations = result.iterations
+        record.discarded_iterations += result.iterations
     else:
         record.start_s = time.perf_counter() - started
     return settle(held(run(w0, ipopt_options), w0), program.solution, raise_on_failure)
@@ -243,8 +251,9 @@ def solve_once(
 @dataclass
 class StartRecord:
     """How a mesh was started: the start's wall time (interpolation, multiplier estimates) and the IPOPT iterations
-    discarded on the way (:func:`solve_once`'s failed warm start; the refinement adds a failed start's and the
-    recoveries' tried in vain), which a :class:`MeshIteration` reports."""
+    discarded on the way (:func:`solve_once`'s failed warm start, and the solve a runaway control's box replaced or
+    did not; the refinement adds a failed start's and the recoveries' tried in vain), which a :class:`MeshIteration`
+    reports."""
 
     start_s: float = float("nan")
     discarded_iterations: int = 0
