@@ -279,6 +279,24 @@ def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before
     assert sol.mesh_history[0].discarded_iterations == 0
 
 
+def test_a_recovery_counts_the_solve_a_runaway_controls_box_replaced(monkeypatch):
+    """Inside a recovery too, the solve a control's box replaced (its record's, here 4 iterations) is discarded: with
+    the recovery's own 7 where it is tried in vain, alone where it solves the mesh (its 7 are then the mesh's)."""
+    from types import SimpleNamespace
+
+    def solved(candidate, guess, ipopt_options, allow_acceptable, raise_on_failure, parameters, record):
+        record.discarded_iterations += 4
+        return SimpleNamespace(interval_errors=np.array([1.0]), converged=True, iterations=7, status="Solve_Succeeded")
+
+    monkeypatch.setattr(policy, "solve_once", solved)
+    program, first = Radau(entry_landing(), 4, 10).program, SimpleNamespace(ipopt_iterations=10)
+    options = {"ipopt_options": {}, "allow_acceptable": False}
+    rescued, _, spent = policy._recover(program, None, options, None, 0.5, first, ("cold start",))
+    assert rescued is None and spent == 4 + 7  # its estimate, 1.0, is not below 0.5: tried in vain
+    rescued, _, spent = policy._recover(program, None, options, None, 2.0, first, ("cold start",))
+    assert rescued is not None and rescued[1] == "cold start" and spent == 4
+
+
 def test_a_recovery_is_capped_at_ten_times_the_first_mesh_iterations(monkeypatch):
     """A recovery's solve stops after RECOVERY_ITERATIONS times the first mesh's IPOPT iterations (at least
     RECOVERY_MIN_ITERATIONS): the cap reaches IPOPT, and a recovery that meets it fails saying so."""
@@ -762,6 +780,7 @@ def test_the_recoveries_tried_in_vain_after_a_stall_are_counted_on_the_stalled_m
     assert sum(h.discarded_iterations for h in sol.mesh_history) == 11
 
 
+@pytest.mark.slow
 def test_a_recovery_that_fails_after_a_stall_returns_the_stalled_solution():
     """Catalyst mixing from Radau 4 x 10 stalls on its singular arc; the recoveries from the stall lead to a mesh whose
     solve fails (IPOPT's acceptable level): a recovery never makes an outcome worse, so the refinement ends as the

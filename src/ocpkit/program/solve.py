@@ -91,8 +91,8 @@ class MeshIteration:
     #: IPOPT iterations spent in this mesh iteration on solves whose result was discarded (a warm start that failed,
     #: replaced by the interpolated point alone; of a runaway control's two solves, unbounded and in its box, the one
     #: not kept; a start that failed, and the recoveries tried in vain, before the recovery that solved the mesh,
-    #: ``recovery``; recoveries tried in vain after a stall or as an early restart), their time in ``total_s``, not
-    #: ``solve_s``
+    #: ``recovery``; recoveries tried in vain after a stall, as an early restart, or after a failed start none
+    #: rescued), their time in ``total_s``, not ``solve_s``
     discarded_iterations: int = 0
     #: IPOPT's linear solver and ordering on this mesh (:attr:`Solution.linear_solver <ocpkit.Solution.linear_solver>`):
     #: a refinement that grows past :data:`~ocpkit.program.program.SHARED_COLUMN_POINTS` changes ordering there
@@ -527,6 +527,8 @@ def solve_refined(
                 total_s=history[-1].total_s + spent,
                 discarded_iterations=history[-1].discarded_iterations + in_vain_iterations,
             )
+            if best is solution:  # (its history, with the restarts' time and iterations)
+                best.mesh_history = list(history)
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
             recovering = time.perf_counter()
             order = _recoveries_from(history[-1])
@@ -715,16 +717,19 @@ def _recover(
     the ``first`` mesh's)."""
     tried, spent = [], 0
     for how in order:
-        solution = None
+        solution, record = None, StartRecord()  # (a runaway control's solve its box replaced: discarded)
         try:
             candidate = mesh if how == "cold start" else mesh.uniform()
             ipopt_options, cap = _recovery_options(candidate, options["ipopt_options"], first)
-            solution = solve_once(candidate, guess, ipopt_options, options["allow_acceptable"], False, parameters)
+            solution = solve_once(
+                candidate, guess, ipopt_options, options["allow_acceptable"], False, parameters, record=record
+            )
             estimate = solution.interval_errors
         except Exception as exc:  # noqa: BLE001 - a recovery that fails is reported, the next one tried
             tried.append(f"{how}: {type(exc).__name__}: {exc}")
-            spent += _iterations_of(exc, solution)
+            spent += record.discarded_iterations + _iterations_of(exc, solution)
             continue
+        spent += record.discarded_iterations
         worst = float(np.max(np.where(np.isfinite(estimate), estimate, 1e3)))
         if solution.converged and worst < bar:
             return (solution, how), "; ".join(tried), spent
