@@ -521,12 +521,7 @@ def solve_refined(
                 stall = (solution, diverged_reason, len(history), "the refinement from its early restart")
                 continue
             in_vain = f"an early restart did no better ({diverged_at}): {tried_early}"
-            spent = time.perf_counter() - recovering  # the restarts' solves, in this mesh iteration's time
-            history[-1] = dataclasses.replace(
-                history[-1],
-                total_s=history[-1].total_s + spent,
-                discarded_iterations=history[-1].discarded_iterations + in_vain_iterations,
-            )
+            history[-1] = _charged(history[-1], time.perf_counter() - recovering, in_vain_iterations)
             if best is solution:  # (its history, with the restarts' time and iterations)
                 best.mesh_history = list(history)
         if stalled and len(recoveries) < MAX_RECOVERIES and iteration + 1 < max_iterations:
@@ -544,12 +539,7 @@ def solve_refined(
                 stall_reason = _stall_reason(program, tolerance, history, stalled, solution, "")
                 stall = (solution, stall_reason, len(history), "a recovery from the stall")
                 continue
-            spent = time.perf_counter() - recovering  # the recoveries' solves, in this mesh iteration's time
-            history[-1] = dataclasses.replace(
-                history[-1],
-                total_s=history[-1].total_s + spent,
-                discarded_iterations=history[-1].discarded_iterations + in_vain_iterations,
-            )
+            history[-1] = _charged(history[-1], time.perf_counter() - recovering, in_vain_iterations)
         if stalled:
             outcome, reason = (
                 "stalled",
@@ -739,6 +729,14 @@ def _recover(
             what += f" (a recovery's cap: {cap} iterations; the first mesh took {first.ipopt_iterations})"
         tried.append(f"{how} on {candidate.label}: {what}")
     return None, "; ".join(tried), spent
+
+
+def _charged(mesh: MeshIteration, seconds: float, iterations: int) -> MeshIteration:
+    """``mesh``'s record with recoveries tried in vain from it: their wall time in its ``total_s``, their IPOPT
+    iterations in its ``discarded_iterations``."""
+    return dataclasses.replace(
+        mesh, total_s=mesh.total_s + seconds, discarded_iterations=mesh.discarded_iterations + iterations
+    )
 
 
 def _iterations_of(failure: BaseException | None, solution: Solution | None) -> int:
