@@ -6,6 +6,7 @@ The pre-compilation step of binder/postBuild is run for real against a temporary
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import re
@@ -133,6 +134,21 @@ def test_postbuild_installs_ocpkit_without_dependencies():
     for args in pips:
         assert "--no-deps" in args, args  # every dependency comes pinned from environment.txt
         assert "-e" in args and args[-1] == "."
+
+
+def test_postbuild_uninstalls_what_environment_txt_leaves_out():
+    """pip, which repo2docker installs binder/requirements.txt with, cannot leave a dependency out as uv does."""
+    spec = importlib.util.spec_from_file_location("bootstrap_for_binder", ROOT / "src" / "compendium" / "bootstrap.py")
+    bootstrap = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = bootstrap  # for its dataclasses
+    try:
+        spec.loader.exec_module(bootstrap)
+    finally:
+        del sys.modules[spec.name]
+    uninstalls = [c for c in _postbuild_commands() if c[1:4] == ["-m", "pip", "uninstall"]]
+    assert len(uninstalls) == 1, uninstalls
+    names = [a for a in uninstalls[0][4:] if not a.startswith("-")]
+    assert names == bootstrap.left_out(ROOT / "environment.txt") != []
 
 
 @pytest.mark.parametrize("path", sorted(notebooks_dir().glob("*.ipynb")), ids=lambda p: p.name)

@@ -51,7 +51,9 @@ UV_PIN = next(
 )
 
 
-def _project(tmp_path: Path, pins: str = f"numpy==2.4.6\nscipy==1.17.1\n{UV_PIN}\n") -> Path:
+def _project(
+    tmp_path: Path, pins: str = f"# left out: rfc3987-syntax lark\nnumpy==2.4.6\nscipy==1.17.1\n{UV_PIN}\n"
+) -> Path:
     """A folder with the Makefile and what its setup rule reads and runs."""
     project = tmp_path / "project"
     (project / BOOTSTRAP.parent.relative_to(ROOT)).mkdir(parents=True)
@@ -351,6 +353,8 @@ def test_setup_runs_its_steps_in_order_with_progress_and_stamps_the_venv(fake_se
     assert calls[1][:4] == ["-m", "uv", "pip", "install"] and calls[1][-2:] == ["-r", "environment.txt"]
     assert {"--compile-bytecode", "--no-index"} <= set(calls[1]), calls[1]  # as pip compiles; pip's offline, kept
     assert calls[1][calls[1].index("--python") + 1] == ".venv/bin/python"  # the new environment, not uv's own
+    excludes = project / calls[1][calls[1].index("--excludes") + 1]  # environment.txt's line "# left out:"
+    assert excludes == project / ".venv" / "left-out.txt" and excludes.read_text() == "rfc3987-syntax\nlark\n"
     assert calls[2][:3] == ["-m", "pip", "install"] and calls[2][-2:] == ["-e", "."] and "--no-deps" in calls[2]
     assert calls[3] == ["-c", "..."]  # compendium.pth
     assert calls[4][:4] == ["-m", "ipykernel", "install", "--sys-prefix"] and "ocpkit" in calls[4]
@@ -652,6 +656,31 @@ def _pins() -> dict[str, str]:
             name, version = line.split("==")
             pins[name] = version
     return pins
+
+
+def test_left_out_names_every_package_of_its_lines_and_nothing_else(bootstrap, tmp_path):
+    requirements = tmp_path / "environment.txt"
+    requirements.write_text("# left out: a-b c\nnumpy==2.4.6  # left out: not this\n#left out:  d\n# not left out\n")
+    assert bootstrap.left_out(requirements) == ["a-b", "c", "d"]
+    requirements.write_text("numpy==2.4.6\n")
+    assert bootstrap.left_out(requirements) == []
+
+
+def test_what_environment_txt_leaves_out_is_neither_pinned_nor_installed_and_no_process_builds_its_parsers(bootstrap):
+    """rfc3987-syntax built 39 Lark parsers in every process that imported nbformat (2.9 s: papermill, each
+    notebook's kernel, Jupyter's server); jsonschema checks the IRI formats without it no more."""
+    left = bootstrap.left_out(ROOT / "environment.txt")
+    assert "rfc3987-syntax" in left
+    assert not {re.sub(r"[-_.]+", "-", name).lower() for name in left} & {
+        re.sub(r"[-_.]+", "-", name).lower() for name in _pins()
+    }, "a package is either pinned or left out"
+    for name in left:
+        with pytest.raises(importlib.metadata.PackageNotFoundError):
+            importlib.metadata.distribution(name)
+    code = "import sys, nbformat, papermill, jupyter_events.validators; print(sorted({m.split('.')[0] for m in sys.modules}))"
+    loaded = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+                        .stdout.replace("'", '"'))  # fmt: skip
+    assert "jsonschema" in loaded and not {"lark", "rfc3987_syntax"} & set(loaded)
 
 
 def test_python_min_is_the_series_environment_txt_is_resolved_for():

@@ -36,7 +36,8 @@ script then dies of that signal, as its caller expects.
 The steps are numbered after the Makefile's own, the interpreter check ([1/5]):
 
     [2/5] python -m venv .venv
-    [3/5] pip install uv==VERSION (its pin in environment.txt), then uv pip install -r environment.txt
+    [3/5] pip install uv==VERSION (its pin in environment.txt), then uv pip install -r environment.txt, leaving out
+          what its line ``# left out:`` names (uv's --excludes, from .venv/left-out.txt, written in step 2)
     [4/5] pip install --no-deps -e . (the library, ocpkit) and compendium.pth, which puts src/ (the compendium
           package, not distributed) on the environment's path
     [5/5] the Jupyter kernel, in the environment (ipykernel install --sys-prefix)
@@ -75,6 +76,9 @@ WRITE_PTH = (
     "pathlib.Path(sysconfig.get_paths()['purelib'], sys.argv[1]).write_text(sys.argv[2] + '\\n')"
 )
 
+#: writes its arguments after the first, one a line, to the file the first names
+WRITE_LINES = "import pathlib, sys; pathlib.Path(sys.argv[1]).write_text(''.join(a + '\\n' for a in sys.argv[2:]))"
+
 
 def say(text: str, stream: TextIO | None = None) -> None:
     """A line of the setup's own, at once (the commands it runs write to the same terminal or log)."""
@@ -104,6 +108,21 @@ def installer_pin(requirements: Path) -> str:
         if re.match(rf"{INSTALLER}\s*==", line):
             return re.sub(r"\s+", "", line.split("#", 1)[0])
     raise ValueError(f"{requirements} pins no {INSTALLER} (a line {INSTALLER}==VERSION): setup installs with it")
+
+
+#: environment.txt's line naming what the environment leaves out of what the pins' dependencies ask for
+LEFT_OUT = re.compile(r"^#\s*left out:(.*)$")
+
+
+def left_out(requirements: Path) -> list[str]:
+    """The packages ``requirements`` leaves out (its line ``# left out: NAME ...``): asked for by a pin's
+    dependencies, and not installed (uv's ``--excludes``). rfc3987-syntax is the one, and environment.txt says why."""
+    names: list[str] = []
+    for line in requirements.read_text().splitlines():
+        match = LEFT_OUT.match(line)
+        if match:
+            names += match.group(1).split()
+    return names
 
 
 def pip_sources(environ: dict[str, str]) -> list[str]:
@@ -299,6 +318,9 @@ class Setup:
         uv = [python, "-m", INSTALLER, "pip", "install", "--python", python, "--color", "never"]
         uv += pip_sources(dict(os.environ))
         pins = count_pins(self.requirements)
+        excluded = self.venv / "left-out.txt"  # uv reads the names to leave out from a file
+        left = left_out(self.requirements)
+        excludes = ["--excludes", str(excluded)] if left else []
         installer = installer_pin(self.requirements)  # installed first, by pip: uv installs the others
         library = tomllib.loads(Path("pyproject.toml").read_text())["project"]["name"]
         kernel = [python, "-m", "ipykernel", "install", "--sys-prefix", "--name", self.kernel]
@@ -308,14 +330,15 @@ class Setup:
             Step(
                 f"[2/5] creating {self.venv}",
                 f"setup [2/5] creating {self.venv} with {sys.executable}",
-                [[sys.executable, "-m", "venv", str(self.venv)]],
+                [[sys.executable, "-m", "venv", str(self.venv)]]
+                + ([[sys.executable, "-c", WRITE_LINES, str(excluded), *left]] if left else []),
             ),
             Step(
                 f"[3/5] installing {self.requirements}",
                 f"setup [3/5] installing the {pins} packages pinned in {self.requirements}",
                 [
                     [*pip, "-q", installer],
-                    [*uv, "--compile-bytecode", "--link-mode", "copy", "-r", str(self.requirements)],
+                    [*uv, "--compile-bytecode", "--link-mode", "copy", *excludes, "-r", str(self.requirements)],
                 ],
                 fold=pins - 1,
             ),
