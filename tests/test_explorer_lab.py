@@ -9,8 +9,8 @@ whose Chromium driver, over the DevTools protocol, and Lab commands this reuses)
 
 from __future__ import annotations
 
+import ast
 import json
-import re
 import time
 from collections.abc import Callable
 
@@ -170,19 +170,24 @@ def _explore_cells_of_05(cells: list) -> list:
     the minimum-time table, the energy solutions and the L1 runs at each thrust (``reference``), the Explore cell and
     the last, which moves the run's outputs into place. The rest of a run at 5 N (the longitude scan, the Jacobian
     check, the horizon study: about 30 s of its 36) draws on none of them."""
-    defines = re.compile(r"^(?:\w+, )*(tmin_table|energy|reference)\b[^=\n]*=", re.M)
+    needed = {"tmin_table", "energy", "reference"}
+
+    def assigned(source: str) -> set[str]:  # the names a cell's top-level statements assign
+        targets = [t for node in ast.parse(source).body if isinstance(node, ast.Assign) for t in node.targets]
+        return {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+
     kept = [
         c
         for c in cells
         if c.cell_type == "code"
         and (
             {"parameters", "hide-cell", "remove-cell"} & set(c.metadata.get("tags", []))
-            or defines.search(c.source)
+            or needed & assigned(c.source)
             or "explore(" in c.source
         )
     ]
-    found = {m.group(1) for c in kept for m in defines.finditer(c.source)}
-    assert found == {"tmin_table", "energy", "reference"}, f"notebook 05's cells changed: found {sorted(found)}"
+    found = {name for c in kept for name in needed & assigned(c.source)}
+    assert found == needed, f"notebook 05's cells changed: found {sorted(found)}"
     assert "explore(" in kept[-2].source and "outputs.publish()" in kept[-1].source, "notebook 05's end changed"
     return kept
 

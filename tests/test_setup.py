@@ -660,7 +660,9 @@ def _pins() -> dict[str, str]:
 
 def test_left_out_names_every_package_of_its_lines_and_nothing_else(bootstrap, tmp_path):
     requirements = tmp_path / "environment.txt"
-    requirements.write_text("# left out: a-b c\nnumpy==2.4.6  # left out: not this\n#left out:  d\n# not left out\n")
+    requirements.write_text(
+        "# left out: a-b c\nnumpy==2.4.6  # left out: not this\n#Left out:  d  # why\n# not left out\n"
+    )
     assert bootstrap.left_out(requirements) == ["a-b", "c", "d"]
     requirements.write_text("numpy==2.4.6\n")
     assert bootstrap.left_out(requirements) == []
@@ -674,9 +676,15 @@ def test_what_environment_txt_leaves_out_is_neither_pinned_nor_installed_and_no_
     assert not {re.sub(r"[-_.]+", "-", name).lower() for name in left} & {
         re.sub(r"[-_.]+", "-", name).lower() for name in _pins()
     }, "a package is either pinned or left out"
+    installed = []
     for name in left:
-        with pytest.raises(importlib.metadata.PackageNotFoundError):
-            importlib.metadata.distribution(name)
+        try:
+            installed.append(f"{name} {importlib.metadata.distribution(name).version}")
+        except importlib.metadata.PackageNotFoundError:
+            pass
+    assert installed == [], (
+        f"left out, yet installed: {installed} (`make setup`; after pip: pip uninstall -y {' '.join(left)})"
+    )
     code = "import sys, nbformat, papermill, jupyter_events.validators; print(sorted({m.split('.')[0] for m in sys.modules}))"
     loaded = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
                         .stdout.replace("'", '"'))  # fmt: skip
