@@ -182,7 +182,7 @@ def test_tumour_refined_by_hlgl_from_ten_segments_reaches_the_published_volume()
 @pytest.fixture(scope="module")
 def catalyst_failure() -> SolverError:
     """Catalyst mixing from HLGL 10 refined to 1e-6: finer meshes end at IPOPT's acceptable level on its singular
-    arc, and the refinement raises. Solved once for the tests that read the error (about 5 s)."""
+    arc, and the refinement raises. Solved once for the tests that read the error (about 10 s)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         with pytest.raises(SolverError) as info:
@@ -193,7 +193,7 @@ def catalyst_failure() -> SolverError:
 @pytest.fixture(scope="module")
 def goddard_stalled() -> tuple:
     """Goddard from HLGL 20 refined to 1e-6, which stalls on its singular arc, and the warnings it gave (its
-    default max_mesh_iterations, 25). Solved once for the tests that read it (about 8 s)."""
+    default max_mesh_iterations, 25). Solved once for the tests that read it (about 10 s)."""
     from compendium.problems import goddard_rocket
 
     with warnings.catch_warnings(record=True) as caught:

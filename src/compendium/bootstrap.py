@@ -88,7 +88,7 @@ def say(text: str, stream: TextIO | None = None) -> None:
 # -- the installer, and its output folded ---------------------------------------------------------------------------
 
 #: the installer of the pins: uv, at its pin in environment.txt, put into the new environment by its own pip first.
-#: From empty caches on the 2-core reference machine (2026-12-07), the 181 pins of then took 18 s with uv (downloads in
+#: From empty caches on the 2-core reference machine (2026-12-07), the 181 pins it had then took 18 s with uv (downloads in
 #: parallel, bytecode compiled as pip compiles it, files copied) against pip's 54 s; the same packages either way.
 INSTALLER = "uv"
 
