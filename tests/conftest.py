@@ -47,3 +47,20 @@ def _outputs_to_tmp(tmp_path, monkeypatch):
     """Nothing a test writes lands in the repository's figures/ or data/derived/."""
     monkeypatch.setenv("OCPKIT_OUTPUT_DIR", str(tmp_path / "out"))
     yield
+
+
+@pytest.fixture
+def ipopt_iterations(monkeypatch):
+    """The IPOPT iterations of every solve the test makes through the solve policy (``solve_nlp``), in order."""
+    import ocpkit.program.solve as policy
+
+    iterations = []
+    original = policy.solve_nlp
+
+    def counted(*args, **kwargs):
+        result = original(*args, **kwargs)
+        iterations.append(result.iterations)
+        return result
+
+    monkeypatch.setattr(policy, "solve_nlp", counted)
+    return iterations

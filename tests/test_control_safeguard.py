@@ -46,20 +46,10 @@ def test_a_coarse_mesh_holds_the_runaway_in_its_box_and_says_so():
     assert 5.0 < sol.objective < catenary()["J"]
 
 
-def test_the_solve_the_box_replaces_is_counted_as_discarded_on_its_mesh(monkeypatch):
+def test_the_solve_the_box_replaces_is_counted_as_discarded_on_its_mesh(ipopt_iterations):
     """Refined from HLGL 20, the first mesh is solved twice, unbounded then in the box, and keeps the box's: the
     unbounded solve's iterations are that mesh's ``discarded_iterations``, the box's its ``ipopt_iterations``."""
-    import ocpkit.program.solve as policy
-
-    iterations = []
-    original = policy.solve_nlp
-
-    def counted(*args, **kwargs):
-        result = original(*args, **kwargs)
-        iterations.append(result.iterations)
-        return result
-
-    monkeypatch.setattr(policy, "solve_nlp", counted)
+    iterations = ipopt_iterations
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         warnings.simplefilter("ignore", SolutionNote)

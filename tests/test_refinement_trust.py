@@ -276,7 +276,7 @@ def test_a_refined_mesh_that_fails_from_the_warm_start_is_restarted_cold_and_sai
     assert "(Maximum_Iterations_Exceeded): restarted cold from the guess on the same mesh" in sol.refinement_reason
 
 
-def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before_it(monkeypatch):
+def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before_it(monkeypatch, ipopt_iterations):
     """The failed start (its warm start and its start from the interpolated point) and a recovery tried in vain
     (the cold start, stopped at 3 iterations) are discarded: their iterations are the recovered mesh's
     ``discarded_iterations`` (notebook 07's COPS hang glider from Radau 4 x 50 spent 867 iterations, 22 s, in the
@@ -290,16 +290,8 @@ def test_a_mesh_solved_by_a_recovery_counts_the_iterations_of_what_failed_before
             ipopt_options = {**(ipopt_options or {}), "max_iter": 3}
         return original(program, guess, ipopt_options, *args, **kwargs)
 
-    iterations = []  # of every IPOPT solve, in order
-    original_nlp = policy.solve_nlp
-
-    def counted(*args, **kwargs):
-        result = original_nlp(*args, **kwargs)
-        iterations.append(result.iterations)
-        return result
-
+    iterations = ipopt_iterations  # of every IPOPT solve, in order
     monkeypatch.setattr(policy, "solve_once", starve_second_and_its_cold_start)
-    monkeypatch.setattr(policy, "solve_nlp", counted)
     sol = Radau(entry_landing(), 4, 10).solve(mesh_tolerance=1e-7)
     recovered = sol.mesh_history[1]
     assert recovered.recovery == "uniform mesh"  # the cold start was tried in vain
