@@ -88,8 +88,9 @@ def say(text: str, stream: TextIO | None = None) -> None:
 # -- the installer, and its output folded ---------------------------------------------------------------------------
 
 #: the installer of the pins: uv, at its pin in environment.txt, put into the new environment by its own pip first.
-#: From empty caches on the 2-core reference machine (2026-12-07), the 181 pins it had then took 18 s with uv (downloads in
-#: parallel, bytecode compiled as pip compiles it, files copied) against pip's 54 s; the same packages either way.
+#: From empty caches on the 2-core reference machine (2026-12-07), the 181 pins it had then took 18 s with uv
+#: (downloads in parallel, bytecode compiled as pip compiles it, files copied) against pip's 54 s; the same packages
+#: either way.
 INSTALLER = "uv"
 
 #: pip's settings from the environment that say where packages come from, and uv's options for them: uv reads no
@@ -116,7 +117,8 @@ LEFT_OUT = re.compile(r"^#\s*left out:([^#]*)", re.IGNORECASE)
 
 def left_out(requirements: Path) -> list[str]:
     """The packages ``requirements`` leaves out (its line ``# left out: NAME ...``): asked for by a pin's
-    dependencies, and not installed (uv's ``--excludes``). rfc3987-syntax is the one, and environment.txt says why."""
+    dependencies, and not installed (uv's ``--excludes``): rfc3987-syntax and lark, its parser, as environment.txt
+    says, with why."""
     names: list[str] = []
     for line in requirements.read_text().splitlines():
         match = LEFT_OUT.match(line)
