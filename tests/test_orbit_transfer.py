@@ -243,3 +243,33 @@ def test_horizon_branch_falls_as_the_final_time_grows(systems):
     assert np.abs(dJ / dt - rate).max() < 0.02
     bound = orbit_study.best_known_fuel(branch, np.linspace(branch.tf_h.min(), branch.tf_h.max(), 50))
     assert np.all(np.diff(bound.fuel_kg) <= 1e-12)
+
+
+def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switchings(systems):
+    """jacobian_check: central differences whose step makes an arc appear or vanish measure the jump of S, not dS/dz
+    (how a run that stalls near a grazing switching failed the notebook's check on another machine). A step of 5 %
+    moves the 5 N energy start across switchings in some columns: those are not judged (NaN errors, not resolved),
+    while a step of 1e-6 keeps them and agrees with the variational Jacobian; a column's noise is that of its
+    larger kept step."""
+    from compendium.studies import orbit_transfer as orbit_study
+    from compendium.studies.orbit_transfer.low_thrust import central_differences, jacobian_check
+
+    z = orbit_study.energy_start_vector(orbit_study.read_cache("orbit_transfer_energy"), "longitude", 5.0)
+    fine = systems.shooting("fuel", 5.0, switching="correction", tol=1e-10)
+    (small, large), kept = central_differences(fine, z, [1e-6, 0.05], fine.integrate(z).switchings)
+    assert kept[0].all() and 0 < kept[1].sum() < z.size
+    _, J = fine.jacobian_matrix(z, method="variational")
+    assert np.all(np.linalg.norm(J - small, axis=0) <= 1e-3 * np.linalg.norm(small, axis=0))
+    crossing = ~kept[1]
+    assert np.all(np.linalg.norm(J - large, axis=0)[crossing] > 1e-2 * np.linalg.norm(large, axis=0)[crossing])
+
+    kwargs = {"rtol": 1e-8, "reference_tol": 1e-10}
+    coarse = jacobian_check(systems, 5.0, [("iterate", z)], steps=(0.05,), **kwargs)
+    assert coarse.same_switchings.tolist() == kept[1].tolist()
+    assert coarse[~coarse.same_switchings][["error", "error_reference_tol", "difference_noise"]].isna().all().all()
+    assert not coarse[~coarse.same_switchings].resolved.any()
+    assert coarse[coarse.same_switchings][["error", "error_reference_tol"]].notna().all().all()
+    both = jacobian_check(systems, 5.0, [("iterate", z)], steps=(1e-6, 0.05), **kwargs)
+    assert both.same_switchings.all() and both.error_reference_tol.max() <= 1e-3
+    ratio = (both.difference_noise / coarse.difference_noise).to_numpy()
+    assert np.allclose(ratio[kept[1]], 1.0) and np.isnan(ratio[~kept[1]]).all()

@@ -6,7 +6,8 @@ Measured here (notebook 05): at 0.2 N, MINPACK with correction and the variation
 tolerance 1e-8 stalls with |S| = 1e-2 because the iteration loses a short coast arc of the extremal (600 switchings
 for 602) and stops where the switching function only touches zero: a grazing switching, where S is not
 differentiable. The Jacobian itself is right along the whole path (central differences at 1e-12 agree with it to
-the integrator's accuracy).
+the integrator's accuracy wherever their steps keep the point's switchings; near the grazing switching, a step of the
+differences can make the short arc appear, and they then measure S's jump, not its derivative).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import pandas as pd
 from ocpkit.shooting import Shooting, ShootingResult
 from ocpkit.shooting.grazing import closest_approach
 from ocpkit.shooting.result import noise_floor
-from ocpkit.shooting.strategies import FiniteDifferences, Variational
+from ocpkit.shooting.strategies import Variational
 from ocpkit.shooting.trajectory import ShootingTrajectory
 
 from ...progress import progress
@@ -34,6 +35,31 @@ REFERENCE_STEPS = (1e-5, 1e-4)
 #: a column of central differences is resolved where its norm is at least this many times the noise of S divided by
 #: twice the step: the noise then changes it by at most 1e-3 of itself
 RESOLVED = 1000.0
+
+
+def central_differences(shooting: Shooting, z, steps, switchings: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """Central differences of S at ``z``, one matrix per relative step of ``steps`` (unknown ``j`` moved by ``step
+    max(|z_j|, 1)``, as :class:`~ocpkit.shooting.strategies.FiniteDifferences`), and ``kept[i, j]``: whether both
+    points of step ``i`` in column ``j`` have the ``switchings`` of ``z``. Where they do not, an arc appears or
+    vanishes inside the stencil (a grazing switching near ``z``) and the column measures S's jump, not dS/dz."""
+    z = np.asarray(z, dtype=float)
+    references, kept = [], np.zeros((len(steps), z.size), dtype=bool)
+    for i, step in enumerate(steps):
+        D = None
+        for j in range(z.size):
+            h = step * max(abs(z[j]), 1.0)
+            sides = []
+            for sign in (1.0, -1.0):
+                moved = z.copy()
+                moved[j] += sign * h
+                flown = shooting.integrate(moved)
+                sides.append((shooting.residual(moved, integration=flown), flown.switchings))
+            (S_plus, n_plus), (S_minus, n_minus) = sides
+            D = np.empty((S_plus.size, z.size)) if D is None else D
+            D[:, j] = (S_plus - S_minus) / (2 * h)
+            kept[i, j] = n_plus == n_minus == switchings
+        references.append(D)
+    return references, kept
 
 
 class RecordingJacobian:
@@ -74,11 +100,13 @@ def switching_approach(shooting: Shooting, z) -> tuple[float, float]:
     return (float("nan"), float("nan")) if approach is None else (approach.t, approach.g)
 
 
-def _column_errors(J: np.ndarray, references: list[np.ndarray]) -> np.ndarray:
+def _column_errors(J: np.ndarray, references: list[np.ndarray], kept: np.ndarray) -> np.ndarray:
     """Per column, ``|J_j - D_j| / |D_j|`` against the nearest of the central differences ``references``
-    (one per step): agreement at one step is what a right column shows, and no step agrees with a wrong one."""
-    errors = [np.linalg.norm(J - D, axis=0) / np.linalg.norm(D, axis=0) for D in references]
-    return np.min(errors, axis=0)
+    (one per step) whose step keeps the point's switchings (``kept``, as :func:`central_differences`); NaN where
+    none does: agreement at one step is what a right column shows, and no step agrees with a wrong one."""
+    errors = np.array([np.linalg.norm(J - D, axis=0) / np.linalg.norm(D, axis=0) for D in references])
+    nearest = np.where(kept, errors, np.inf).min(axis=0)
+    return np.where(np.isfinite(nearest), nearest, np.nan)
 
 
 def jacobian_check(
@@ -91,33 +119,40 @@ def jacobian_check(
     steps=REFERENCE_STEPS,
 ) -> pd.DataFrame:
     """The variational Jacobian at ``points``, column by column, against central differences of S integrated at
-    ``reference_tol`` (switchings corrected), for the Jacobian integrated at ``rtol`` and at ``reference_tol``.
+    ``reference_tol`` (switchings corrected; :func:`central_differences`), for the Jacobian integrated at ``rtol`` and
+    at ``reference_tol``.
 
     ``points``: ``(label, z)`` pairs (a Newton path: ``"iterate"`` at each Jacobian evaluation, ``"end"`` where the
-    run stopped, ``"solution"`` a converged point), numbered in their order from 0 (``iterate``; a solution -1). One row per point
-    and column: ``error`` and ``error_reference_tol`` (relative column errors), the column's norm and the
-    Jacobian's condition number (both at ``reference_tol``), ``difference_noise`` (the noise of S at
-    ``reference_tol``, :func:`~ocpkit.shooting.result.noise_floor` at the last point, over twice the larger step)
-    and ``resolved`` (the differences' column at least :data:`RESOLVED` times that: a column the check can judge,
-    decided by the differences alone), and for the point |S| at ``reference_tol``, the
-    switchings at ``rtol`` and at ``reference_tol``, and the switching function's closest approach to zero without
-    crossing it (time and value)."""
+    run stopped, ``"solution"`` a converged point), numbered in their order from 0 (``iterate``; a solution -1). One
+    row per point and column: ``error`` and ``error_reference_tol`` (relative column errors against the nearest
+    differences of a step that keeps the point's switchings on both sides; NaN where no step does), the column's
+    norm and the Jacobian's condition number (both at ``reference_tol``), ``same_switchings`` (some step keeps
+    them: where none does, an arc appears or vanishes within the differences' steps, which then measure S's jump,
+    not its derivative), ``difference_noise`` (the noise of S at ``reference_tol``,
+    :func:`~ocpkit.shooting.result.noise_floor` at the last point, over twice the larger such step) and
+    ``resolved`` (some step keeps the switchings, and the differences' column of the larger such step is at least
+    :data:`RESOLVED` times that noise: a column the check can judge, decided by the differences alone), and for the
+    point |S| at ``reference_tol``, the switchings at ``rtol`` and at ``reference_tol``, and the switching function's
+    closest approach to zero without crossing it (time and value)."""
     coarse = systems.shooting("fuel", thrust_N, switching="correction", tol=rtol)
     fine = systems.shooting("fuel", thrust_N, switching="correction", tol=reference_tol)
     names = [*COSTATES, "tf"]
+    steps = np.asarray(steps, dtype=float)
     rows = []
     # the noise of S at reference_tol (no Jacobian in it), measured once at the last point: a difference column is
-    # resolved where its norm is RESOLVED times what that noise does to a difference of the larger step
+    # resolved where its norm is RESOLVED times what that noise does to a difference of the larger step kept
     noise = noise_floor(fine.residual, np.asarray(points[-1][1], dtype=float))
     bar = progress(total=len(points), desc=f"Jacobian check, {thrust_N:g} N", unit="point")
     numbers = iter(range(len(points)))
     for label, z in points:
         bar.update()
         k = -1 if label == "solution" else next(numbers)
+        z = np.asarray(z, dtype=float)
         _, J_coarse = coarse.jacobian_matrix(z, method="variational")
         S, J_fine = fine.jacobian_matrix(z, method="variational")
-        references = [fine.jacobian_matrix(z, method=FiniteDifferences(central=True, step=h), S0=S)[1] for h in steps]
-        e_coarse, e_fine = _column_errors(J_coarse, references), _column_errors(J_fine, references)
+        n_fine = fine.integrate(z).switchings
+        references, kept = central_differences(fine, z, steps, n_fine)
+        e_coarse, e_fine = _column_errors(J_coarse, references, kept), _column_errors(J_fine, references, kept)
         t_touch, g_touch = switching_approach(fine, z)
         common = {
             "thrust_N": thrust_N,
@@ -125,23 +160,24 @@ def jacobian_check(
             "point": label,
             "norm_S_reference_tol": float(np.linalg.norm(S)),
             "switchings": coarse.integrate(z).switchings,
-            "switchings_reference_tol": fine.integrate(z).switchings,
+            "switchings_reference_tol": n_fine,
             "closest_approach_t_h": t_touch,
             "closest_approach_g": g_touch,
             "condition": float(np.linalg.cond(J_fine)),
         }
         norms = np.linalg.norm(J_fine, axis=0)
-        z = np.asarray(z, dtype=float)
-        difference_noise = noise / (2 * max(steps) * np.maximum(np.abs(z), 1.0))
-        reference_norms = np.linalg.norm(references[int(np.argmax(steps))], axis=0)
         for j, name in enumerate(names):
+            same = bool(kept[:, j].any())
+            larger = int(np.flatnonzero(kept[:, j])[np.argmax(steps[kept[:, j]])]) if same else None
+            difference_noise = noise / (2 * steps[larger] * max(abs(z[j]), 1.0)) if same else float("nan")
             rows.append(
                 {
                     **common,
                     "column": name,
                     "column_norm": norms[j],
-                    "difference_noise": difference_noise[j],
-                    "resolved": bool(reference_norms[j] >= RESOLVED * difference_noise[j]),
+                    "same_switchings": same,
+                    "difference_noise": difference_noise,
+                    "resolved": same and bool(np.linalg.norm(references[larger][:, j]) >= RESOLVED * difference_noise),
                     "error": e_coarse[j],
                     "error_reference_tol": e_fine[j],
                 }
@@ -251,6 +287,7 @@ __all__ = [
     "REFERENCE_TOL",
     "RESOLVED",
     "RecordingJacobian",
+    "central_differences",
     "jacobian_check",
     "newton_path",
     "slides_conclusion",
