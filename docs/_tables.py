@@ -334,7 +334,7 @@ def _switching_detection() -> dict[str, str]:
     noise = summary.set_index("thrust_N")["noise of S"]
     growth = noise[noise.index.min()] / noise[noise.index.max()]
     values["noise_growth_orders"] = f"{np.floor(np.log10(growth)):.0f}"
-    values["goal_missed_by"] = _goal_missed_by(summary)
+    values["goal_missed_by"], values["goal_missed_level"] = _goal_missed_by(summary)
     without = none.set_index("thrust_N")["noise of S, no detection"]
     values["noise_without_detection"] = (
         f"from {_sci(without.min())} (at {without.idxmin():g} N) to {_sci(without.max())} (at {without.idxmax():g} N)"
@@ -391,7 +391,7 @@ def _slides_conclusion() -> dict[str, str]:
         f"at {T:g} N, over the run's {check[check.point != 'solution'].iterate.nunique()} points and the converged "
         f"solution of the finite-difference run, the median column error is "
         f"{_sci(check.error_reference_tol.median())} integrated at 1e-12 (the worst of the columns the differences "
-        f"resolve {_sci(worst)}"
+        f"resolve is {_sci(worst)}"
         + (f"; {' and '.join(weak)} are, at some points, below what the differences resolve" if weak else "")
         + (
             f"; at {across.iterate.nunique()} points near a grazing switching, {len(across)} columns are not judged: "
@@ -442,8 +442,15 @@ def _slides_conclusion() -> dict[str, str]:
         f"at {at01.thrust_N:g} N the slides' fuel ({at01.fuel_kg_slides:.2f} kg) is that of their detection run, which "
         f"had not converged (|S| = {_sci(_paper_norm(at01.thrust_N))}): ours is {abs(at01.fuel_kg - at01.fuel_kg_slides):.2f} kg off it"
     )
-    if (held.norm_S_slides > held.noise_of_S).any():
-        raise ValueError("the switching-detection page says the slides' |S| is below the noise of S where it holds")
+    # the noise is a magnitude (the contract compares it within a factor of 10): "below" where it is, else the ratio
+    ratio = float((held.norm_S_slides / held.noise_of_S).max()) if len(held) else 0.0
+    if not ratio <= 10:
+        raise ValueError("the switching-detection page says the slides' |S| is at the noise of S where it holds")
+    values["slides_against_noise"] = (
+        "the slides' |S| is below the measured noise of S"
+        if ratio <= 1
+        else f"the slides' |S| is at the measured noise of S (at most {ratio:.1f} times it; the noise is a magnitude)"
+    )
     missed = conclusion[~conclusion.reproduced]
     values["conclusion_missed"] = (
         "It holds at every thrust at one of those tolerances."
@@ -460,23 +467,30 @@ def _slides_conclusion() -> dict[str, str]:
     return values
 
 
-def _goal_missed_by(summary: pd.DataFrame) -> str:
-    """Where the slides' |S| goal is missed, ours (the better solver's), theirs and the noise of S there; the page
-    says both are at or below that noise, which is checked here."""
+def _goal_missed_by(summary: pd.DataFrame) -> tuple[str, str]:
+    """Where the slides' |S| goal is missed, ours (the better solver's), theirs and the noise of S there; and how both
+    stand against that noise. The noise is a magnitude (the contract compares it within a factor of 10), so the page
+    says "at or below" where both are, and gives the largest ratio where one is above it; within the factor of 10
+    that the notebook asserts, which is checked here."""
     best = summary[["norm_S hybr", "norm_S newton"]].min(axis=1)
     if ((best <= summary["norm_S slides"]) != summary["|S| goal met"]).any():
         raise ValueError("orbit_transfer_summary.csv: '|S| goal met' is not 'the better |S| at or below the slides''")
     missed = summary[~summary["|S| goal met"]].sort_values("thrust_N", ascending=False)
     noise, ours = missed["noise of S"], best[missed.index]
-    if ((ours > noise) | (missed["norm_S slides"] > noise)).any():
-        raise ValueError(
-            "the switching-detection page says both |S| are at or below the noise where the goal is missed"
-        )
-    return "; ".join(
+    ratio = float(np.maximum(ours / noise, missed["norm_S slides"] / noise).max()) if len(missed) else 0.0
+    if not ratio <= 10:
+        raise ValueError("the switching-detection page says both |S| are at the noise of S where the goal is missed")
+    by = "; ".join(
         f"at {r.thrust_N:g} N {_sci(ours[k])} against the slides' {_sci(r['norm_S slides'])}, noise of S "
         f"{_sci(r['noise of S'])}"
         for k, r in missed.iterrows()
     )
+    level = (
+        "our |S| and the slides' are both at or below that level"
+        if ratio <= 1
+        else f"our |S| and the slides' are both at that level (at most {ratio:.1f} times it; the noise is a magnitude)"
+    )
+    return by, level
 
 
 def _metres(x: float, bound: str | None = None) -> str:
