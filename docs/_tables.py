@@ -19,6 +19,9 @@ from compendium.tables import markdown_table
 ROOT = Path(__file__).resolve().parents[1]
 DERIVED = ROOT / "data" / "derived"
 PAPER = ROOT / "data" / "paper"
+#: how the page qualifies a comparison with the noise of S, which reproduces only to its magnitude (the contract's
+#: error(factor=10))
+NOISE_MAGNITUDE = "the noise is known only to its order of magnitude"
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -389,7 +392,7 @@ def _slides_conclusion() -> dict[str, str]:
     solution = check[check.point == "solution"].iloc[0]
     values["jacobian_check"] = (
         f"at {T:g} N, over the run's {check[check.point != 'solution'].iterate.nunique()} points and the converged "
-        f"solution of the finite-difference run, the median column error is "
+        f"solution of the finite-difference run, the median error of the judged columns is "
         f"{_sci(check.error_reference_tol.median())} integrated at 1e-12 (the worst of the columns the differences "
         f"resolve is {_sci(worst)}"
         + (f"; {' and '.join(weak)} are, at some points, below what the differences resolve" if weak else "")
@@ -442,14 +445,15 @@ def _slides_conclusion() -> dict[str, str]:
         f"at {at01.thrust_N:g} N the slides' fuel ({at01.fuel_kg_slides:.2f} kg) is that of their detection run, which "
         f"had not converged (|S| = {_sci(_paper_norm(at01.thrust_N))}): ours is {abs(at01.fuel_kg - at01.fuel_kg_slides):.2f} kg off it"
     )
-    # the noise is a magnitude (the contract compares it within a factor of 10): "below" where it is, else the ratio
-    ratio = float((held.norm_S_slides / held.noise_of_S).max()) if len(held) else 0.0
+    # "below" where the slides' |S| is below the noise, else the ratio (at most 10: the noise is a magnitude); the page
+    # says the conclusion holds somewhere below 1 N, so no such row is refused too (the max of no rows is NaN)
+    ratio = float((held.norm_S_slides / held.noise_of_S).max())
     if not ratio <= 10:
         raise ValueError("the switching-detection page says the slides' |S| is at the noise of S where it holds")
     values["slides_against_noise"] = (
         "the slides' |S| is below the measured noise of S"
         if ratio <= 1
-        else f"the slides' |S| is at the measured noise of S (at most {ratio:.1f} times it; the noise is a magnitude)"
+        else f"the slides' |S| is at most {ratio:.1f} times the measured noise of S ({NOISE_MAGNITUDE})"
     )
     missed = conclusion[~conclusion.reproduced]
     values["conclusion_missed"] = (
@@ -469,27 +473,34 @@ def _slides_conclusion() -> dict[str, str]:
 
 def _goal_missed_by(summary: pd.DataFrame) -> tuple[str, str]:
     """Where the slides' |S| goal is missed, ours (the better solver's), theirs and the noise of S there; and how both
-    stand against that noise. The noise is a magnitude (the contract compares it within a factor of 10), so the page
-    says "at or below" where both are, and gives the largest ratio where one is above it; within the factor of 10
-    that the notebook asserts, which is checked here."""
+    stand against that noise. The noise reproduces only to its magnitude (the contract compares it within a factor of
+    10), so the page says "at or below" where both are, and otherwise each one's largest ratio to it; at most the
+    factor of 10 that the notebook asserts, which is checked here."""
     best = summary[["norm_S hybr", "norm_S newton"]].min(axis=1)
     if ((best <= summary["norm_S slides"]) != summary["|S| goal met"]).any():
         raise ValueError("orbit_transfer_summary.csv: '|S| goal met' is not 'the better |S| at or below the slides''")
     missed = summary[~summary["|S| goal met"]].sort_values("thrust_N", ascending=False)
+    if missed.empty:
+        return "", ""
     noise, ours = missed["noise of S"], best[missed.index]
-    ratio = float(np.maximum(ours / noise, missed["norm_S slides"] / noise).max()) if len(missed) else 0.0
-    if not ratio <= 10:
+    ratios = {"our |S|": (ours / noise).max(), "the slides'": (missed["norm_S slides"] / noise).max()}
+    if not all(r <= 10 for r in ratios.values()):
         raise ValueError("the switching-detection page says both |S| are at the noise of S where the goal is missed")
     by = "; ".join(
         f"at {r.thrust_N:g} N {_sci(ours[k])} against the slides' {_sci(r['norm_S slides'])}, noise of S "
         f"{_sci(r['noise of S'])}"
         for k, r in missed.iterrows()
     )
-    level = (
-        "our |S| and the slides' are both at or below that level"
-        if ratio <= 1
-        else f"our |S| and the slides' are both at that level (at most {ratio:.1f} times it; the noise is a magnitude)"
-    )
+    if all(r <= 1 for r in ratios.values()):
+        level = "our |S| and the slides' are both at or below that level"
+    else:
+        level = (
+            " and ".join(
+                f"{who} is {'at or below that level' if r <= 1 else f'at most {r:.1f} times that level'}"
+                for who, r in ratios.items()
+            )
+            + f" ({NOISE_MAGNITUDE})"
+        )
     return by, level
 
 

@@ -251,6 +251,8 @@ def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switch
     moves the 5 N energy start across switchings in some columns: those are not judged (NaN errors, not resolved),
     while a step of 1e-6 keeps them and agrees with the variational Jacobian; a column's noise is that of its
     larger kept step."""
+    from ocpkit.shooting.result import noise_floor
+
     from compendium.studies import orbit_transfer as orbit_study
     from compendium.studies.orbit_transfer.low_thrust import central_differences, jacobian_check
 
@@ -273,3 +275,22 @@ def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switch
     assert both.same_switchings.all() and both.error_reference_tol.max() <= 1e-3
     ratio = (both.difference_noise / coarse.difference_noise).to_numpy()
     assert np.allclose(ratio[kept[1]], 1.0) and np.isnan(ratio[~kept[1]]).all()
+    noise = noise_floor(systems.shooting("fuel", 5.0, switching="correction", tol=1e-10).residual, z)
+    only_small = both.difference_noise.to_numpy()[~kept[1]]
+    assert np.allclose(only_small, noise / (2e-6 * np.maximum(np.abs(z[~kept[1]]), 1.0)))
+
+
+def test_column_errors_take_the_nearest_kept_step_only():
+    """A step whose stencil crosses a switching is not taken even where it agrees better; no kept step gives NaN,
+    and a kept step with no finite error gives way to another kept step."""
+    from compendium.studies.orbit_transfer.low_thrust import _column_errors
+
+    J = np.eye(3)
+    near = np.eye(3) * (1 + 1e-6)
+    off = np.eye(3) * 1.1
+    kept = np.array([[False, False, True], [True, False, True]])
+    errors = _column_errors(J, [near, off], kept)
+    assert errors[0] == pytest.approx(0.1 / 1.1) and np.isnan(errors[1]) and errors[2] == pytest.approx(1e-6, rel=1e-3)
+    blank = off.copy()
+    blank[:, 2] = 0.0  # a zero column of differences: its error is not finite
+    assert _column_errors(J, [blank, near], np.ones((2, 3), dtype=bool))[2] == pytest.approx(1e-6, rel=1e-3)

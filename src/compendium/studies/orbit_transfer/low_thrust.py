@@ -41,7 +41,8 @@ def central_differences(shooting: Shooting, z, steps, switchings: int) -> tuple[
     """Central differences of S at ``z``, one matrix per relative step of ``steps`` (unknown ``j`` moved by ``step
     max(|z_j|, 1)``, as :class:`~ocpkit.shooting.strategies.FiniteDifferences`), and ``kept[i, j]``: whether both
     points of step ``i`` in column ``j`` have the ``switchings`` of ``z``. Where they do not, an arc appears or
-    vanishes inside the stencil (a grazing switching near ``z``) and the column measures S's jump, not dS/dz."""
+    vanishes inside the stencil (a grazing switching near ``z``) and the column measures S's jump, not dS/dz. The
+    count is a necessary test, not a sufficient one: an arc that appears while another vanishes keeps it."""
     z = np.asarray(z, dtype=float)
     references, kept = [], np.zeros((len(steps), z.size), dtype=bool)
     for i, step in enumerate(steps):
@@ -104,8 +105,9 @@ def _column_errors(J: np.ndarray, references: list[np.ndarray], kept: np.ndarray
     """Per column, ``|J_j - D_j| / |D_j|`` against the nearest of the central differences ``references``
     (one per step) whose step keeps the point's switchings (``kept``, as :func:`central_differences`); NaN where
     none does: agreement at one step is what a right column shows, and no step agrees with a wrong one."""
-    errors = np.array([np.linalg.norm(J - D, axis=0) / np.linalg.norm(D, axis=0) for D in references])
-    nearest = np.where(kept, errors, np.inf).min(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a zero column of differences: no error, handled below
+        errors = np.array([np.linalg.norm(J - D, axis=0) / np.linalg.norm(D, axis=0) for D in references])
+    nearest = np.where(kept & np.isfinite(errors), errors, np.inf).min(axis=0)
     return np.where(np.isfinite(nearest), nearest, np.nan)
 
 
@@ -177,7 +179,9 @@ def jacobian_check(
                     "column_norm": norms[j],
                     "same_switchings": same,
                     "difference_noise": difference_noise,
-                    "resolved": same and bool(np.linalg.norm(references[larger][:, j]) >= RESOLVED * difference_noise),
+                    "resolved": same
+                    and bool(np.isfinite(e_fine[j]))
+                    and bool(np.linalg.norm(references[larger][:, j]) >= RESOLVED * difference_noise),
                     "error": e_coarse[j],
                     "error_reference_tol": e_fine[j],
                 }
