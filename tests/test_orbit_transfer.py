@@ -280,17 +280,23 @@ def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switch
     assert np.allclose(only_small, noise / (2e-6 * np.maximum(np.abs(z[~kept[1]]), 1.0)))
 
 
-def test_column_errors_take_the_nearest_kept_step_only():
-    """A step whose stencil crosses a switching is not taken even where it agrees better; no kept step gives NaN,
-    and a kept step with no finite error gives way to another kept step."""
-    from compendium.studies.orbit_transfer.low_thrust import _column_errors
+def test_column_errors_take_the_nearest_usable_step_only():
+    """A step whose stencil crosses a switching is not taken even where it agrees better, nor one whose differences
+    are zero or not finite; no usable step gives NaN, and a Jacobian column that is not finite an infinite error
+    (the check fails on it)."""
+    from compendium.studies.orbit_transfer.low_thrust import _column_errors, usable_steps
 
     J = np.eye(3)
-    near = np.eye(3) * (1 + 1e-6)
-    off = np.eye(3) * 1.1
+    near, off = np.eye(3) * (1 + 1e-6), np.eye(3) * 1.1
     kept = np.array([[False, False, True], [True, False, True]])
-    errors = _column_errors(J, [near, off], kept)
+    errors = _column_errors(J, [near, off], usable_steps([near, off], kept))
     assert errors[0] == pytest.approx(0.1 / 1.1) and np.isnan(errors[1]) and errors[2] == pytest.approx(1e-6, rel=1e-3)
     blank = off.copy()
-    blank[:, 2] = 0.0  # a zero column of differences: its error is not finite
-    assert _column_errors(J, [blank, near], np.ones((2, 3), dtype=bool))[2] == pytest.approx(1e-6, rel=1e-3)
+    blank[:, 2] = 0.0
+    blank[0, 0] = np.nan
+    usable = usable_steps([blank, near], np.ones((2, 3), dtype=bool))
+    assert usable.tolist() == [[False, True, False], [True, True, True]]
+    assert _column_errors(J, [blank, near], usable)[2] == pytest.approx(1e-6, rel=1e-3)
+    broken = J.copy()
+    broken[1, 1] = np.nan
+    assert _column_errors(broken, [near, off], usable_steps([near, off], np.ones((2, 3), dtype=bool)))[1] == np.inf

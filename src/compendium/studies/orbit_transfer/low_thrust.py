@@ -101,14 +101,24 @@ def switching_approach(shooting: Shooting, z) -> tuple[float, float]:
     return (float("nan"), float("nan")) if approach is None else (approach.t, approach.g)
 
 
-def _column_errors(J: np.ndarray, references: list[np.ndarray], kept: np.ndarray) -> np.ndarray:
-    """Per column, ``|J_j - D_j| / |D_j|`` against the nearest of the central differences ``references``
-    (one per step) whose step keeps the point's switchings (``kept``, as :func:`central_differences`); NaN where
-    none does: agreement at one step is what a right column shows, and no step agrees with a wrong one."""
-    with np.errstate(divide="ignore", invalid="ignore"):  # a zero column of differences: no error, handled below
+def usable_steps(references: list[np.ndarray], kept: np.ndarray) -> np.ndarray:
+    """``usable[i, j]``: step ``i`` can judge column ``j``, decided by the differences alone: its stencil keeps the
+    point's switchings (``kept``, as :func:`central_differences`) and its column of differences is finite and not
+    zero."""
+    finite = np.array([np.isfinite(D).all(axis=0) & (np.linalg.norm(D, axis=0) > 0) for D in references])
+    return kept & finite
+
+
+def _column_errors(J: np.ndarray, references: list[np.ndarray], usable: np.ndarray) -> np.ndarray:
+    """Per column, ``|J_j - D_j| / |D_j|`` against the nearest of the central differences ``references`` (one per
+    step) whose step can judge it (``usable``, :func:`usable_steps`); NaN where none can, infinite where the
+    Jacobian's column is not finite (a broken column fails the check): agreement at one step is what a right column
+    shows, and no step agrees with a wrong one."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # the steps that cannot judge a column are dropped below
         errors = np.array([np.linalg.norm(J - D, axis=0) / np.linalg.norm(D, axis=0) for D in references])
-    nearest = np.where(kept & np.isfinite(errors), errors, np.inf).min(axis=0)
-    return np.where(np.isfinite(nearest), nearest, np.nan)
+    errors = np.where(np.isfinite(J).all(axis=0), errors, np.inf)
+    nearest = np.where(usable, errors, np.inf).min(axis=0)
+    return np.where(usable.any(axis=0), nearest, np.nan)
 
 
 def jacobian_check(
@@ -127,13 +137,14 @@ def jacobian_check(
     ``points``: ``(label, z)`` pairs (a Newton path: ``"iterate"`` at each Jacobian evaluation, ``"end"`` where the
     run stopped, ``"solution"`` a converged point), numbered in their order from 0 (``iterate``; a solution -1). One
     row per point and column: ``error`` and ``error_reference_tol`` (relative column errors against the nearest
-    differences of a step that keeps the point's switchings on both sides; NaN where no step does), the column's
-    norm and the Jacobian's condition number (both at ``reference_tol``), ``same_switchings`` (some step keeps
-    them: where none does, an arc appears or vanishes within the differences' steps, which then measure S's jump,
-    not its derivative), ``difference_noise`` (the noise of S at ``reference_tol``,
-    :func:`~ocpkit.shooting.result.noise_floor` at the last point, over twice the larger such step) and
-    ``resolved`` (some step keeps the switchings, and the differences' column of the larger such step is at least
-    :data:`RESOLVED` times that noise: a column the check can judge, decided by the differences alone), and for the
+    differences of a step that can judge the column, :func:`usable_steps`: one that keeps the point's switchings on
+    both sides, with a finite, nonzero column; NaN where no step can, infinite where the Jacobian's column is not
+    finite), the column's norm and the Jacobian's condition number (both at ``reference_tol``), ``same_switchings``
+    (some step keeps them: where none does, an arc appears or vanishes within the differences' steps, which then
+    measure S's jump, not its derivative), ``difference_noise`` (the noise of S at ``reference_tol``,
+    :func:`~ocpkit.shooting.result.noise_floor` at the last point, over twice the larger step that can judge the
+    column) and ``resolved`` (some step can, and the differences' column of the larger such step is at least
+    :data:`RESOLVED` times that noise: a column the check judges, decided by the differences alone), and for the
     point |S| at ``reference_tol``, the switchings at ``rtol`` and at ``reference_tol``, and the switching function's
     closest approach to zero without crossing it (time and value)."""
     coarse = systems.shooting("fuel", thrust_N, switching="correction", tol=rtol)
@@ -154,7 +165,8 @@ def jacobian_check(
         S, J_fine = fine.jacobian_matrix(z, method="variational")
         n_fine = fine.integrate(z).switchings
         references, kept = central_differences(fine, z, steps, n_fine)
-        e_coarse, e_fine = _column_errors(J_coarse, references, kept), _column_errors(J_fine, references, kept)
+        usable = usable_steps(references, kept)
+        e_coarse, e_fine = _column_errors(J_coarse, references, usable), _column_errors(J_fine, references, usable)
         t_touch, g_touch = switching_approach(fine, z)
         common = {
             "thrust_N": thrust_N,
@@ -169,18 +181,17 @@ def jacobian_check(
         }
         norms = np.linalg.norm(J_fine, axis=0)
         for j, name in enumerate(names):
-            same = bool(kept[:, j].any())
-            larger = int(np.flatnonzero(kept[:, j])[np.argmax(steps[kept[:, j]])]) if same else None
-            difference_noise = noise / (2 * steps[larger] * max(abs(z[j]), 1.0)) if same else float("nan")
+            judged = bool(usable[:, j].any())
+            larger = int(np.flatnonzero(usable[:, j])[np.argmax(steps[usable[:, j]])]) if judged else None
+            difference_noise = noise / (2 * steps[larger] * max(abs(z[j]), 1.0)) if judged else float("nan")
             rows.append(
                 {
                     **common,
                     "column": name,
                     "column_norm": norms[j],
-                    "same_switchings": same,
+                    "same_switchings": bool(kept[:, j].any()),
                     "difference_noise": difference_noise,
-                    "resolved": same
-                    and bool(np.isfinite(e_fine[j]))
+                    "resolved": judged
                     and bool(np.linalg.norm(references[larger][:, j]) >= RESOLVED * difference_noise),
                     "error": e_coarse[j],
                     "error_reference_tol": e_fine[j],
@@ -292,6 +303,7 @@ __all__ = [
     "RESOLVED",
     "RecordingJacobian",
     "central_differences",
+    "usable_steps",
     "jacobian_check",
     "newton_path",
     "slides_conclusion",
