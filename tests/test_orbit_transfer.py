@@ -250,7 +250,7 @@ def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switch
     (how a run that stalls near a grazing switching failed the notebook's check on another machine). A step of 5 %
     moves the 5 N energy start across switchings in some columns: those are not judged (NaN errors, not resolved),
     while a step of 1e-6 keeps them and agrees with the variational Jacobian; a column's noise is that of its
-    larger kept step."""
+    larger usable step."""
     from ocpkit.shooting.result import noise_floor
 
     from compendium.studies import orbit_transfer as orbit_study
@@ -275,7 +275,7 @@ def test_the_jacobian_check_judges_a_column_only_where_its_steps_keep_the_switch
     assert both.same_switchings.all() and both.error_reference_tol.max() <= 1e-3
     ratio = (both.difference_noise / coarse.difference_noise).to_numpy()
     assert np.allclose(ratio[kept[1]], 1.0) and np.isnan(ratio[~kept[1]]).all()
-    noise = noise_floor(systems.shooting("fuel", 5.0, switching="correction", tol=1e-10).residual, z)
+    noise = noise_floor(fine.residual, z)
     only_small = both.difference_noise.to_numpy()[~kept[1]]
     assert np.allclose(only_small, noise / (2e-6 * np.maximum(np.abs(z[~kept[1]]), 1.0)))
 

@@ -153,7 +153,7 @@ def jacobian_check(
     steps = np.asarray(steps, dtype=float)
     rows = []
     # the noise of S at reference_tol (no Jacobian in it), measured once at the last point: a difference column is
-    # resolved where its norm is RESOLVED times what that noise does to a difference of the larger step kept
+    # resolved where its norm is RESOLVED times what that noise does to a difference of its larger usable step
     noise = noise_floor(fine.residual, np.asarray(points[-1][1], dtype=float))
     bar = progress(total=len(points), desc=f"Jacobian check, {thrust_N:g} N", unit="point")
     numbers = iter(range(len(points)))
