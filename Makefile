@@ -224,6 +224,7 @@ bench: setup
 	$(PY) benchmarks/bench_orbit_transfer.py
 	$(PY) benchmarks/bench_constraints.py
 	$(PY) benchmarks/bench_refinement.py
+	$(PY) benchmarks/bench_moving_knot.py
 	$(PY) benchmarks/bench_process.py
 	$(PY) benchmarks/bench_many_solves.py
 	$(PY) benchmarks/bench_sweep.py
