@@ -351,6 +351,39 @@ def test_a_problem_cut_into_phases_takes_one_guess_of_its_whole_horizon():
     assert again is not None and again.converged and again.objective == pytest.approx(direct.objective, rel=1e-7)
 
 
+def test_one_guess_of_the_whole_horizon_starts_a_free_junction_at_the_phases_own_guess():
+    """Phases whose junction times are free, given one solution of the whole horizon: each phase starts on its own
+    window (its free start and end at the phase's own guesses; the trajectory's start and end at the guess's), so
+    that phase k's states start at the guess's states at phase k's own time. Each phase took the guess's whole
+    horizon before (every phase's states ran from the guess's start to its end, the junctions' times with them)."""
+    from ocpkit import Duration, FreeFinalTime, FreeInitialTime
+
+    whole = double_integrator(Control("u", -0.5, 0.5))
+    alone = Radau(whole, 4, 21).solve(error_threshold=None)
+    cuts = (1.0, 2.2)
+
+    def piece(k, t0, tf):
+        states = [
+            State("x", initial=1.0 if k == 0 else None, final=0.0 if k == 2 else None),
+            State("v", initial=0.0 if k == 0 else None, final=0.0 if k == 2 else None),
+        ]
+        return whole.replace(name=f"piece_{k}", states=states, t0=t0, tf=tf)
+
+    pieces = [
+        piece(0, 0.0, FreeFinalTime(0.5, 1.5, cuts[0])),
+        piece(1, FreeInitialTime(0.5, 1.5, cuts[0]), Duration(0.5, 2.0, cuts[1] - cuts[0])),
+        piece(2, FreeInitialTime(1.5, 2.8, cuts[1]), 3.0),
+    ]
+    program = Program.from_phases([Radau(p, 4, 7) for p in pieces])
+    start = program.initial_point(alone)
+    for p, own_t0 in zip(program.phases, (0.0, *cuts)):
+        x0 = start[p.to_global[p.layout.table("states")[0, 0]]]
+        assert x0 == pytest.approx(alone.state(own_t0)[0], abs=1e-6)
+        assert p.problem.t0 == own_t0  # (the phase's own guess of its start)
+    sol = program.solve(alone, error_threshold=None)
+    assert sol.converged and sol.objective == pytest.approx(alone.objective, rel=1e-4)
+
+
 def test_a_cut_problem_with_a_cost_at_its_cuts_is_not_shot_as_the_whole():
     """A cost at a cut time (a measurement) is not the problem cut: to_extremal shoots the phases with that cost
     (the costate jumps at the cut by its gradient), not the problem without it, and certifies the extremal, a

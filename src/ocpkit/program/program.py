@@ -506,9 +506,14 @@ class Program:
             f"{n} phases, or one Guess or trajectory of the whole horizon; got {type(guess).__name__}"
         )
 
-    def _phase_start(self, phase: Phase, guess: Any) -> np.ndarray:
+    def _phase_start(self, phase: Phase, guess: Any, whole: bool = False) -> np.ndarray:
         """A phase's scaled start vector (its own numbering) from a :class:`~ocpkit.Guess`, a trajectory of the
-        same states and controls (a solution, an extremal) or the defaults."""
+        same states and controls (a solution, an extremal) or the defaults.
+
+        ``whole``: ``guess`` is one guess of the whole horizon, shared by every phase. Each phase then takes its own
+        window of it: a fixed end at its own time, a free one at the phase's own guess of it (the guess does not
+        know where a junction lies), except the trajectory's ends, the first phase's start and the last phase's
+        end, which the guess's own times give."""
         pr = phase.problem
         xs: Callable[[ArrayLike], np.ndarray]
         us: Callable[[ArrayLike], np.ndarray]
@@ -525,8 +530,9 @@ class Program:
         else:
             raise TypeError(f"guess must be a Guess or a Solution, got {type(guess).__name__}")
         if not self.single:  # a phase's window of a guess of the whole horizon: its own times where they are fixed
-            tf = tf if pr.free_final_time else cast(float, pr.tf)
-            t0 = t0 if pr.free_initial_time else None
+            first, last = phase is self.phases[0], phase is self.phases[-1]
+            tf = tf if pr.free_final_time and (last or not whole) else pr.tf_guess
+            t0 = t0 if pr.free_initial_time and (first or not whole) else None
         layout = phase.layout
         start = pr.t0 if t0 is None else t0
         index = {name: k for k, name in enumerate(pr.state_names)} | {
@@ -565,9 +571,11 @@ class Program:
         if self.single:
             w0 = self._phase_start(self.phases[0], guesses[0])
         else:
+            # one guess of the whole horizon (a Guess or a trajectory, not one per phase): each phase its window of it
+            whole = isinstance(guess, (Guess, Trajectory)) and guesses[0] is guess
             w0 = np.full(self.n_variables, np.nan)
             for p, g in zip(self.phases, guesses):
-                local = self._phase_start(p, g)
+                local = self._phase_start(p, g, whole)
                 unset = np.isnan(w0[p.to_global])  # a free parameter of the trajectory: its first phase's start
                 w0[p.to_global[unset]] = local[unset]
         if w0.shape != (self.n_variables,):
@@ -858,7 +866,9 @@ class Program:
             A :class:`~ocpkit.Solution` of this same program is an exact warm start: its NLP vector and IPOPT's
             multipliers, with IPOPT's warm-start options (:data:`~ocpkit.nlp.WARM_START`); another solution is
             interpolated onto this mesh. Several phases take one guess per phase (a list, or a mapping by name), or
-            a solution of as many phases.
+            a solution of as many phases, or one Guess or solution of the whole horizon, of which each phase takes
+            its own window: a free junction time at the phase's own guess of it, the trajectory's start and end at
+            the guess's.
         ipopt_options : dict
             Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
         allow_acceptable : bool
