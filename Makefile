@@ -225,6 +225,7 @@ bench: setup
 	$(PY) benchmarks/bench_constraints.py
 	$(PY) benchmarks/bench_refinement.py
 	$(PY) benchmarks/bench_moving_knot.py
+	$(PY) benchmarks/bench_moving_knot.py --scheme radau
 	$(PY) benchmarks/bench_process.py
 	$(PY) benchmarks/bench_many_solves.py
 	$(PY) benchmarks/bench_sweep.py

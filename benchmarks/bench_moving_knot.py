@@ -31,22 +31,45 @@ final mesh's cold solve (the row's measure with one denominator for every varian
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
-from _harness import parser, report
+from _harness import parser, report, sibling
 
-from ocpkit import HLGL, Duration, FreeFinalTime, FreeInitialTime, Guess, Program, SolverError
+from ocpkit import HLGL, Duration, FreeFinalTime, FreeInitialTime, Guess, Program, Radau, SolverError
 from ocpkit.accuracy import AccuracyWarning
 from ocpkit.program.solve import refinement_ipopt_options
 
 from compendium.paths import build_dir
 from compendium.problems import hang_glider
 
-#: the first mesh's intervals (the refinement row's HLGL 50)
+#: the first mesh's intervals (the refinement rows' HLGL 50 and Radau 4 x 50)
 FIRST = 50
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """How a row's scheme makes its first mesh, a phase's mesh of ``n`` intervals, and a fresh copy of a mesh."""
+
+    first: Callable[[Any], Any]
+    on: Callable[[Any, int], Any]
+    same: Callable[[Any, Any], Any]
+
+
+#: the two refinement rows' schemes, by ``--scheme``
+SCHEMES = {
+    "hlgl": Scheme(lambda p: HLGL(p, FIRST), lambda p, n: HLGL(p, n), lambda p, s: HLGL(p, mesh=s.mesh.fractions)),
+    "radau": Scheme(
+        lambda p: Radau(p, 4, FIRST),
+        lambda p, n: Radau(p, 4, n),
+        lambda p, s: Radau(p, s.counts.tolist(), mesh=s.mesh.fractions),
+    ),
+}
 #: the band of the control's range that counts as on its bound (the refinement's)
 ON_BOUND = 1e-3
 #: the variants: the junctions' window in first-mesh intervals either side of the first mesh's (0: the final time's
@@ -131,16 +154,20 @@ def problem_guess(problem) -> Guess:
     )
 
 
-def moving(tolerance: float, window_intervals: float | None, on_arc: bool) -> dict:
+def moving(scheme: str, tolerance: float, window_intervals: float | None, on_arc: bool) -> dict:
     """One moving-knot variant (the module docstring's steps): the first mesh, the cut at its widest bound arc, the
     refinement of the three phases, and their final mesh solved cold."""
     problem = hang_glider()
     start = time.perf_counter()
-    first = HLGL(problem, FIRST).solve(ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None)
+    first = (
+        SCHEMES[scheme]
+        .first(problem)
+        .solve(ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None)
+    )
     t1, t2 = bound_arc(first, problem.controls[0])
     window = None if window_intervals is None else window_intervals * first.tf / FIRST
     pieces = three_phases(problem, t1, t2, first.tf, window, on_arc)
-    program = Program.from_phases([HLGL(p, n) for p, n in zip(pieces, intervals(t1, t2, first.tf))])
+    program = Program.from_phases([SCHEMES[scheme].on(p, n) for p, n in zip(pieces, intervals(t1, t2, first.tf))])
     label = "junctions free in the box" if window is None else f"junctions within {window_intervals:g} intervals"
     label += "" if on_arc else ", the arc's control free"
     try:
@@ -148,13 +175,12 @@ def moving(tolerance: float, window_intervals: float | None, on_arc: bool) -> di
     except SolverError as exc:
         return {"variant": label, "outcome": f"failed: {exc.status}", "first_junctions_s": f"{t1:.2f}, {t2:.2f}"}
     total = time.perf_counter() - start
-    fractions = [phase.scheme.mesh.fractions for phase in sol.program.phases]
     again = three_phases(hang_glider(), t1, t2, first.tf, window, on_arc)
     alone_from = time.perf_counter()
     try:
-        alone = Program.from_phases([HLGL(p, mesh=f) for p, f in zip(again, fractions)]).solve(
-            problem_guess(problem), ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None
-        )
+        alone = Program.from_phases(
+            [SCHEMES[scheme].same(p, ph.scheme) for p, ph in zip(again, sol.program.phases)]
+        ).solve(problem_guess(problem), ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None)
         alone_status, alone_iterations, alone_objective = alone.status, alone.iterations, alone.objective
     except SolverError as exc:
         alone_status, alone_iterations, alone_objective = exc.status, exc.iterations, float("nan")
@@ -180,18 +206,19 @@ def moving(tolerance: float, window_intervals: float | None, on_arc: bool) -> di
     }
 
 
-def fixed(tolerance: float) -> dict:
-    """The fixed-knot refinement from HLGL 50, and its final mesh solved cold from the problem's guess."""
+def fixed(scheme: str, tolerance: float) -> dict:
+    """The fixed-knot refinement from the first mesh, and its final mesh solved cold from the problem's guess."""
     problem = hang_glider()
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
-        sol = HLGL(problem, FIRST).solve(mesh_tolerance=tolerance, max_mesh_iterations=25)
+        sol = SCHEMES[scheme].first(problem).solve(mesh_tolerance=tolerance, max_mesh_iterations=25)
     total = time.perf_counter() - start
-    mesh = sol.program.scheme.mesh.fractions
     alone_from = time.perf_counter()
-    alone = HLGL(hang_glider(), mesh=mesh).solve(
-        ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None
+    alone = (
+        SCHEMES[scheme]
+        .same(hang_glider(), sol.program.scheme)
+        .solve(ipopt_options=refinement_ipopt_options(None, tolerance), error_threshold=None)
     )
     alone_s = time.perf_counter() - alone_from
     return {
@@ -217,13 +244,19 @@ def _path(history) -> str:
 
 def main() -> None:
     ap = parser(__doc__.split("\n")[0], str(build_dir() / "bench" / "moving_knot.csv"))
-    ap.add_argument("--tolerance", type=float, default=1e-6)
+    ap.add_argument("--tolerance", type=float, default=None, help="default: the row's, 1e-6 (HLGL), 1e-7 (Radau)")
+    ap.add_argument("--scheme", choices=sorted(SCHEMES), default="hlgl")
     ap.set_defaults(repeat=2)
     args = ap.parse_args()
-    fixed(args.tolerance)  # warm-up: imports, the compiled blocks' libraries
-    moving(args.tolerance, *VARIANTS[-2])
+    tolerance = args.tolerance or {"hlgl": 1e-6, "radau": 1e-7}[args.scheme]
+    output = args.output if args.scheme == "hlgl" or "--output" in sys.argv else sibling(args.output, args.scheme)
+    fixed(args.scheme, tolerance)  # warm-up: imports, the compiled blocks' libraries
+    moving(args.scheme, tolerance, *VARIANTS[-2])
     rows = []
-    for make in [lambda: fixed(args.tolerance), *[lambda v=v: moving(args.tolerance, *v) for v in VARIANTS]]:
+    for make in [
+        lambda: fixed(args.scheme, tolerance),
+        *[lambda v=v: moving(args.scheme, tolerance, *v) for v in VARIANTS],
+    ]:
         runs = [make() for _ in range(args.repeat)]
         row = min(runs, key=lambda r: r.get("total_s", float("inf")))
         rows.append(row)
@@ -255,8 +288,9 @@ def main() -> None:
     report(
         rows,
         cols,
-        args.output,
-        f"The hang glider from HLGL {FIRST} to {args.tolerance:g}, fixed and moving knots, best of {args.repeat}",
+        output,
+        f"The hang glider from {SCHEMES[args.scheme].first(hang_glider()).label} to {tolerance:g}, fixed and moving "
+        f"knots, best of {args.repeat}",
         {"objective": ".6f", "final_mesh_alone_objective": ".6f", "ratio": ".1f", "over_fixed_alone": ".1f"},
     )
 
