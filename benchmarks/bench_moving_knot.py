@@ -1,22 +1,24 @@
-"""A knot that moves with the junction: the hang glider's bound arc as a phase with free ends, refined to 1e-6.
+"""A knot that moves with the junction: the hang glider's bound arc as a phase with free ends, refined.
 
-    python benchmarks/bench_moving_knot.py [--repeat 2] [--tolerance 1e-6]
+    python benchmarks/bench_moving_knot.py [--scheme hlgl|radau] [--repeat 2] [--tolerance TOL]
 
-Issue 46's refinement row (the hang glider from HLGL 50 to 1e-6, the whole refinement over a cold solve of its final
-mesh) spends most of its time on the meshes between the first and the last. One reading was that they narrow the
-lift coefficient's junctions with its bound, which the first mesh does not place; if so, a knot whose time is a
-variable of the NLP, so that the corner always lies on a knot, would remove them. This benchmark tests that reading,
-against the fixed-knot refinement (``solve(mesh_tolerance=...)``) in the same run:
+Issue 46's refinement rows (the hang glider from HLGL 50 to 1e-6, ``--scheme hlgl``, and from Radau 4 x 50 to 1e-7,
+``--scheme radau``; the whole refinement over a cold solve of its final mesh) spend most of their time on the meshes
+between the first and the last. One reading was that they narrow the lift coefficient's junctions with its bound,
+which the first mesh does not place; if so, a knot whose time is a variable of the NLP, so that the corner always
+lies on a knot, would remove them. This benchmark tests that reading, against the fixed-knot refinement
+(``solve(mesh_tolerance=...)``) in the same run:
 
-1. the first mesh (HLGL 50) is solved as the refinement solves it;
+1. the first mesh (HLGL 50, or Radau 4 x 50) is solved as the refinement solves it;
 2. the widest arc of its lift coefficient on the bound (within a thousandth of the control's range, the
    refinement's band) gives two junction times, ``t1`` and ``t2``;
-3. the problem is cut there into three linked phases (:meth:`ocpkit.Program.from_phases`): the first keeps the initial
-   conditions and ends at a free ``t1``, the second starts at a free ``t1`` and lasts a free duration, the third
-   starts at a free ``t2`` and keeps the final conditions and the Mayer term; their 50 intervals are shared by the
-   phases' durations; the junctions are free in the final time's box, or within one or two first-mesh intervals of
-   where the first mesh put them (a trust region); the middle phase holds the control on its bound (it must then lie
-   within the arc, its ends free to stop short of the arc's), or, in a last variant, leaves it free;
+3. the problem is cut there into three linked phases (:meth:`ocpkit.Program.from_phases`): the first keeps the
+   initial conditions and ends at a free ``t1``, the second starts at a free ``t1`` and lasts a free duration, the
+   third starts at a free ``t2`` and keeps the final conditions and the Mayer term; the first mesh's 50 intervals
+   are shared by the phases' durations (rounded, at least 3 each); the junctions are free in the final time's box,
+   or within one or two first-mesh intervals of where the first mesh put them (a trust region); the middle phase
+   holds the control on its bound (it must then lie within the arc, its ends free to stop short of the arc's), or,
+   in a last variant, leaves it free;
 4. that program is refined to the tolerance from the first mesh's solution (one guess of the whole horizon: each
    phase its own window of it), and its final mesh is solved again cold, from the problem's own guess as a function
    of time with the junctions at the first mesh's.
@@ -26,12 +28,11 @@ final mesh's points, the objective, the junctions (seconds and fractions of the 
 estimate and IPOPT iterations, the whole time (the first mesh included), the final mesh alone (its time, IPOPT's
 iterations, status and objective), the ratio of the two (the row's measure), and the whole time over the fixed-knot
 final mesh's cold solve (the row's measure with one denominator for every variant). Writes
-``build/bench/moving_knot.csv``.
+``build/bench/moving_knot.csv`` (``moving_knot_radau.csv`` for ``--scheme radau``).
 """
 
 from __future__ import annotations
 
-import sys
 import time
 import warnings
 from collections.abc import Callable
@@ -53,7 +54,7 @@ FIRST = 50
 
 
 @dataclass(frozen=True)
-class Scheme:
+class Row:
     """How a row's scheme makes its first mesh, a phase's mesh of ``n`` intervals, and a fresh copy of a mesh."""
 
     first: Callable[[Any], Any]
@@ -63,8 +64,8 @@ class Scheme:
 
 #: the two refinement rows' schemes, by ``--scheme``
 SCHEMES = {
-    "hlgl": Scheme(lambda p: HLGL(p, FIRST), lambda p, n: HLGL(p, n), lambda p, s: HLGL(p, mesh=s.mesh.fractions)),
-    "radau": Scheme(
+    "hlgl": Row(lambda p: HLGL(p, FIRST), lambda p, n: HLGL(p, n), lambda p, s: HLGL(p, mesh=s.mesh.fractions)),
+    "radau": Row(
         lambda p: Radau(p, 4, FIRST),
         lambda p, n: Radau(p, 4, n),
         lambda p, s: Radau(p, s.counts.tolist(), mesh=s.mesh.fractions),
@@ -72,8 +73,9 @@ SCHEMES = {
 }
 #: the band of the control's range that counts as on its bound (the refinement's)
 ON_BOUND = 1e-3
-#: the variants: the junctions' window in first-mesh intervals either side of the first mesh's (0: the final time's
-#: box), and whether the middle phase holds the control on its bound (without it nothing ties a knot to the junction)
+#: the variants: the junctions' window in first-mesh intervals either side of the first mesh's (None: the final
+#: time's box), and whether the middle phase holds the control on its bound (without it nothing ties a knot to the
+#: junction)
 VARIANTS = ((None, True), (2.0, True), (1.0, True), (1.0, False))
 
 
@@ -168,12 +170,14 @@ def moving(scheme: str, tolerance: float, window_intervals: float | None, on_arc
     window = None if window_intervals is None else window_intervals * first.tf / FIRST
     pieces = three_phases(problem, t1, t2, first.tf, window, on_arc)
     program = Program.from_phases([SCHEMES[scheme].on(p, n) for p, n in zip(pieces, intervals(t1, t2, first.tf))])
-    label = "junctions free in the box" if window is None else f"junctions within {window_intervals:g} intervals"
+    label = "junctions free in the box"
+    if window is not None:
+        label = f"junctions within {window_intervals:g} interval{'s' if window_intervals != 1 else ''}"
     label += "" if on_arc else ", the arc's control free"
     try:
         sol = program.solve(first, mesh_tolerance=tolerance, max_mesh_iterations=25)
     except SolverError as exc:
-        return {"variant": label, "outcome": f"failed: {exc.status}", "first_junctions_s": f"{t1:.2f}, {t2:.2f}"}
+        return {"variant": label, "outcome": f"failed: {exc.status}", "first_junctions_s": f"{t1:.3f}, {t2:.3f}"}
     total = time.perf_counter() - start
     again = three_phases(hang_glider(), t1, t2, first.tf, window, on_arc)
     alone_from = time.perf_counter()
@@ -194,7 +198,7 @@ def moving(scheme: str, tolerance: float, window_intervals: float | None, on_arc
         "mesh_iterations": len(history),
         "collocation_points": sol.program.n_collocation_points,
         "objective": sol.objective,
-        "first_junctions_s": f"{t1:.2f}, {t2:.2f}",
+        "first_junctions_s": f"{t1:.3f}, {t2:.3f}",
         "junctions": ", ".join(f"{t:.3f} s ({t / tf:.5f})" for t in junctions),
         "meshes": _path(history),
         "total_s": total,
@@ -246,10 +250,12 @@ def main() -> None:
     ap = parser(__doc__.split("\n")[0], str(build_dir() / "bench" / "moving_knot.csv"))
     ap.add_argument("--tolerance", type=float, default=None, help="default: the row's, 1e-6 (HLGL), 1e-7 (Radau)")
     ap.add_argument("--scheme", choices=sorted(SCHEMES), default="hlgl")
+    ap.set_defaults(output=None)
     ap.set_defaults(repeat=2)
     args = ap.parse_args()
     tolerance = args.tolerance or {"hlgl": 1e-6, "radau": 1e-7}[args.scheme]
-    output = args.output if args.scheme == "hlgl" or "--output" in sys.argv else sibling(args.output, args.scheme)
+    default = str(build_dir() / "bench" / "moving_knot.csv")
+    output = args.output or (default if args.scheme == "hlgl" else sibling(default, args.scheme))
     fixed(args.scheme, tolerance)  # warm-up: imports, the compiled blocks' libraries
     moving(args.scheme, tolerance, *VARIANTS[-2])
     rows = []

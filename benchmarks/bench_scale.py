@@ -111,7 +111,8 @@ def goals_at_scale(problem, hlgl: dict, args) -> None:
     tol = {"tol": 1e-7}
     g_hlgl = best_of(lambda: HLGL(goddard, n), tol, args.repeat)
     g_radau = best_of(lambda: Radau(goddard, 3, n), tol, args.repeat)
-    g_trapezoid = min((goddard_trapezoid(goddard, n, tol) for _ in range(args.repeat)), key=lambda r: r["end_to_end_s"])
+    trapezoids = [goddard_trapezoid(goddard, n, tol) for _ in range(args.repeat)]
+    g_trapezoid = min(trapezoids, key=lambda r: r["solve_s"])  # (its measure: IPOPT's time, not its build)
     optimum = certified_goddard_altitude()
     over_ipopt = hlgl["end_to_end_s"] / hlgl["solve_s"]
     radau_over = radau["end_to_end_s"] / paired["end_to_end_s"]  # HLGL again, alternately with Radau
@@ -139,9 +140,10 @@ def _goal_row(label: str, measured: float, limit: float, unit: str, run: dict) -
 
 def goddard_trapezoid(problem, steps: int, ipopt_options: dict) -> dict:
     """``problem`` (Goddard's, a free tf) by the trapezoidal rule on ``steps`` equal steps, in plain CasADi: its
-    dynamics and Mayer term (``problem.f``, ``problem.phi``), bounds, boundary values and guess, no scaling, IPOPT with ocpkit's default options and
-    ``ipopt_options``; the same record as :func:`_harness.timed_solve`. The scheme of OptimalControl.jl's published
-    figure (``x[k+1] = x[k] + h / 2 (f[k] + f[k+1])``, ``h = tf / steps``)."""
+    dynamics and Mayer term (``problem.f``, ``problem.phi``), bounds, boundary values and guess, no scaling,
+    IPOPT with ocpkit's default options and ``ipopt_options``; the same record as :func:`_harness.timed_solve`.
+    The scheme of OptimalControl.jl's published figure (``x[k+1] = x[k] + h / 2 (f[k] + f[k+1])``, ``h = tf /
+    steps``)."""
     from ocpkit.nlp import DEFAULT_IPOPT_OPTIONS
 
     t0 = time.perf_counter()
@@ -195,7 +197,8 @@ def _trapezoid_row(label: str, run: dict, optimum: float) -> dict:
     Radau rows' (its build in plain CasADi is not ocpkit's), and its answer is judged as theirs."""
     row = _goddard_row(label, float("inf"), run, optimum)
     row["measured"] = run["solve_s"]
-    row["goal"] = "no goal: IPOPT's time (solve_s) of the published figure's scheme, beside the rows above"
+    if not row["goal"].endswith("(the answer differs)"):
+        row["goal"] = "no goal: IPOPT's time (solve_s) of the published figure's scheme, beside the rows above"
     return row
 
 

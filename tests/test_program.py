@@ -356,7 +356,7 @@ def test_one_guess_of_the_whole_horizon_starts_a_free_junction_at_the_phases_own
     window (its free start and end at the phase's own guesses; the trajectory's start and end at the guess's), so
     that phase k's states start at the guess's states at phase k's own time. Each phase took the guess's whole
     horizon before (every phase's states ran from the guess's start to its end, the junctions' times with them)."""
-    from ocpkit import Duration, FreeFinalTime, FreeInitialTime
+    from ocpkit import Duration, FreeFinalTime, FreeInitialTime, Guess
 
     whole = double_integrator(Control("u", -0.5, 0.5))
     alone = Radau(whole, 4, 21).solve(error_threshold=None)
@@ -375,11 +375,23 @@ def test_one_guess_of_the_whole_horizon_starts_a_free_junction_at_the_phases_own
         piece(2, FreeInitialTime(1.5, 2.8, cuts[1]), 3.0),
     ]
     program = Program.from_phases([Radau(p, 4, 7) for p in pieces])
+    windows = list(zip((0.0, *cuts), (*cuts, 3.0)))
+
+    def ends(start, p):  # x at the phase's first and last state nodes (the table: one row per state)
+        table = p.layout.table("states")
+        return start[p.to_global[table[0, 0]]], start[p.to_global[table[0, -1]]]
+
     start = program.initial_point(alone)
-    for p, own_t0 in zip(program.phases, (0.0, *cuts)):
-        x0 = start[p.to_global[p.layout.table("states")[0, 0]]]
-        assert x0 == pytest.approx(alone.state(own_t0)[0], abs=1e-6)
-        assert p.problem.t0 == own_t0  # (the phase's own guess of its start)
+    for p, (a, b) in zip(program.phases, windows):
+        assert ends(start, p) == pytest.approx((alone.state(a)[0], alone.state(b)[0]), abs=1e-6)
+    # a Guess of the whole horizon: its functions of time follow it as a solution's do
+    x = lambda t: np.interp(t, [0.0, 3.0], [1.0, 0.0])  # noqa: E731
+    guessed = program.initial_point(Guess(tf=3.0, states={"x": x}))
+    for p, (a, b) in zip(program.phases, windows):
+        assert ends(guessed, p) == pytest.approx((x(a), x(b)), abs=1e-12)
+    # one guess per phase keeps each its own times: here the whole horizon's, in every phase
+    for p in program.phases:
+        assert ends(program.initial_point([alone] * 3), p) == pytest.approx((1.0, alone.state(alone.tf)[0]), abs=1e-6)
     sol = program.solve(alone, error_threshold=None)
     assert sol.converged and sol.objective == pytest.approx(alone.objective, rel=1e-4)
 

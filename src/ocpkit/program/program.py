@@ -529,7 +529,8 @@ class Program:
             t0 = None
         else:
             raise TypeError(f"guess must be a Guess or a Solution, got {type(guess).__name__}")
-        if not self.single:  # a phase's window of a guess of the whole horizon: its own times where they are fixed
+        if not self.single:  # a phase's window: its own times where they are fixed (and, of one guess of the whole
+            # horizon, where they are free, but for the trajectory's start and end)
             first, last = phase is self.phases[0], phase is self.phases[-1]
             tf = tf if pr.free_final_time and (last or not whole) else pr.tf_guess
             t0 = t0 if pr.free_initial_time and (first or not whole) else None
@@ -566,7 +567,8 @@ class Program:
 
     def initial_point(self, guess: Any = None) -> np.ndarray:
         """Scaled NLP start vector from a :class:`~ocpkit.Guess`, a :class:`~ocpkit.Solution` or the defaults (of
-        several phases: one of these per phase, in a list or a mapping by name, or a solution of as many phases)."""
+        several phases: one of these per phase, in a list or a mapping by name, a solution of as many phases, or one
+        guess of the whole horizon, of which each phase takes its own window: :meth:`solve`'s ``guess``)."""
         guesses = self._phase_guesses(guess)
         if self.single:
             w0 = self._phase_start(self.phases[0], guesses[0])
@@ -867,8 +869,9 @@ class Program:
             multipliers, with IPOPT's warm-start options (:data:`~ocpkit.nlp.WARM_START`); another solution is
             interpolated onto this mesh. Several phases take one guess per phase (a list, or a mapping by name), or
             a solution of as many phases, or one Guess or solution of the whole horizon, of which each phase takes
-            its own window: a free junction time at the phase's own guess of it, the trajectory's start and end at
-            the guess's.
+            its own window: a free junction time at the phase's own guess of it, the trajectory's start (a
+            solution's) and end at the guess's. A Guess's functions of time follow the whole horizon; its ``(start,
+            end)`` pairs, and the variables it does not name, run over each phase's window.
         ipopt_options : dict
             Overrides of :data:`ocpkit.nlp.DEFAULT_IPOPT_OPTIONS` (without the ``ipopt.`` prefix).
         allow_acceptable : bool
